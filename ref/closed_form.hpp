@@ -1,0 +1,35 @@
+#pragma once
+// Known answers. The contact-free rotor (Eq. 1 with f_x = f_y = 0) is linear with harmonic
+// forcing, so its steady state is closed form: per axis, X = m e w^2 / (k - m w^2 + j c w),
+// x(t) = Re(X e^{jwt}) and y(t) = Re(-j Y e^{jwt}) because sin(wt) = Re(-j e^{jwt}).
+
+#include <complex>
+
+#include "ref/parameters.hpp"
+#include "ref/state.hpp"
+
+namespace rubref {
+
+struct unbalance_response {
+  std::complex<double> x_phasor;  // m, x(t) = Re(x_phasor e^{jwt})
+  std::complex<double> y_phasor;  // m, y(t) = Re(y_phasor e^{jwt})
+  double omega;                   // rad/s
+
+  unbalance_response(const parameters& p, double w) : omega(w) {
+    using namespace std::complex_literals;
+    const double force = p.m * p.e * w * w;
+    x_phasor = force / std::complex<double>(p.k_x - p.m * w * w, p.c_x * w);
+    y_phasor = -1i * force / std::complex<double>(p.k_y - p.m * w * w, p.c_y * w);
+  }
+
+  // The steady-state orbit at time t (an exact solution of Eq. 1 without contact).
+  state_type at(double t) const {
+    using namespace std::complex_literals;
+    const std::complex<double> rot = std::exp(1i * (omega * t));
+    const std::complex<double> x = x_phasor * rot, y = y_phasor * rot;
+    const std::complex<double> vx = 1i * omega * x, vy = 1i * omega * y;
+    return {x.real(), y.real(), vx.real(), vy.real()};
+  }
+};
+
+}  // namespace rubref

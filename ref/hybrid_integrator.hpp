@@ -1,0 +1,321 @@
+#pragma once
+// Event-exact integration of the rub rotor (docs/model.md, "Integration").
+//
+// The trajectory is a sequence of phases (free, contact, stuck), each with a smooth right-hand
+// side. Every phase has an exit function h(t, s) that is >= 0 while the phase holds:
+//   free:    h = -(y - delta)            (contact onset, or an impact, when y rises past delta)
+//   contact: h =  (y - delta)            (separation when y falls below delta, Eq. 2)
+//   stuck:   h =  free y acceleration    (release when nothing pushes the rotor up any more)
+// After each step the integrator looks for h < 0 on the step's dense output: at the step end,
+// or at an interior minimum of h (a grazing crossing that enters and leaves within one step).
+// The crossing is bracketed by TOMS 748 to `time_tolerance`, the step is cut there, the
+// transition applied (phase switch, impact map Eq. 6, sticking rule), and the stepper restarted,
+// so no step ever straddles a change of force law.
+
+#include <boost/math/tools/toms748_solve.hpp>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <numbers>
+#include <sstream>
+#include <string>
+
+#include "ref/errors.hpp"
+#include "ref/rotor_system.hpp"
+#include "ref/steppers.hpp"
+
+namespace rubref {
+
+enum class event_kind { contact_onset, separation, impact, stick, release };
+
+inline std::string_view to_string(event_kind k) {
+  switch (k) {
+    case event_kind::contact_onset: return "contact_onset";
+    case event_kind::separation: return "separation";
+    case event_kind::impact: return "impact";
+    case event_kind::stick: return "stick";
+    case event_kind::release: return "release";
+  }
+  return "?";
+}
+
+struct contact_event {
+  event_kind kind;
+  double t;                      // s, located to event_settings::time_tolerance
+  state_type state;              // the state the next phase starts from (after an impact map)
+  double approach_velocity;      // m/s, y_dot at the event before any impact map
+  double max_penetration = 0.0;  // m, peak z of the episode (separation only)
+};
+
+// Where an integration stands: state, time, phase, and the running peak penetration of an open
+// contact episode, so a run can be continued (settle, then record; or a speed sweep).
+struct hybrid_state {
+  state_type s{};
+  double t = 0.0;
+  contact_phase phase = contact_phase::free;
+  double episode_peak = 0.0;  // m
+};
+
+struct event_settings {
+  double time_tolerance = 1e-13;   // s, width of the bracket around each event (issue: <= 1e-12 s)
+  double stick_velocity = 1e-6;    // m/s, rebound speed below which chatter ends in sticking
+  double max_events_per_rev = 1e3; // more is an accumulation that does not terminate: an error
+};
+
+struct integration_options {
+  stepper_settings stepper;
+  event_settings events;
+};
+
+// Uniform output times t0 + k dt, k < count.
+struct sample_grid {
+  double t0 = 0.0;
+  double dt = 0.0;
+  std::size_t count = 0;
+  double time(std::size_t k) const { return t0 + static_cast<double>(k) * dt; }
+};
+
+struct integration_counts {
+  std::size_t steps = 0;   // accepted steps
+  std::size_t events = 0;  // located events
+};
+
+// An observer that wants nothing.
+struct null_observer {
+  template <class System>
+  void on_sample(double, const state_type&, const System&) {}
+  void on_event(const contact_event&) {}
+};
+
+namespace detail {
+
+inline std::string describe_state(double t, const state_type& s) {
+  std::ostringstream out;
+  out.precision(17);
+  out << "t = " << t << " s, state (x, y, vx, vy) = (" << s[0] << ", " << s[1] << ", " << s[2] << ", " << s[3] << ")";
+  return out.str();
+}
+
+template <class Law>
+double exit_value(const rotor_system<Law>& sys, const state_type& s, double t) {
+  switch (sys.phase()) {
+    case contact_phase::contact: return sys.penetration(s);
+    case contact_phase::stuck: return sys.free_vertical_acceleration(s, t);
+    default: return -sys.penetration(s);
+  }
+}
+
+template <class Law>
+double exit_rate(const rotor_system<Law>& sys, const state_type& s, double t) {
+  switch (sys.phase()) {
+    case contact_phase::contact: return s[idx::vy];
+    case contact_phase::stuck: return sys.free_vertical_jerk_stuck(t);
+    default: return -s[idx::vy];
+  }
+}
+
+// Root of f on [a, b] with f(a) and f(b) of opposite signs (or f(a) == 0): returns the bracket.
+template <class F>
+std::pair<double, double> bracket_root(F&& f, double a, double b, double fa, double fb, double tol) {
+  if (fa == 0.0) return {a, a};
+  if (fb == 0.0) return {b, b};
+  std::uintmax_t max_iter = 200;
+  const auto done = [tol](double lo, double hi) {
+    return hi - lo <= std::max(tol, 4.0 * std::numeric_limits<double>::epsilon() * std::abs(hi));
+  };
+  return boost::math::tools::toms748_solve(f, a, b, fa, fb, done, max_iter);
+}
+
+template <class Law, class Stepper, class Observer>
+hybrid_state hybrid_loop(const rotor_system<Law>& base, Stepper& st, hybrid_state hs, double t_end,
+                         const integration_options& opt, const sample_grid& grid, Observer& obs,
+                         integration_counts& counts) {
+  using system = rotor_system<Law>;
+  const double tol = opt.events.time_tolerance;
+  const double period = 2.0 * std::numbers::pi / base.omega();
+  const double max_events = opt.events.max_events_per_rev * std::max(1.0, (t_end - hs.t) / period);
+  const double t_start = hs.t;
+  std::size_t events_here = 0;
+  int stalled_events = 0;
+  double last_event_t = -std::numeric_limits<double>::infinity();
+
+  system sys = base.with_phase(hs.phase);
+  const double first_dt = opt.stepper.kind == stepper_kind::rk4 ? opt.stepper.dt : std::min(opt.stepper.max_dt, period / 1000.0);
+  st.initialize(hs.s, hs.t, first_dt);
+
+  std::size_t next_sample = 0;
+  while (next_sample < grid.count && grid.time(next_sample) < t_start) ++next_sample;
+
+  state_type tmp{};
+  const auto state_at = [&](double t) {
+    st.calc_state(t, tmp);
+    return tmp;
+  };
+  const auto h_at = [&](double t) { return exit_value(sys, state_at(t), t); };
+  const auto hdot_at = [&](double t) { return exit_rate(sys, state_at(t), t); };
+
+  while (hs.t < t_end) {
+    const auto [ta, tb] = st.do_step(sys);
+    ++counts.steps;
+    if (!is_finite(st.current_state()))
+      throw numerical_error("non-finite state after a step from " + describe_state(ta, hs.s));
+    const double next_dt = st.current_time_step();
+    if (!(next_dt > 16.0 * std::numeric_limits<double>::epsilon() * std::max(1.0, std::abs(tb))))
+      throw numerical_error("step size underflow (dt = " + std::to_string(next_dt) + " s) at " +
+                            describe_state(tb, st.current_state()));
+
+    const double t_hi = std::min(tb, t_end);
+    // Find the first exit from the current phase in [ta, t_hi].
+    double h_hi = h_at(t_hi);
+    double t_cross_hi = t_hi;
+    bool crossed = h_hi < 0.0;
+    if (!crossed) {
+      const double r_lo = hdot_at(ta), r_hi = hdot_at(t_hi);
+      if (r_lo < 0.0 && r_hi > 0.0) {  // h has an interior minimum: a grazing exit?
+        const auto [m_lo, m_hi] = bracket_root(hdot_at, ta, t_hi, r_lo, r_hi, tol);
+        const double t_min = 0.5 * (m_lo + m_hi);
+        const double h_min = h_at(t_min);
+        if (h_min < 0.0) {
+          crossed = true;
+          t_cross_hi = t_min;
+          h_hi = h_min;
+        }
+      }
+    }
+    std::pair<double, double> bracket{t_hi, t_hi};
+    if (crossed) {
+      // h(ta) >= 0 holds by construction (each phase starts inside itself); if rounding broke
+      // it, the exit is at ta itself and the stall guard below stops a loop of such events.
+      const double h_lo = std::max(0.0, h_at(ta));
+      bracket = bracket_root(h_at, ta, t_cross_hi, h_lo, h_hi, tol);
+    }
+    const double t_stop = crossed ? bracket.first : t_hi;
+
+    // Peak penetration of an open contact episode: step end, and an interior maximum of z.
+    if (sys.phase() == contact_phase::contact) {
+      const double z_lo = sys.penetration(state_at(ta));
+      const double v_lo = tmp[idx::vy];
+      const double z_hi = sys.penetration(state_at(t_stop));
+      const double v_hi = tmp[idx::vy];
+      hs.episode_peak = std::max({hs.episode_peak, z_lo, z_hi});
+      if (v_lo > 0.0 && v_hi < 0.0) {
+        const auto vy_at = [&](double t) { return state_at(t)[idx::vy]; };
+        const auto [p_lo, p_hi] = bracket_root(vy_at, ta, t_stop, v_lo, v_hi, tol);
+        hs.episode_peak = std::max(hs.episode_peak, sys.penetration(state_at(0.5 * (p_lo + p_hi))));
+      }
+    }
+
+    // Samples up to the stop (at an event time they still belong to the phase that ends there).
+    while (next_sample < grid.count && grid.time(next_sample) <= t_stop) {
+      const double ts = grid.time(next_sample++);
+      obs.on_sample(ts, state_at(std::max(ts, ta)), sys);  // ts < ta only inside an event bracket
+    }
+
+    if (!crossed) {
+      if (tb >= t_end) {
+        hs.s = state_at(t_end);
+        hs.t = t_end;
+      } else {
+        hs.s = st.current_state();
+        hs.t = tb;
+      }
+      continue;
+    }
+
+    // Transition at the located event. Onset, separation and release start the next phase from
+    // the bracket end already inside it (so its exit function starts >= 0); an impact maps the
+    // velocity at the bracket end still outside the stator.
+    contact_event ev{};
+    if constexpr (compliant_law<Law>) {
+      ev.t = bracket.second;
+      ev.state = state_at(ev.t);
+      ev.approach_velocity = ev.state[idx::vy];
+      if (sys.phase() == contact_phase::free) {
+        ev.kind = event_kind::contact_onset;
+        hs.phase = contact_phase::contact;
+        hs.episode_peak = std::max(0.0, sys.penetration(ev.state));
+      } else {
+        ev.kind = event_kind::separation;
+        ev.max_penetration = hs.episode_peak;
+        hs.phase = contact_phase::free;
+        hs.episode_peak = 0.0;
+      }
+    } else if (sys.phase() == contact_phase::free) {
+      ev.t = bracket.first;
+      ev.state = state_at(ev.t);
+      ev.approach_velocity = ev.state[idx::vy];
+      const double rebound = base.law().rebound_velocity(ev.approach_velocity);
+      state_type at_stator = ev.state;
+      at_stator[idx::y] = base.clearance();
+      at_stator[idx::vy] = 0.0;
+      // Chatter rule (docs/model.md): a rebound slower than stick_velocity while the rotor is
+      // still pushed up ends the accumulation of impacts in a stuck phase at y = delta.
+      if (std::abs(rebound) < opt.events.stick_velocity && sys.free_vertical_acceleration(at_stator, ev.t) > 0.0) {
+        ev.kind = event_kind::stick;
+        ev.state = at_stator;
+        hs.phase = contact_phase::stuck;
+      } else {
+        ev.kind = event_kind::impact;
+        ev.state[idx::vy] = rebound;
+      }
+    } else {  // stuck -> free
+      ev.t = bracket.second;
+      ev.state = state_at(ev.t);
+      ev.approach_velocity = 0.0;
+      ev.kind = event_kind::release;
+      hs.phase = contact_phase::free;
+    }
+
+    ++counts.events;
+    if (++events_here > max_events)
+      throw numerical_error("more than " + std::to_string(static_cast<long long>(max_events)) +
+                            " contact events: an accumulation of impacts that does not terminate, at " +
+                            describe_state(ev.t, ev.state));
+    stalled_events = ev.t > last_event_t ? 0 : stalled_events + 1;
+    constexpr int kMaxEventsWithoutProgress = 64;
+    if (stalled_events > kMaxEventsWithoutProgress)
+      throw numerical_error("events do not advance in time at " + describe_state(ev.t, ev.state));
+    last_event_t = ev.t;
+
+    obs.on_event(ev);
+    hs.s = ev.state;
+    hs.t = ev.t;
+    sys = base.with_phase(hs.phase);
+    st.initialize(hs.s, hs.t, std::min(next_dt, tb - ta));
+  }
+  return hs;
+}
+
+}  // namespace detail
+
+// The phase a trajectory starting at s is in. An impact law cannot start inside the stator.
+template <contact_variant Law>
+hybrid_state start_state(const rotor_system<Law>& sys, const state_type& s, double t) {
+  hybrid_state hs{s, t, contact_phase::free, 0.0};
+  const double z = sys.penetration(s);
+  if (z > 0.0) {
+    if constexpr (impact_law<Law>) {
+      throw input_error("initial state is inside the stator (y > clearance), impossible for " + std::string(Law::name));
+    } else {
+      hs.phase = contact_phase::contact;
+      hs.episode_peak = z;
+    }
+  }
+  return hs;
+}
+
+// Integrates from `start` to t_end, reporting samples on `grid` and every located event.
+template <contact_variant Law, class Observer = null_observer>
+hybrid_state integrate_hybrid(const rotor_system<Law>& model, const hybrid_state& start, double t_end,
+                              const integration_options& opt, const sample_grid& grid, Observer& obs,
+                              integration_counts* counts = nullptr) {
+  integration_counts local;
+  integration_counts& c = counts ? *counts : local;
+  integration_options resolved = opt;
+  resolved.stepper = with_default_steps(opt.stepper, 2.0 * std::numbers::pi / model.omega());
+  return with_stepper<rotor_system<Law>>(resolved.stepper, [&](auto& st) {
+    return detail::hybrid_loop(model, st, start, t_end, resolved, grid, obs, c);
+  });
+}
+
+}  // namespace rubref

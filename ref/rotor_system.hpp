@@ -1,0 +1,104 @@
+#pragma once
+// The rub rotor as an odeint System (Eq. 1-2): a small value type, no I/O, no stepper.
+//
+//   m x'' + c_x x' + k_x x = f_x + m e w^2 cos(w t)
+//   m y'' + c_y y' + k_y y = f_y + m e w^2 sin(w t)
+//   f_x = +mu f_N,  f_y = -f_N,  while z = y - delta > 0          (Eq. 2)
+//
+// Sign conventions (docs/model.md): the shaft spins counter-clockwise, x -> y, the sense of the
+// unbalance force; the protrusion is at the top (+y). The shaft surface at the top then moves
+// towards -x, so the friction it receives from the stator points to +x: f_x = +mu f_N.
+
+#include "ref/contact_law.hpp"
+#include "ref/parameters.hpp"
+#include "ref/state.hpp"
+
+namespace rubref {
+
+// Which force law holds on the current stretch of the trajectory. The hybrid integrator fixes
+// the phase between events so that every step sees a smooth right-hand side; `by_penetration`
+// evaluates Eq. 2 literally (Heaviside in the RHS), for naive fixed-step use and comparison.
+enum class contact_phase {
+  free,            // no contact force
+  contact,         // compliant law active (its smooth extension is used, even for z <= 0)
+  stuck,           // impact law only: rotor held at y = delta after chatter (docs/model.md)
+  by_penetration,  // Eq. 2 as written: contact force iff z > 0
+};
+
+template <contact_variant Law>
+class rotor_system {
+ public:
+  rotor_system(const parameters& p, double omega, contact_phase phase = contact_phase::by_penetration)
+      : law_(Law::from(p)),
+        inv_m_(1.0 / p.m),
+        c_x_(p.c_x), c_y_(p.c_y), k_x_(p.k_x), k_y_(p.k_y),
+        delta_(p.delta), mu_(p.mu),
+        unbalance_acc_(p.e * omega * omega),
+        omega_(omega),
+        phase_(phase) {}
+
+  void operator()(const state_type& s, state_type& ds, double t) const {
+    const double cos_wt = std::cos(omega_ * t);
+    const double sin_wt = std::sin(omega_ * t);
+    const double fn = normal_force(s, t);
+    double fx = 0.0;
+    if constexpr (compliant_law<Law>) fx = mu_ * fn;
+    ds[idx::x] = s[idx::vx];
+    ds[idx::vx] = (fx - c_x_ * s[idx::vx] - k_x_ * s[idx::x]) * inv_m_ + unbalance_acc_ * cos_wt;
+    if (phase_ == contact_phase::stuck) {
+      // Unilateral constraint y = delta: the stator carries whatever pushes the rotor up.
+      ds[idx::y] = 0.0;
+      ds[idx::vy] = 0.0;
+    } else {
+      ds[idx::y] = s[idx::vy];
+      ds[idx::vy] = (-fn - c_y_ * s[idx::vy] - k_y_ * s[idx::y]) * inv_m_ + unbalance_acc_ * sin_wt;
+    }
+  }
+
+  // f_N in N at (s, t) under the current phase; the stator reaction while stuck.
+  double normal_force(const state_type& s, double t) const noexcept {
+    if constexpr (compliant_law<Law>) {
+      const double z = penetration(s);
+      if (phase_ == contact_phase::contact || (phase_ == contact_phase::by_penetration && z > 0.0))
+        return law_.normal_force(z, s[idx::vy]);
+      return 0.0;
+    } else {
+      if (phase_ == contact_phase::stuck) return free_vertical_acceleration(s, t) / inv_m_;
+      return 0.0;
+    }
+  }
+
+  // z = y - delta in m; positive inside the stator (Eq. 2).
+  double penetration(const state_type& s) const noexcept { return s[idx::y] - delta_; }
+
+  // y'' the rotor would have with no contact force (m/s^2): decides sticking and release.
+  double free_vertical_acceleration(const state_type& s, double t) const noexcept {
+    return (-c_y_ * s[idx::vy] - k_y_ * s[idx::y]) * inv_m_ + unbalance_acc_ * std::sin(omega_ * t);
+  }
+  // Its time derivative along a stuck trajectory (y = delta, y' = 0): only the forcing varies.
+  double free_vertical_jerk_stuck(double t) const noexcept {
+    return unbalance_acc_ * omega_ * std::cos(omega_ * t);
+  }
+
+  rotor_system with_phase(contact_phase phase) const {
+    rotor_system copy = *this;
+    copy.phase_ = phase;
+    return copy;
+  }
+
+  contact_phase phase() const noexcept { return phase_; }
+  double omega() const noexcept { return omega_; }
+  double clearance() const noexcept { return delta_; }
+  const Law& law() const noexcept { return law_; }
+
+ private:
+  Law law_;
+  double inv_m_;
+  double c_x_, c_y_, k_x_, k_y_;
+  double delta_, mu_;
+  double unbalance_acc_;  // e w^2, m/s^2
+  double omega_;          // rad/s
+  contact_phase phase_;
+};
+
+}  // namespace rubref

@@ -1,0 +1,83 @@
+#include "ref/simulate.hpp"
+
+#include <cmath>
+#include <numbers>
+#include <sstream>
+
+#include "ref/errors.hpp"
+#include "variants/all_variants.hpp"
+
+namespace rubref {
+
+namespace {
+
+void require(bool ok, const std::string& what) {
+  if (!ok) throw input_error(what);
+}
+
+std::string str(double v) {
+  std::ostringstream out;
+  out.precision(17);
+  out << v;
+  return out.str();
+}
+
+struct recorder {
+  double t_record;
+  std::vector<orbit_sample>* samples;
+  std::vector<contact_event>* events;
+
+  template <class System>
+  void on_sample(double t, const state_type& s, const System& sys) {
+    samples->push_back({t, s, sys.normal_force(s, t)});
+  }
+  void on_event(const contact_event& e) {
+    if (e.t >= t_record) events->push_back(e);
+  }
+};
+
+}  // namespace
+
+void validate(const run_request& req) {
+  validate(req.params);
+  visit_variant(req.variant, []<class V>() {});  // unknown variant -> input_error
+  require(std::isfinite(req.rpm) && req.rpm > 0.0 && req.rpm <= kMaxSpeedRpm,
+          "speed rpm must be finite, > 0 and <= " + str(kMaxSpeedRpm) + " (got " + str(req.rpm) + ")");
+  require(req.settle_revs >= 0, "settle-revs must be >= 0");
+  require(req.record_revs >= 1, "revs must be >= 1");
+  require(req.samples_per_rev >= 4, "samples-per-rev must be >= 4");
+  const auto& st = req.integration.stepper;
+  require(std::isfinite(st.rtol) && st.rtol > 0.0 && st.rtol < 1.0, "rtol must be in (0, 1) (got " + str(st.rtol) + ")");
+  require(std::isfinite(st.atol) && st.atol > 0.0, "atol must be finite and > 0 (got " + str(st.atol) + ")");
+  require(std::isfinite(st.dt) && st.dt >= 0.0, "dt must be finite and >= 0 (0: automatic) (got " + str(st.dt) + ")");
+  require(std::isfinite(st.max_dt) && st.max_dt >= 0.0, "max-dt must be finite and >= 0 (0: automatic) (got " + str(st.max_dt) + ")");
+  const auto& ev = req.integration.events;
+  require(std::isfinite(ev.time_tolerance) && ev.time_tolerance > 0.0, "event time tolerance must be > 0");
+  require(std::isfinite(ev.stick_velocity) && ev.stick_velocity >= 0.0, "stick velocity must be >= 0");
+  require(ev.max_events_per_rev >= 1.0, "max events per revolution must be >= 1");
+  require(is_finite(req.initial_state), "initial state must be finite");
+  const double revs = double(req.settle_revs) + double(req.record_revs);
+  require(revs * req.samples_per_rev <= 1e8, "settle-revs + revs times samples-per-rev is over 1e8 samples");
+}
+
+orbit simulate(const run_request& req) {
+  validate(req);
+  return visit_variant(req.variant, [&]<class Law>() {
+    const double omega = rpm_to_rad_s(req.rpm);
+    const double period = 2.0 * std::numbers::pi / omega;
+    const rotor_system<Law> model(req.params, omega);
+
+    orbit out;
+    out.request = req;
+    const double t_record = req.settle_revs * period;
+    const double t_end = (req.settle_revs + req.record_revs) * period;
+    const sample_grid grid{t_record, period / req.samples_per_rev,
+                           static_cast<std::size_t>(req.record_revs) * static_cast<std::size_t>(req.samples_per_rev)};
+    out.samples.reserve(grid.count);
+    recorder obs{t_record, &out.samples, &out.events};
+    out.end = integrate_hybrid(model, start_state(model, req.initial_state, 0.0), t_end, req.integration, grid, obs, &out.counts);
+    return out;
+  });
+}
+
+}  // namespace rubref

@@ -1,0 +1,47 @@
+#pragma once
+// One steady-state run at a fixed speed: settle, then record whole revolutions on a uniform
+// grid. The front door for the CLI's `simulate` and for tests that need an orbit of any variant.
+
+#include <string>
+#include <vector>
+
+#include "ref/hybrid_integrator.hpp"
+#include "ref/parameters.hpp"
+
+namespace rubref {
+
+struct run_request {
+  std::string variant = "identified";
+  parameters params;
+  double rpm = 1600.0;             // rev/min, constant speed
+  int settle_revs = 200;           // revolutions discarded before recording
+  int record_revs = 20;            // revolutions recorded
+  int samples_per_rev = 128;       // output samples per revolution
+  integration_options integration;
+  state_type initial_state{};      // at t = 0; default: the rotor at rest at the origin
+};
+
+struct orbit_sample {
+  double t;      // s, absolute: the unbalance force is m e w^2 (cos wt, sin wt) at this t
+  state_type s;  // m, m, m/s, m/s
+  double fn;     // N, normal contact force (stator reaction while stuck)
+};
+
+struct orbit {
+  run_request request;
+  std::vector<orbit_sample> samples;  // record_revs * samples_per_rev, from t = settle_revs T
+  std::vector<contact_event> events;  // located events within the recorded window
+  hybrid_state end;                   // where the run stopped, for continuation
+  integration_counts counts;          // whole run, settle included
+};
+
+// Largest speed accepted; far above any rotor kit, it only keeps the period well resolved in t.
+inline constexpr double kMaxSpeedRpm = 1e6;
+
+// Throws input_error naming the first bad parameter or setting.
+void validate(const run_request& req);
+
+// Validates, then integrates. Throws input_error or numerical_error, never returns a partial orbit.
+orbit simulate(const run_request& req);
+
+}  // namespace rubref

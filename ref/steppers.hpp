@@ -1,0 +1,190 @@
+#pragma once
+// Boost.Odeint steppers behind one dense-output interface, so the hybrid integrator can locate
+// events on any of them (docs/concepts.md, "DenseStepper"):
+//
+//   initialize(s, t, dt0)     restart at (s, t), e.g. after an event
+//   do_step(system) -> (ta,tb) one accepted step
+//   calc_state(t, s)          the solution at any t in [ta, tb]
+//   current_state(), current_time(), current_time_step()
+//
+// dopri5 and Bulirsch-Stoer use odeint's own dense output. rk4 (fixed step) and rkf78 have none;
+// for them calc_state re-takes one step of the same method from ta to t, which is the method's own
+// continuous extension: the event found is where the discrete solution crosses, at full order.
+
+#include <boost/numeric/odeint.hpp>
+#include <optional>
+#include <sstream>
+#include <string>
+#include <string_view>
+#include <utility>
+
+#include "ref/errors.hpp"
+#include "ref/state.hpp"
+
+namespace rubref {
+
+enum class stepper_kind { rk4, dopri5, rkf78, bulirsch_stoer };
+
+inline constexpr std::array<std::pair<stepper_kind, std::string_view>, 4> stepper_names{{
+    {stepper_kind::rk4, "rk4"},
+    {stepper_kind::dopri5, "dopri5"},
+    {stepper_kind::rkf78, "rkf78"},
+    {stepper_kind::bulirsch_stoer, "bulirsch-stoer"},
+}};
+
+inline std::string_view to_string(stepper_kind k) {
+  for (const auto& [kind, name] : stepper_names)
+    if (kind == k) return name;
+  return "?";
+}
+
+inline stepper_kind parse_stepper(std::string_view name) {
+  for (const auto& [kind, n] : stepper_names)
+    if (n == name) return kind;
+  throw input_error("unknown stepper '" + std::string(name) + "' (rk4, dopri5, rkf78, bulirsch-stoer)");
+}
+
+// Fixed-step classical RK4 (odeint runge_kutta4).
+template <class System>
+class rk4_dense {
+ public:
+  explicit rk4_dense(double dt) : dt_(dt) {}
+
+  void initialize(const state_type& s, double t, double /*dt0*/) {
+    cur_ = prev_ = s;
+    t_ = t_prev_ = t;
+  }
+  std::pair<double, double> do_step(const System& sys) {
+    sys_.emplace(sys);
+    prev_ = cur_;
+    t_prev_ = t_;
+    stepper_.do_step(*sys_, prev_, t_prev_, cur_, dt_);
+    t_ = t_prev_ + dt_;
+    return {t_prev_, t_};
+  }
+  void calc_state(double t, state_type& out) const {
+    if (t == t_) {
+      out = cur_;
+    } else if (t == t_prev_) {
+      out = prev_;
+    } else {
+      stepper_.do_step(*sys_, prev_, t_prev_, out, t - t_prev_);
+    }
+  }
+  const state_type& current_state() const { return cur_; }
+  double current_time() const { return t_; }
+  double current_time_step() const { return dt_; }
+
+ private:
+  double dt_;
+  mutable boost::numeric::odeint::runge_kutta4<state_type> stepper_;
+  std::optional<System> sys_;
+  state_type cur_{}, prev_{};
+  double t_ = 0.0, t_prev_ = 0.0;
+};
+
+// Adaptive Runge-Kutta-Fehlberg 7(8) (odeint controlled_runge_kutta<runge_kutta_fehlberg78>).
+// GCC 12 flags odeint's copy of the stepper's not-yet-written stage buffers as maybe-uninitialized;
+// they are written before they are read, so the warning is silenced for this class only.
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+template <class System>
+class rkf78_dense {
+  using error_stepper = boost::numeric::odeint::runge_kutta_fehlberg78<state_type>;
+  using controlled = boost::numeric::odeint::controlled_runge_kutta<error_stepper>;
+
+ public:
+  rkf78_dense(double atol, double rtol, double max_dt)
+      : controlled_(typename controlled::error_checker_type(atol, rtol),
+                    typename controlled::step_adjuster_type(max_dt)) {}
+
+  void initialize(const state_type& s, double t, double dt0) {
+    cur_ = prev_ = s;
+    t_ = t_prev_ = t;
+    dt_ = dt0;
+  }
+  std::pair<double, double> do_step(const System& sys) {
+    using boost::numeric::odeint::fail;
+    sys_.emplace(sys);
+    prev_ = cur_;
+    t_prev_ = t_;
+    // As odeint's failed_step_checker: a step that keeps failing is a numerical fault.
+    constexpr int kMaxRejectedSteps = 500;
+    for (int rejected = 0; controlled_.try_step(*sys_, prev_, t_, cur_, dt_) == fail; ++rejected) {
+      if (rejected == kMaxRejectedSteps) {
+        std::ostringstream msg;
+        msg << "rkf78: " << kMaxRejectedSteps << " rejected steps in a row at t = " << t_ << " s";
+        throw numerical_error(msg.str());
+      }
+    }
+    return {t_prev_, t_};
+  }
+  void calc_state(double t, state_type& out) const {
+    if (t == t_) {
+      out = cur_;
+    } else if (t == t_prev_) {
+      out = prev_;
+    } else {
+      plain_.do_step(*sys_, prev_, t_prev_, out, t - t_prev_);
+    }
+  }
+  const state_type& current_state() const { return cur_; }
+  double current_time() const { return t_; }
+  double current_time_step() const { return dt_; }
+
+ private:
+  controlled controlled_;
+  mutable error_stepper plain_;
+  std::optional<System> sys_;
+  state_type cur_{}, prev_{};
+  double t_ = 0.0, t_prev_ = 0.0, dt_ = 0.0;
+};
+#pragma GCC diagnostic pop
+
+struct stepper_settings {
+  stepper_kind kind = stepper_kind::dopri5;
+  double rtol = 1e-10;  // -, relative tolerance (adaptive steppers)
+  double atol = 1e-14;  // m and m/s, absolute tolerance (adaptive steppers)
+  double dt = 0.0;      // s, fixed step of rk4; 0 = period / kDefaultStepsPerRev
+  double max_dt = 0.0;  // s, largest adaptive step; 0 = period / kDefaultMinStepsPerRev
+};
+
+// rk4's default step resolves a contact episode of the paper's k1 (about 2 ms, 1/20 rev) with
+// about 50 steps. The adaptive cap keeps at most one extremum of y per step, which the grazing
+// check of the hybrid integrator relies on.
+inline constexpr double kDefaultStepsPerRev = 1024.0;
+inline constexpr double kDefaultMinStepsPerRev = 16.0;
+
+// Fills unset step sizes from the revolution period (s).
+inline stepper_settings with_default_steps(stepper_settings s, double period) {
+  if (!(s.dt > 0.0)) s.dt = period / kDefaultStepsPerRev;
+  if (!(s.max_dt > 0.0)) s.max_dt = period / kDefaultMinStepsPerRev;
+  return s;
+}
+
+// Builds the stepper named in `s` for `System` and passes it to f; f is instantiated per stepper.
+template <class System, class F>
+decltype(auto) with_stepper(const stepper_settings& s, F&& f) {
+  namespace ode = boost::numeric::odeint;
+  switch (s.kind) {
+    case stepper_kind::rk4: {
+      rk4_dense<System> st(s.dt);
+      return f(st);
+    }
+    case stepper_kind::dopri5: {
+      auto st = ode::make_dense_output(s.atol, s.rtol, s.max_dt, ode::runge_kutta_dopri5<state_type>());
+      return f(st);
+    }
+    case stepper_kind::rkf78: {
+      rkf78_dense<System> st(s.atol, s.rtol, s.max_dt);
+      return f(st);
+    }
+    case stepper_kind::bulirsch_stoer: {
+      ode::bulirsch_stoer_dense_out<state_type> st(s.atol, s.rtol, 1.0, 1.0, s.max_dt);
+      return f(st);
+    }
+  }
+  throw input_error("unknown stepper");
+}
+
+}  // namespace rubref

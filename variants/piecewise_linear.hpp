@@ -1,0 +1,17 @@
+#pragma once
+#include "ref/contact_law.hpp"
+
+namespace rubref {
+
+// Piecewise-linear contact stiffness (Fig. 7a): Eq. 5 without its nonlinear terms.
+struct piecewise_linear {
+  static constexpr std::string_view name = "piecewise-linear";
+  static constexpr std::string_view equation = "f_N = k1 z (Fig. 7a)";
+
+  double k1;  // N/m
+
+  static piecewise_linear from(const parameters& p) { return {p.k1}; }
+  double normal_force(double z, double /*z_dot*/) const noexcept { return k1 * z; }
+};
+
+}  // namespace rubref

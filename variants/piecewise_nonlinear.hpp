@@ -1,0 +1,18 @@
+#pragma once
+#include "ref/contact_law.hpp"
+
+namespace rubref {
+
+// Piecewise-nonlinear contact stiffness (Fig. 7b): Eq. 5 without the damping term.
+struct piecewise_nonlinear {
+  static constexpr std::string_view name = "piecewise-nonlinear";
+  static constexpr std::string_view equation = "f_N = k1 z + k3 z^3 (Fig. 7b)";
+
+  double k1;  // N/m
+  double k3;  // N/m^3
+
+  static piecewise_nonlinear from(const parameters& p) { return {p.k1, p.k3}; }
+  double normal_force(double z, double /*z_dot*/) const noexcept { return z * (k1 + k3 * z * z); }
+};
+
+}  // namespace rubref
