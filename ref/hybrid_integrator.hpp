@@ -17,6 +17,7 @@
 #include <cstdint>
 #include <limits>
 #include <numbers>
+#include <optional>
 #include <sstream>
 #include <string>
 
@@ -127,6 +128,7 @@ std::pair<double, double> bracket_root(F&& f, double a, double b, double fa, dou
 }
 
 template <class Law, class Stepper, class Observer>
+  requires dense_stepper<Stepper, rotor_system<Law>>
 hybrid_state hybrid_loop(const rotor_system<Law>& base, Stepper& st, hybrid_state hs, double t_end,
                          const integration_options& opt, const sample_grid& grid, Observer& obs,
                          integration_counts& counts) {
@@ -143,6 +145,8 @@ hybrid_state hybrid_loop(const rotor_system<Law>& base, Stepper& st, hybrid_stat
   const double first_dt = opt.stepper.kind == stepper_kind::rk4 ? opt.stepper.dt : std::min(opt.stepper.max_dt, period / 1000.0);
   st.initialize(hs.s, hs.t, first_dt);
 
+  // A phase that starts on its own boundary (after every event) is being entered, not left.
+  bool entering = exit_value(sys, hs.s, hs.t) <= 0.0;
   std::size_t next_sample = 0;
   while (next_sample < grid.count && grid.time(next_sample) < t_start) ++next_sample;
 
@@ -165,31 +169,34 @@ hybrid_state hybrid_loop(const rotor_system<Law>& base, Stepper& st, hybrid_stat
                             describe_state(tb, st.current_state()));
 
     const double t_hi = std::min(tb, t_end);
-    // Find the first exit from the current phase in [ta, t_hi].
-    double h_hi = h_at(t_hi);
-    double t_cross_hi = t_hi;
-    bool crossed = h_hi < 0.0;
-    if (!crossed) {
-      const double r_lo = hdot_at(ta), r_hi = hdot_at(t_hi);
-      if (r_lo < 0.0 && r_hi > 0.0) {  // h has an interior minimum: a grazing exit?
-        const auto [m_lo, m_hi] = bracket_root(hdot_at, ta, t_hi, r_lo, r_hi, tol);
-        const double t_min = 0.5 * (m_lo + m_hi);
-        const double h_min = h_at(t_min);
-        if (h_min < 0.0) {
-          crossed = true;
-          t_cross_hi = t_min;
-          h_hi = h_min;
+    const double h_lo = exit_value(sys, hs.s, ta), r_lo = exit_rate(sys, hs.s, ta);
+    const double h_hi = h_at(t_hi), r_hi = hdot_at(t_hi);
+    std::optional<std::pair<double, double>> bracket;  // [inside, outside] around the first exit
+    if (entering) {
+      // The phase began on its boundary (h ~ 0) moving inwards. Within a few ulps of ta a dense
+      // output may read h slightly negative (Bulirsch-Stoer's does, by ~1e-16 m); that is not an
+      // exit. An exit in this step must come after h's first maximum.
+      if (h_hi > 0.0) {
+        entering = false;
+      } else if (r_hi < 0.0) {
+        if (r_lo > 0.0) {
+          const auto [m_lo, m_hi] = bracket_root(hdot_at, ta, t_hi, r_lo, r_hi, tol);
+          const double t_max = 0.5 * (m_lo + m_hi), h_max = h_at(t_max);
+          bracket = h_max > 0.0 ? bracket_root(h_at, t_max, t_hi, h_max, h_hi, tol) : std::pair{t_max, t_max};
+        } else {
+          bracket = std::pair{ta, ta};  // it never moved inside: a zero-depth touch
         }
-      }
+      }  // else: still on the boundary, still moving in
+    } else if (h_hi < 0.0) {
+      bracket = bracket_root(h_at, ta, t_hi, std::max(0.0, h_lo), h_hi, tol);
+    } else if (r_lo < 0.0 && r_hi > 0.0) {
+      // h has an interior minimum: does a grazing exit hide between the step ends?
+      const auto [m_lo, m_hi] = bracket_root(hdot_at, ta, t_hi, r_lo, r_hi, tol);
+      const double t_min = 0.5 * (m_lo + m_hi), h_min = h_at(t_min);
+      if (h_min < 0.0) bracket = bracket_root(h_at, ta, t_min, std::max(0.0, h_lo), h_min, tol);
     }
-    std::pair<double, double> bracket{t_hi, t_hi};
-    if (crossed) {
-      // h(ta) >= 0 holds by construction (each phase starts inside itself); if rounding broke
-      // it, the exit is at ta itself and the stall guard below stops a loop of such events.
-      const double h_lo = std::max(0.0, h_at(ta));
-      bracket = bracket_root(h_at, ta, t_cross_hi, h_lo, h_hi, tol);
-    }
-    const double t_stop = crossed ? bracket.first : t_hi;
+    const bool crossed = bracket.has_value();
+    const double t_stop = crossed ? bracket->first : t_hi;
 
     // Peak penetration of an open contact episode: step end, and an interior maximum of z.
     if (sys.phase() == contact_phase::contact) {
@@ -227,7 +234,7 @@ hybrid_state hybrid_loop(const rotor_system<Law>& base, Stepper& st, hybrid_stat
     // velocity at the bracket end still outside the stator.
     contact_event ev{};
     if constexpr (compliant_law<Law>) {
-      ev.t = bracket.second;
+      ev.t = bracket->second;
       ev.state = state_at(ev.t);
       ev.approach_velocity = ev.state[idx::vy];
       if (sys.phase() == contact_phase::free) {
@@ -241,7 +248,7 @@ hybrid_state hybrid_loop(const rotor_system<Law>& base, Stepper& st, hybrid_stat
         hs.episode_peak = 0.0;
       }
     } else if (sys.phase() == contact_phase::free) {
-      ev.t = bracket.first;
+      ev.t = bracket->first;
       ev.state = state_at(ev.t);
       ev.approach_velocity = ev.state[idx::vy];
       const double rebound = base.law().rebound_velocity(ev.approach_velocity);
@@ -259,7 +266,7 @@ hybrid_state hybrid_loop(const rotor_system<Law>& base, Stepper& st, hybrid_stat
         ev.state[idx::vy] = rebound;
       }
     } else {  // stuck -> free
-      ev.t = bracket.second;
+      ev.t = bracket->second;
       ev.state = state_at(ev.t);
       ev.approach_velocity = 0.0;
       ev.kind = event_kind::release;
@@ -278,6 +285,7 @@ hybrid_state hybrid_loop(const rotor_system<Law>& base, Stepper& st, hybrid_stat
     last_event_t = ev.t;
 
     obs.on_event(ev);
+    entering = true;
     hs.s = ev.state;
     hs.t = ev.t;
     sys = base.with_phase(hs.phase);

@@ -25,6 +25,7 @@ enum class contact_phase {
   by_penetration,  // Eq. 2 as written: contact force iff z > 0
 };
 
+// Models odeint's System concept: void operator()(const state_type&, state_type&, double) const.
 template <contact_variant Law>
 class rotor_system {
  public:

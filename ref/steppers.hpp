@@ -12,6 +12,7 @@
 // continuous extension: the event found is where the discrete solution crosses, at full order.
 
 #include <boost/numeric/odeint.hpp>
+#include <concepts>
 #include <optional>
 #include <sstream>
 #include <string>
@@ -22,6 +23,22 @@
 #include "ref/state.hpp"
 
 namespace rubref {
+
+// An odeint System over the rotor state (Boost.Odeint doc/concepts/system.qbk).
+template <class S>
+concept odeint_system = std::copy_constructible<S> && requires(const S sys, const state_type& x, state_type& dxdt, double t) {
+  sys(x, dxdt, t);
+};
+
+// What the hybrid integrator needs of a stepper (docs/concepts.md, "DenseStepper").
+template <class S, class System>
+concept dense_stepper = requires(S st, const S cst, const System& sys, const state_type& x, state_type& out, double t) {
+  st.initialize(x, t, t);
+  { st.do_step(sys) } -> std::convertible_to<std::pair<double, double>>;
+  cst.calc_state(t, out);
+  { cst.current_state() } -> std::convertible_to<const state_type&>;
+  { cst.current_time_step() } -> std::convertible_to<double>;
+};
 
 enum class stepper_kind { rk4, dopri5, rkf78, bulirsch_stoer };
 

@@ -46,7 +46,9 @@ orbit_error compare_to_closed_form(const trajectory& tr, const unbalance_respons
 }
 
 template <class V>
-class contact_free : public ::testing::Test {};
+class contact_free : public ::testing::Test {
+  static_assert(odeint_system<rotor_system<V>>, "every variant's model is an odeint System");
+};
 TYPED_TEST_SUITE(contact_free, all_variant_types, variant_name);
 
 TYPED_TEST(contact_free, reference_stepper_follows_closed_form) {

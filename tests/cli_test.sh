@@ -1,0 +1,64 @@
+#!/usr/bin/env bash
+# The CLI as a user meets it: a bad input gives exit code 2, exactly one line on stderr naming
+# the problem, and no output file (an existing one is left untouched).
+set -u
+rubref=$1
+work=$(mktemp -d)
+trap 'rm -rf "$work"' EXIT
+failures=0
+
+fail() { echo "FAIL: $*"; failures=$((failures + 1)); }
+
+# expect_error <expected-substring> <args...>
+expect_error() {
+  local want=$1; shift
+  "$rubref" "$@" >"$work/stdout" 2>"$work/stderr"
+  local rc=$?
+  local lines; lines=$(wc -l <"$work/stderr")
+  [ "$rc" -eq 2 ] || fail "exit $rc (want 2) for: $*"
+  [ "$lines" -eq 1 ] || fail "$lines stderr lines (want 1) for: $*: $(cat "$work/stderr")"
+  grep -qF -- "$want" "$work/stderr" || fail "stderr lacks '$want' for: $*: $(cat "$work/stderr")"
+  [ ! -e "$work/o.csv" ] || fail "output written for: $*"
+  ls "$work" | grep -q '\.tmp-' && fail "temporary left behind for: $*"
+}
+
+out=(--out "$work/o.csv" --revs 1 --settle-revs 1)
+expect_error "m_kg" simulate --m -1 "${out[@]}"
+expect_error "k_y_N_m" simulate --k-y 0 "${out[@]}"
+expect_error "clearance_m" simulate --clearance -3e-4 "${out[@]}"
+expect_error "parameter r" simulate --r 1.2 "${out[@]}"
+expect_error "mu" simulate --mu -0.1 "${out[@]}"
+expect_error "e_m" simulate --e nan "${out[@]}"
+expect_error "k1_N_m" simulate --k1 inf "${out[@]}"
+expect_error "speed rpm" simulate --rpm 0 "${out[@]}"
+expect_error "unknown variant 'hertz'" simulate --variant hertz "${out[@]}"
+expect_error "unknown stepper 'euler'" simulate --stepper euler "${out[@]}"
+expect_error "--bogus" simulate --bogus 1 "${out[@]}"
+expect_error "--out" simulate --revs 1
+expect_error "rpm" simulate --rpm fast "${out[@]}"
+echo '{"k1_N_m": 1e6, "kone": 2}' >"$work/p.json"
+expect_error "unknown parameter 'kone'" simulate --params "$work/p.json" "${out[@]}"
+echo '{"k1_N_m": ' >"$work/broken.json"
+expect_error "broken.json" simulate --params "$work/broken.json" "${out[@]}"
+expect_error "does not exist" simulate --out "$work/no/such/dir/o.csv" --revs 1 --settle-revs 1
+
+# A failed run never replaces an existing result.
+echo keep >"$work/existing.csv"
+"$rubref" simulate --m -1 --out "$work/existing.csv" 2>/dev/null
+[ "$(cat "$work/existing.csv")" = keep ] || fail "existing output overwritten by a failed run"
+
+# A good run writes the record and its summary; flags override the parameter file.
+echo '{"k1_N_m": 5e6, "clearance_m": 2e-4}' >"$work/p.json"
+"$rubref" simulate --variant piecewise-linear --params "$work/p.json" --clearance 2.5e-4 --revs 2 --settle-revs 20 \
+  --samples-per-rev 16 --out "$work/good.csv" >/dev/null || fail "good run failed"
+grep -qE '^# k1_N_m: (5e\+06|5000000)$' "$work/good.csv" || fail "parameter file not applied"
+grep -q '^# clearance_m: 0.00025$' "$work/good.csv" || fail "flag did not override the file"
+grep -q '^t_s,x_m,y_m,speed_rpm,vx_m_s,vy_m_s,fn_N$' "$work/good.csv" || fail "header"
+[ "$(grep -vc '^#' "$work/good.csv")" -eq 33 ] || fail "expected header + 32 rows"
+grep -q '"whirl"' "$work/good.summary.json" || fail "summary JSON"
+
+"$rubref" --help >/dev/null || fail "--help"
+"$rubref" simulate --help | grep -q -- "--k1" || fail "simulate --help lists parameters"
+
+[ "$failures" -eq 0 ] && echo "cli_test: all passed"
+exit "$failures"

@@ -1,0 +1,112 @@
+// Parameters: the paper's values as defaults, and validation that names what is wrong before
+// anything is integrated.
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+#include <string>
+
+#include "ref/errors.hpp"
+#include "ref/parameter_io.hpp"
+#include "ref/simulate.hpp"
+
+namespace rubref {
+namespace {
+
+// §3, Eq. 6 text, Table 2 of the paper, in SI units.
+TEST(parameters, defaults_are_the_papers) {
+  const parameters p;
+  EXPECT_EQ(p.m, 1.52);
+  EXPECT_EQ(p.e, 0.0706e-3);
+  EXPECT_EQ(p.c_x, 15.100);
+  EXPECT_EQ(p.c_y, 14.727);
+  EXPECT_EQ(p.k_x, 38.521e3);
+  EXPECT_EQ(p.k_y, 41.017e3);
+  EXPECT_EQ(p.delta, 0.3e-3);
+  EXPECT_EQ(p.mu, 0.24);
+  EXPECT_EQ(p.r, 0.86);
+  EXPECT_EQ(p.k1, 3.946e6);
+  EXPECT_EQ(p.k3, 1.408e11);
+  EXPECT_EQ(p.c2, 3.720e4);
+  EXPECT_NO_THROW(validate(p));
+}
+
+std::string error_of(const parameters& p) {
+  try {
+    validate(p);
+  } catch (const input_error& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TEST(parameters, every_bad_value_is_named) {
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const double inf = std::numeric_limits<double>::infinity();
+  for (const auto& info : parameter_table) {
+    std::vector<double> bad{nan, inf, -inf, -1.0};
+    if (info.rule == constraint::positive) bad.push_back(0.0);
+    if (info.rule == constraint::unit_interval) bad.push_back(1.5);
+    for (const double v : bad) {
+      parameters p;
+      p.*info.member = v;
+      const std::string msg = error_of(p);
+      EXPECT_NE(msg.find("parameter " + std::string(info.key)), std::string::npos) << info.key << " = " << v << ": '" << msg << "'";
+    }
+  }
+}
+
+TEST(parameters, boundary_values_that_are_physical_pass) {
+  parameters p;
+  p.r = 0.0;  // plastic impact
+  p.mu = 0.0;
+  p.e = 0.0;
+  p.c_x = p.c_y = 0.0;
+  p.k3 = p.c2 = 0.0;
+  EXPECT_NO_THROW(validate(p));
+  p.r = 1.0;  // elastic impact
+  EXPECT_NO_THROW(validate(p));
+}
+
+TEST(parameters, json_round_trip_and_errors) {
+  parameters p;
+  p.k1 = 1e7;
+  p.delta = 2e-4;
+  parameters q;
+  apply_json(q, nlohmann::json::parse(to_json(p).dump()), "p.json");
+  EXPECT_EQ(q, p);
+  EXPECT_THROW(apply_json(q, nlohmann::json::parse(R"({"k_1": 1})"), "p.json"), input_error);
+  EXPECT_THROW(apply_json(q, nlohmann::json::parse(R"({"k1_N_m": "1e6"})"), "p.json"), input_error);
+  EXPECT_THROW(apply_json(q, nlohmann::json::parse("[1, 2]"), "p.json"), input_error);
+}
+
+TEST(run_request, bad_settings_are_rejected_before_integration) {
+  const auto rejects = [](auto&& mutate, const char* what) {
+    run_request req;
+    mutate(req);
+    try {
+      simulate(req);
+      ADD_FAILURE() << "accepted: " << what;
+    } catch (const input_error& e) {
+      EXPECT_NE(std::string(e.what()).find(what), std::string::npos) << e.what();
+    }
+  };
+  rejects([](run_request& r) { r.rpm = 0.0; }, "speed rpm");
+  rejects([](run_request& r) { r.rpm = std::nan(""); }, "speed rpm");
+  rejects([](run_request& r) { r.rpm = 1e9; }, "speed rpm");
+  rejects([](run_request& r) { r.variant = "hertz"; }, "unknown variant 'hertz'");
+  rejects([](run_request& r) { r.record_revs = 0; }, "revs");
+  rejects([](run_request& r) { r.samples_per_rev = 2; }, "samples-per-rev");
+  rejects([](run_request& r) { r.integration.stepper.rtol = -1.0; }, "rtol");
+  rejects([](run_request& r) { r.integration.stepper.atol = 0.0; }, "atol");
+  rejects([](run_request& r) { r.params.m = -1.52; }, "m_kg");
+  rejects([](run_request& r) {
+    r.variant = "restitution";
+    r.initial_state = {0.0, 1e-3, 0.0, 0.0};
+  }, "inside the stator");
+  EXPECT_THROW(parse_stepper("euler"), input_error);
+}
+
+}  // namespace
+}  // namespace rubref
