@@ -238,6 +238,8 @@ TYPED_TEST(single_impact_test, matches_independent_answer) {
     EXPECT_LE(rel(tr.events[0].approach_velocity, want.v_in), kRelTol);
     EXPECT_LE(rel(tr.events[1].approach_velocity, want.v_out), kRelTol);
     EXPECT_LE(rel(tr.events[1].max_penetration, want.z_max), kRelTol);
+    // Friction sign (docs/model.md): the stator pushes the rotor's top towards +x.
+    EXPECT_GT(tr.events[1].state[idx::vx], 0.0);
   }
   // Final state (x, y in m; velocities in m/s), relative to the throw's scale.
   const double scale_pos = p.delta, scale_vel = kThrowSpeed;
