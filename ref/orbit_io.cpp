@@ -65,9 +65,12 @@ nlohmann::ordered_json to_json(const orbit_summary& s, const orbit& o) {
   j["record_revs"] = o.request.record_revs;
   j["peak_to_peak_x_m"] = s.peak_to_peak_x;
   j["peak_to_peak_y_m"] = s.peak_to_peak_y;
+  j["max_radius_m"] = s.max_radius;
   j["max_penetration_m"] = s.max_penetration;
   j["max_normal_force_N"] = s.max_normal_force;
   j["contact_episodes_per_rev"] = s.contact_episodes_per_rev;
+  j["contact_fraction"] = s.contact_fraction;
+  j["regime"] = to_string(s.regime);
   j["forward_1x_m"] = std::abs(s.forward_1x);
   j["backward_1x_m"] = std::abs(s.backward_1x);
   j["forward_1x_phase_rad"] = std::arg(s.forward_1x);

@@ -2,16 +2,17 @@
 
 #include <algorithm>
 #include <cmath>
+#include <numbers>
 
 namespace rubref {
 
-std::complex<double> whirl_coefficient(std::span<const orbit_sample> samples, double omega, int order) {
-  std::complex<double> sum{};
-  for (const auto& smp : samples) {
-    const double phase = -order * omega * smp.t;
-    sum += std::complex<double>(smp.s[idx::x], smp.s[idx::y]) * std::complex<double>(std::cos(phase), std::sin(phase));
+std::string_view to_string(contact_regime r) {
+  switch (r) {
+    case contact_regime::no_contact: return "no_contact";
+    case contact_regime::partial_rub: return "partial_rub";
+    case contact_regime::full_annular: return "full_annular";
   }
-  return samples.empty() ? sum : sum / static_cast<double>(samples.size());
+  return "?";
 }
 
 orbit_summary summarize(const orbit& o) {
@@ -20,28 +21,45 @@ orbit_summary summarize(const orbit& o) {
   const double delta = o.request.params.delta;
   double x_lo = o.samples.front().s[idx::x], x_hi = x_lo;
   double y_lo = o.samples.front().s[idx::y], y_hi = y_lo;
+  std::size_t in_contact = 0;
+  std::vector<double> x, y;
+  x.reserve(o.samples.size());
+  y.reserve(o.samples.size());
   for (const auto& smp : o.samples) {
     x_lo = std::min(x_lo, smp.s[idx::x]);
     x_hi = std::max(x_hi, smp.s[idx::x]);
     y_lo = std::min(y_lo, smp.s[idx::y]);
     y_hi = std::max(y_hi, smp.s[idx::y]);
+    out.max_radius = std::max(out.max_radius, std::hypot(smp.s[idx::x], smp.s[idx::y]));
     out.max_normal_force = std::max(out.max_normal_force, smp.fn);
     out.max_penetration = std::max(out.max_penetration, smp.s[idx::y] - delta);
+    if (smp.fn > 0.0) ++in_contact;
+    x.push_back(smp.s[idx::x]);
+    y.push_back(smp.s[idx::y]);
   }
   out.peak_to_peak_x = x_hi - x_lo;
   out.peak_to_peak_y = y_hi - y_lo;
+  out.contact_fraction = static_cast<double>(in_contact) / static_cast<double>(o.samples.size());
 
-  std::size_t episodes = 0;
+  std::size_t episodes = 0, endings = 0;
   for (const auto& ev : o.events) {
     if (ev.kind == event_kind::separation) out.max_penetration = std::max(out.max_penetration, ev.max_penetration);
     if (ev.kind == event_kind::contact_onset || ev.kind == event_kind::impact || ev.kind == event_kind::stick) ++episodes;
+    if (ev.kind == event_kind::separation || ev.kind == event_kind::release) ++endings;
   }
   if (o.end.phase == contact_phase::contact) out.max_penetration = std::max(out.max_penetration, o.end.episode_peak);
   out.contact_episodes_per_rev = static_cast<double>(episodes) / o.request.record_revs;
+  if (in_contact == o.samples.size() && endings == 0) {
+    out.regime = contact_regime::full_annular;
+  } else if (in_contact > 0 || !o.events.empty()) {
+    out.regime = contact_regime::partial_rub;
+  }
 
-  const double omega = rpm_to_rad_s(o.request.rpm);
-  out.forward_1x = whirl_coefficient(o.samples, omega, +1);
-  out.backward_1x = whirl_coefficient(o.samples, omega, -1);
+  // Sample spacing and start in revolutions: the spectrum comes out in orders.
+  const double revs_per_second = o.request.rpm / 60.0;
+  out.spectrum = full_spectrum(x, y, 1.0 / o.request.samples_per_rev, o.samples.front().t * revs_per_second);
+  out.forward_1x = out.spectrum.at(+1.0);
+  out.backward_1x = out.spectrum.at(-1.0);
   return out;
 }
 

@@ -2,26 +2,35 @@
 // What one looks at first in a steady-state orbit, computed from the recorded revolutions.
 
 #include <complex>
-#include <span>
+#include <string_view>
 
 #include "ref/simulate.hpp"
+#include "ref/spectrum.hpp"
 
 namespace rubref {
+
+// How the rotor meets the stator over the recorded revolutions (docs/sweeps.md).
+enum class contact_regime {
+  no_contact,    // no event and no sample in contact
+  partial_rub,   // intermittent contact (the paper's subject)
+  full_annular,  // in contact at every sample, with no separation: continuous rub
+};
+std::string_view to_string(contact_regime r);
 
 struct orbit_summary {
   double peak_to_peak_x = 0.0;             // m, over the recorded samples
   double peak_to_peak_y = 0.0;             // m
+  double max_radius = 0.0;                 // m, max |x + j y| over the samples
   double max_penetration = 0.0;            // m, exact episode peaks (located on the dense output)
   double max_normal_force = 0.0;           // N, over the recorded samples
   double contact_episodes_per_rev = 0.0;   // onsets (compliant laws) or impacts (impact law)
-  std::complex<double> forward_1x{};       // m, coefficient of e^{+j w t} in x + j y (Eq. 7)
+  double contact_fraction = 0.0;           // share of samples with f_N > 0
+  contact_regime regime = contact_regime::no_contact;
+  directional_spectrum spectrum;           // full spectrum of x + j y, frequency in orders (Eq. 7)
+  std::complex<double> forward_1x{};       // m, coefficient of e^{+j w t}
   std::complex<double> backward_1x{};      // m, coefficient of e^{-j w t}
   bool backward_whirl() const { return std::abs(backward_1x) > std::abs(forward_1x); }
 };
-
-// Coefficient of e^{j order w t} in r(t) = x + j y over uniform samples spanning whole
-// revolutions: (1/N) sum r_n e^{-j order w t_n}. Exact for a pure harmonic of that order.
-std::complex<double> whirl_coefficient(std::span<const orbit_sample> samples, double omega, int order);
 
 orbit_summary summarize(const orbit& o);
 
