@@ -44,3 +44,64 @@ void atomic_output::commit() {
 }
 
 }  // namespace rubref
+
+namespace rubref {
+
+namespace fs = std::filesystem;
+
+staged_directory::staged_directory(fs::path target) : target_(std::move(target)) {
+  if (target_.empty()) throw input_error("empty output directory");
+  std::error_code ec;
+  target_ = fs::absolute(target_).lexically_normal();
+  if (target_.filename().empty()) target_ = target_.parent_path();
+  if (fs::exists(target_, ec)) {
+    if (!fs::is_directory(target_, ec)) throw input_error(target_.string() + ": exists and is not a directory");
+    if (!fs::exists(target_ / kOutputMarker, ec))
+      throw input_error(target_.string() + ": exists and was not made by rubref; choose another --out or remove it");
+  }
+  if (!fs::is_directory(target_.parent_path(), ec))
+    throw input_error(target_.string() + ": parent directory " + target_.parent_path().string() + " does not exist");
+  staging_ = target_;
+  staging_ += ".tmp-" + std::to_string(::getpid());
+  fs::remove_all(staging_, ec);
+  if (!fs::create_directory(staging_, ec)) throw input_error(staging_.string() + ": cannot create (" + ec.message() + ")");
+  write(kOutputMarker, "made by rubref; the whole folder is replaced by the next run writing here\n");
+}
+
+staged_directory::~staged_directory() {
+  if (!committed_) {
+    std::error_code ec;
+    fs::remove_all(staging_, ec);
+  }
+}
+
+void staged_directory::write(const std::string& relative, const std::string& content) {
+  const fs::path file = staging_ / relative;
+  std::error_code ec;
+  fs::create_directories(file.parent_path(), ec);
+  std::ofstream out(file, std::ios::binary | std::ios::trunc);
+  if (!out) throw input_error(file.string() + ": cannot write");
+  out.write(content.data(), static_cast<std::streamsize>(content.size()));
+  out.flush();
+  if (!out) throw input_error(file.string() + ": write failed");
+}
+
+void staged_directory::commit() {
+  std::error_code ec;
+  fs::path old;
+  if (fs::exists(target_, ec)) {
+    old = target_;
+    old += ".old-" + std::to_string(::getpid());
+    fs::rename(target_, old, ec);
+    if (ec) throw input_error(target_.string() + ": cannot move the previous output aside: " + ec.message());
+  }
+  fs::rename(staging_, target_, ec);
+  if (ec) {
+    if (!old.empty()) fs::rename(old, target_, ec);
+    throw input_error(target_.string() + ": cannot move the new output into place");
+  }
+  committed_ = true;
+  if (!old.empty()) fs::remove_all(old, ec);
+}
+
+}  // namespace rubref

@@ -29,3 +29,29 @@ class atomic_output {
 };
 
 }  // namespace rubref
+
+namespace rubref {
+
+// An output directory that appears whole or not at all. Files are written under `path()`, a
+// fresh sibling of the target; commit() swaps it into place. An existing target is replaced only
+// if rubref made it (it holds the marker file kOutputMarker): `--out .` can never wipe a folder.
+class staged_directory {
+ public:
+  static constexpr const char* kOutputMarker = ".rubref-output";
+
+  explicit staged_directory(std::filesystem::path target);  // input_error if the target is unusable
+  staged_directory(const staged_directory&) = delete;
+  staged_directory& operator=(const staged_directory&) = delete;
+  ~staged_directory();  // removes the staging folder unless committed
+
+  const std::filesystem::path& path() const { return staging_; }
+  const std::filesystem::path& target() const { return target_; }
+  void write(const std::string& relative, const std::string& content);  // input_error on failure
+  void commit();
+
+ private:
+  std::filesystem::path target_, staging_;
+  bool committed_ = false;
+};
+
+}  // namespace rubref

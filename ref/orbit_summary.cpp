@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numbers>
 
 namespace rubref {
@@ -37,6 +38,15 @@ orbit_summary summarize(const orbit& o) {
     x.push_back(smp.s[idx::x]);
     y.push_back(smp.s[idx::y]);
   }
+  const std::size_t per_rev = static_cast<std::size_t>(o.request.samples_per_rev);
+  double rev_lo = std::numeric_limits<double>::infinity(), rev_hi = 0.0;
+  for (std::size_t start = 0; start + per_rev <= o.samples.size(); start += per_rev) {
+    double r = 0.0;
+    for (std::size_t i = start; i < start + per_rev; ++i) r = std::max(r, std::hypot(x[i], y[i]));
+    rev_lo = std::min(rev_lo, r);
+    rev_hi = std::max(rev_hi, r);
+  }
+  out.radius_spread = rev_hi >= rev_lo ? rev_hi - rev_lo : 0.0;
   out.peak_to_peak_x = x_hi - x_lo;
   out.peak_to_peak_y = y_hi - y_lo;
   out.contact_fraction = static_cast<double>(in_contact) / static_cast<double>(o.samples.size());

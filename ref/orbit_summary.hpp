@@ -21,6 +21,8 @@ struct orbit_summary {
   double peak_to_peak_x = 0.0;             // m, over the recorded samples
   double peak_to_peak_y = 0.0;             // m
   double max_radius = 0.0;                 // m, max |x + j y| over the samples
+  double radius_spread = 0.0;              // m, spread of the per-revolution max radius: 0 for an
+                                           // orbit that repeats every revolution, > 0 otherwise
   double max_penetration = 0.0;            // m, exact episode peaks (located on the dense output)
   double max_normal_force = 0.0;           // N, over the recorded samples
   double contact_episodes_per_rev = 0.0;   // onsets (compliant laws) or impacts (impact law)

@@ -7,6 +7,7 @@
 #include <sstream>
 
 #include "ref/errors.hpp"
+#include "ref/table.hpp"
 
 namespace rubref {
 
@@ -84,13 +85,10 @@ std::string to_csv(const record& r) {
 
   std::string out;
   out.reserve(64 * (n + r.metadata.size() + 2) * std::max<std::size_t>(1, r.columns.size() / 2));
-  out += "# format: ";
-  out += kRecordFormat;
-  out += '\n';
-  for (const auto& [k, v] : r.metadata) {
-    if (k == "format") continue;
-    out += "# " + k + ": " + v + '\n';
-  }
+  std::vector<std::pair<std::string, std::string>> meta{{"format", std::string(kRecordFormat)}};
+  for (const auto& kv : r.metadata)
+    if (kv.first != "format") meta.push_back(kv);
+  write_metadata(out, meta);
   for (std::size_t c = 0; c < r.columns.size(); ++c) {
     if (c) out += ',';
     out += r.columns[c];

@@ -1,0 +1,38 @@
+#pragma once
+// Option groups shared by the subcommands: every model parameter, and the integration settings.
+
+#include <CLI/CLI.hpp>
+#include <array>
+#include <string>
+
+#include "ref/hybrid_integrator.hpp"
+#include "ref/parameters.hpp"
+
+namespace rubref::cli {
+
+std::string variant_names();  // "restitution, piecewise-linear, ..."
+
+// --params FILE and one --<flag> per row of parameter_table; the file first, flags override it.
+class parameter_options {
+ public:
+  void add_to(CLI::App& app);
+  parameters resolve() const;
+
+ private:
+  std::string file_;
+  std::array<double, parameter_table.size()> values_{};
+  std::array<CLI::Option*, parameter_table.size()> options_{};
+};
+
+// --stepper, --rtol, --atol, --dt, --max-dt, --event-tol, --stick-velocity.
+class integration_cli {
+ public:
+  void add_to(CLI::App& app);
+  integration_options resolve() const;  // input_error on an unknown stepper
+
+ private:
+  integration_options opt_;
+  std::string stepper_ = "dopri5";
+};
+
+}  // namespace rubref::cli

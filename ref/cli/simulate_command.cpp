@@ -1,0 +1,56 @@
+#include <filesystem>
+#include <iostream>
+#include <memory>
+
+#include "ref/atomic_output.hpp"
+#include "ref/cli/commands.hpp"
+#include "ref/cli/options.hpp"
+#include "ref/orbit_io.hpp"
+#include "ref/simulate.hpp"
+
+namespace rubref::cli {
+
+namespace {
+struct simulate_state {
+  run_request req;
+  parameter_options params;
+  integration_cli integration;
+  std::vector<double> initial;
+  std::string out, summary;
+};
+}  // namespace
+
+void add_simulate(CLI::App& app) {
+  auto st = std::make_shared<simulate_state>();
+  auto* sub = app.add_subcommand("simulate", "steady-state orbit at one speed -> record CSV + JSON summary");
+  sub->add_option("--variant", st->req.variant, "contact law: " + variant_names())->capture_default_str();
+  sub->add_option("--rpm", st->req.rpm, "shaft speed [rev/min]")->capture_default_str();
+  sub->add_option("--revs", st->req.record_revs, "revolutions recorded")->capture_default_str();
+  sub->add_option("--settle-revs", st->req.settle_revs, "revolutions integrated and discarded first")->capture_default_str();
+  sub->add_option("--samples-per-rev", st->req.samples_per_rev, "output samples per revolution")->capture_default_str();
+  sub->add_option("--initial", st->initial, "initial state x y vx vy at t = 0 [m m m/s m/s]; default rest")->expected(4);
+  sub->add_option("--out", st->out, "record CSV to write (docs/data-format.md)")->required();
+  sub->add_option("--summary", st->summary, "summary JSON to write; default: <out without .csv>.summary.json");
+  st->integration.add_to(*sub);
+  st->params.add_to(*sub);
+  sub->callback([st] {
+    run_request req = st->req;
+    req.params = st->params.resolve();
+    req.integration = st->integration.resolve();
+    if (!st->initial.empty()) req.initial_state = {st->initial[0], st->initial[1], st->initial[2], st->initial[3]};
+    std::string summary = st->summary;
+    if (summary.empty()) {
+      std::filesystem::path p(st->out);
+      summary = (p.extension() == ".csv" ? p.replace_extension("") : p).string() + ".summary.json";
+    }
+    const orbit o = simulate(req);
+    const orbit_summary s = summarize(o);
+    atomic_output files;
+    files.stage(st->out, to_csv(to_record(o)));
+    files.stage(summary, to_json(s, o).dump(2) + "\n");
+    files.commit();
+    std::cout << "wrote " << st->out << " (" << o.samples.size() << " samples) and " << summary << "\n";
+  });
+}
+
+}  // namespace rubref::cli

@@ -1,0 +1,123 @@
+#include "ref/sweep.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+
+#include "ref/closed_form.hpp"
+#include "ref/errors.hpp"
+#include "ref/parallel.hpp"
+
+namespace rubref {
+
+std::string_view to_string(sweep_direction d) { return d == sweep_direction::up ? "up" : "down"; }
+
+void validate(const sweep_settings& s) {
+  const auto require = [](bool ok, const std::string& what) {
+    if (!ok) throw input_error(what);
+  };
+  require(std::isfinite(s.from_rpm) && s.from_rpm > 0.0, "sweep --from must be a speed > 0 rpm");
+  require(std::isfinite(s.to_rpm) && s.to_rpm >= s.from_rpm, "sweep --to must be >= --from");
+  require(s.to_rpm <= kMaxSpeedRpm, "sweep --to is above the largest speed accepted");
+  require(std::isfinite(s.step_rpm) && s.step_rpm > 0.0, "sweep --step must be > 0 rpm");
+  require((s.to_rpm - s.from_rpm) / s.step_rpm <= 1e5, "sweep has more than 1e5 speeds");
+  require(s.first_settle_revs >= 0 && s.settle_revs >= 0, "settle revolutions must be >= 0");
+  require(s.record_revs >= 6 && s.record_revs % 6 == 0,
+          "sweep --revs must be a positive multiple of 6 (so orders 1/2 and 1/3 fall on spectral bins)");
+  run_request probe;
+  probe.variant = s.variant;
+  probe.params = s.params;
+  probe.rpm = s.from_rpm;
+  probe.settle_revs = s.settle_revs;
+  probe.record_revs = s.record_revs;
+  probe.samples_per_rev = s.samples_per_rev;
+  probe.integration = s.integration;
+  validate(probe);
+}
+
+std::vector<double> sweep_speeds(const sweep_settings& s) {
+  std::vector<double> out;
+  // Tolerate the rounding of (to - from) / step so that a grid ending on `to` includes it.
+  const auto n = static_cast<std::size_t>(std::floor((s.to_rpm - s.from_rpm) / s.step_rpm + 1e-9));
+  for (std::size_t k = 0; k <= n; ++k) out.push_back(s.from_rpm + static_cast<double>(k) * s.step_rpm);
+  return out;
+}
+
+sweep_branch run_branch(const sweep_settings& s, sweep_direction d) {
+  validate(s);
+  std::vector<double> speeds = sweep_speeds(s);
+  if (d == sweep_direction::down) std::reverse(speeds.begin(), speeds.end());
+
+  sweep_branch branch{d, {}, {}};
+  run_request req;
+  req.variant = s.variant;
+  req.params = s.params;
+  req.record_revs = s.record_revs;
+  req.samples_per_rev = s.samples_per_rev;
+  req.integration = s.integration;
+  // A quasi-static sweep arrives at its first speed slowly: on the contact-free steady state when
+  // that orbit clears the stator, else from rest (docs/sweeps.md).
+  const unbalance_response free_orbit(s.params, rpm_to_rad_s(speeds.front()));
+  req.initial_state = std::abs(free_orbit.y_phasor) < s.params.delta ? free_orbit.at(0.0) : state_type{};
+  for (std::size_t i = 0; i < speeds.size(); ++i) {
+    req.rpm = speeds[i];
+    req.settle_revs = i == 0 ? s.first_settle_revs : s.settle_revs;
+    orbit o = simulate(req);
+    branch.counts.steps += o.counts.steps;
+    branch.counts.events += o.counts.events;
+    sweep_point pt{speeds[i], summarize(o), {}};
+    if (s.keep_orbits) pt.samples = std::move(o.samples);
+    branch.points.push_back(std::move(pt));
+    req.initial_state = o.end.s;  // continuation; w t_end is a multiple of 2 pi
+  }
+  return branch;
+}
+
+std::vector<sweep_branch> run_branches(const std::vector<branch_task>& tasks, unsigned threads) {
+  for (const auto& t : tasks) validate(t.settings);
+  std::vector<sweep_branch> out(tasks.size());
+  parallel_for(tasks.size(), threads, [&](std::size_t i) { out[i] = run_branch(tasks[i].settings, tasks[i].direction); });
+  return out;
+}
+
+jump_report detect_jumps(const sweep_branch& up, const sweep_branch& down, double step_rpm, double relative_tolerance) {
+  jump_report rep;
+  rep.relative_tolerance = relative_tolerance;
+  std::map<double, double> a_up, a_down, spread_up, spread_down;
+  for (const auto& p : up.points) {
+    a_up[p.rpm] = response_amplitude(p.summary);
+    spread_up[p.rpm] = p.summary.radius_spread;
+  }
+  for (const auto& p : down.points) {
+    a_down[p.rpm] = response_amplitude(p.summary);
+    spread_down[p.rpm] = p.summary.radius_spread;
+  }
+
+  // Speeds (ascending) where both sweeps ran and reached different attractors.
+  std::vector<double> speeds;
+  std::vector<bool> differ;
+  for (const auto& [rpm, au] : a_up) {
+    const auto it = a_down.find(rpm);
+    if (it == a_down.end()) continue;
+    const double ad = it->second;
+    speeds.push_back(rpm);
+    differ.push_back(std::abs(au - ad) > relative_tolerance * std::max(au, ad) + spread_up[rpm] + spread_down[rpm]);
+  }
+  for (std::size_t i = 0; i < speeds.size();) {
+    if (!differ[i]) {
+      ++i;
+      continue;
+    }
+    std::size_t j = i;
+    while (j + 1 < speeds.size() && differ[j + 1]) ++j;
+    rep.bands.push_back({speeds[i], speeds[j]});
+    rep.total_width_rpm += speeds[j] - speeds[i] + step_rpm;
+    // The up sweep leaves the band at its top (onto the other branch), the down sweep at its bottom.
+    if (j + 1 < speeds.size()) rep.jumps.push_back({sweep_direction::up, speeds[j], speeds[j + 1], a_up[speeds[j]], a_up[speeds[j + 1]]});
+    if (i > 0) rep.jumps.push_back({sweep_direction::down, speeds[i], speeds[i - 1], a_down[speeds[i]], a_down[speeds[i - 1]]});
+    i = j + 1;
+  }
+  return rep;
+}
+
+}  // namespace rubref

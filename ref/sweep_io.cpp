@@ -1,0 +1,155 @@
+#include "ref/sweep_io.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "ref/orbit_io.hpp"
+#include "ref/parameter_io.hpp"
+#include "ref/record.hpp"
+#include "ref/version.hpp"
+
+namespace rubref {
+
+const std::vector<order_column>& reported_orders() {
+  static const std::vector<order_column> orders = [] {
+    std::vector<order_column> out;
+    const std::vector<std::pair<double, std::string>> magnitudes{
+        {1.0 / 3.0, "1_3"}, {0.5, "1_2"}, {2.0 / 3.0, "2_3"}, {1, "1"}, {1.5, "3_2"}, {2, "2"}, {3, "3"}, {4, "4"}, {5, "5"}};
+    for (auto it = magnitudes.rbegin(); it != magnitudes.rend(); ++it) out.push_back({-it->first, "amp_b" + it->second + "x_m"});
+    out.push_back({0.0, "amp_0x_m"});
+    for (const auto& [o, label] : magnitudes) out.push_back({o, "amp_f" + label + "x_m"});
+    return out;
+  }();
+  return orders;
+}
+
+std::vector<std::pair<std::string, std::string>> sweep_metadata(const sweep_settings& s) {
+  record meta;  // reuse the record's ordered key/value store
+  meta.set("generator", "rubref " + std::string(version()) + " sweep");
+  meta.set("commit", std::string(commit()));
+  meta.set("variant", s.variant);
+  write_parameters(meta, s.params);
+  meta.set("from_rpm", s.from_rpm);
+  meta.set("to_rpm", s.to_rpm);
+  meta.set("step_rpm", s.step_rpm);
+  meta.set("first_settle_revs", static_cast<double>(s.first_settle_revs));
+  meta.set("settle_revs", static_cast<double>(s.settle_revs));
+  meta.set("record_revs", static_cast<double>(s.record_revs));
+  meta.set("samples_per_rev", static_cast<double>(s.samples_per_rev));
+  meta.set("stepper", std::string(to_string(s.integration.stepper.kind)));
+  meta.set("rtol", s.integration.stepper.rtol);
+  meta.set("atol", s.integration.stepper.atol);
+  return meta.metadata;
+}
+
+record orbit_record(const sweep_settings& s, const sweep_point& p) {
+  orbit o;
+  o.request.variant = s.variant;
+  o.request.params = s.params;
+  o.request.rpm = p.rpm;
+  o.request.settle_revs = s.settle_revs;
+  o.request.record_revs = s.record_revs;
+  o.request.samples_per_rev = s.samples_per_rev;
+  o.request.integration = s.integration;
+  o.samples = p.samples;
+  record r = to_record(o);
+  r.set("generator", "rubref " + std::string(version()) + " sweep");
+  r.set("initial_state", "continued from the previous speed of the sweep");
+  return r;
+}
+
+table sweep_table(const sweep_settings& s, const std::vector<sweep_branch>& branches) {
+  table t;
+  t.metadata = sweep_metadata(s);
+  t.columns = {"direction", "speed_rpm", "peak_to_peak_x_m", "peak_to_peak_y_m", "max_radius_m", "radius_spread_m", "max_penetration_m",
+               "max_normal_force_N", "contact_episodes_per_rev", "contact_fraction", "regime", "whirl"};
+  for (const auto& oc : reported_orders()) t.columns.push_back(oc.name);
+  for (const auto& b : branches) {
+    for (const auto& p : b.points) {
+      const auto& m = p.summary;
+      std::vector<std::string> row{std::string(to_string(b.direction)), format_number(p.rpm),
+                                   format_number(m.peak_to_peak_x), format_number(m.peak_to_peak_y),
+                                   format_number(m.max_radius), format_number(m.radius_spread), format_number(m.max_penetration),
+                                   format_number(m.max_normal_force), format_number(m.contact_episodes_per_rev),
+                                   format_number(m.contact_fraction), std::string(to_string(m.regime)),
+                                   m.backward_whirl() ? "backward" : "forward"};
+      for (const auto& oc : reported_orders()) row.push_back(format_number(m.spectrum.amplitude(oc.order)));
+      t.rows.push_back(std::move(row));
+    }
+  }
+  return t;
+}
+
+table waterfall_table(const sweep_settings& s, const sweep_branch& b, double max_order) {
+  table t;
+  t.metadata = sweep_metadata(s);
+  t.metadata.emplace_back("direction", std::string(to_string(b.direction)));
+  t.metadata.emplace_back("spectrum", "full spectrum of x + j y, rectangular window over record_revs whole revolutions; negative orders are backward whirl");
+  t.columns = {"speed_rpm", "order", "amplitude_m"};
+  std::vector<const sweep_point*> ascending;
+  for (const auto& p : b.points) ascending.push_back(&p);
+  std::sort(ascending.begin(), ascending.end(), [](auto* a, auto* c) { return a->rpm < c->rpm; });
+  for (const auto* p : ascending) {
+    const auto& sp = p->summary.spectrum;
+    for (std::size_t k = 0; k < sp.frequency.size(); ++k)
+      if (std::abs(sp.frequency[k]) <= max_order + 1e-9)
+        t.rows.push_back({format_number(p->rpm), format_number(sp.frequency[k]), format_number(std::abs(sp.coefficient[k]))});
+  }
+  return t;
+}
+
+std::vector<std::pair<double, double>> backward_whirl_ranges(const sweep_branch& b) {
+  std::vector<const sweep_point*> pts;
+  for (const auto& p : b.points) pts.push_back(&p);
+  std::sort(pts.begin(), pts.end(), [](auto* a, auto* c) { return a->rpm < c->rpm; });
+  std::vector<std::pair<double, double>> out;
+  for (std::size_t i = 0; i < pts.size();) {
+    if (!pts[i]->summary.backward_whirl()) {
+      ++i;
+      continue;
+    }
+    std::size_t j = i;
+    while (j + 1 < pts.size() && pts[j + 1]->summary.backward_whirl()) ++j;
+    out.emplace_back(pts[i]->rpm, pts[j]->rpm);
+    i = j + 1;
+  }
+  return out;
+}
+
+nlohmann::ordered_json sweep_summary_json(const sweep_settings& s, const std::vector<sweep_branch>& branches) {
+  nlohmann::ordered_json j;
+  for (const auto& [k, v] : sweep_metadata(s)) j["settings"][k] = v;
+  const sweep_branch* up = nullptr;
+  const sweep_branch* down = nullptr;
+  for (const auto& b : branches) {
+    nlohmann::ordered_json jb;
+    jb["direction"] = to_string(b.direction);
+    jb["speeds"] = b.points.size();
+    jb["steps"] = b.counts.steps;
+    jb["events"] = b.counts.events;
+    for (const auto& [lo, hi] : backward_whirl_ranges(b)) jb["backward_whirl_rpm"].push_back({lo, hi});
+    if (!jb.contains("backward_whirl_rpm")) jb["backward_whirl_rpm"] = nlohmann::json::array();
+    j["branches"].push_back(jb);
+    (b.direction == sweep_direction::up ? up : down) = &b;
+  }
+  if (up && down) {
+    const jump_report rep = detect_jumps(*up, *down, s.step_rpm);
+    auto& jj = j["jumps"];
+    jj["response"] = "max_radius_m";
+    jj["coexistence_relative_tolerance"] = rep.relative_tolerance;
+    jj["hysteresis_bands_rpm"] = nlohmann::json::array();
+    for (const auto& band : rep.bands) jj["hysteresis_bands_rpm"].push_back({band.from_rpm, band.to_rpm});
+    jj["hysteresis_width_rpm"] = rep.total_width_rpm;
+    jj["jumps"] = nlohmann::json::array();
+    for (const auto& jp : rep.jumps)
+      jj["jumps"].push_back({{"sweep", to_string(jp.sweep)},
+                             {"from_rpm", jp.from_rpm},
+                             {"to_rpm", jp.to_rpm},
+                             {"amplitude_before_m", jp.amplitude_before},
+                             {"amplitude_after_m", jp.amplitude_after},
+                             {"kind", jp.amplitude_after > jp.amplitude_before ? "jump_up" : "jump_down"}});
+  }
+  return j;
+}
+
+}  // namespace rubref

@@ -1,0 +1,40 @@
+#pragma once
+// Sweep results as tables and JSON (docs/sweeps.md lists every column).
+
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "ref/record.hpp"
+#include "ref/sweep.hpp"
+#include "ref/table.hpp"
+
+namespace rubref {
+
+// Orders reported per speed: integer orders -5..+5 and the subharmonic families of partial rub.
+struct order_column {
+  double order;      // negative: backward whirl
+  std::string name;  // e.g. amp_f1x_m (forward 1X), amp_b1_2x_m (backward 1/2 X), amp_0x_m
+};
+const std::vector<order_column>& reported_orders();
+
+// One row per speed and direction: the summary, the regime, the whirl, the order amplitudes.
+table sweep_table(const sweep_settings& s, const std::vector<sweep_branch>& branches);
+
+// Waterfall (cascade) data of one branch: speed_rpm, order, amplitude_m for |order| <= max_order.
+table waterfall_table(const sweep_settings& s, const sweep_branch& b, double max_order = 5.0);
+
+// Contiguous speed ranges (ascending) where the whirl is backward in a branch.
+std::vector<std::pair<double, double>> backward_whirl_ranges(const sweep_branch& b);
+
+// Settings, per-branch counts and backward-whirl ranges, and the jump report when both
+// directions ran.
+nlohmann::ordered_json sweep_summary_json(const sweep_settings& s, const std::vector<sweep_branch>& branches);
+
+// The recorded orbit of one sweep point as a record (needs keep_orbits).
+record orbit_record(const sweep_settings& s, const sweep_point& p);
+
+// Provenance lines for any sweep output.
+std::vector<std::pair<std::string, std::string>> sweep_metadata(const sweep_settings& s);
+
+}  // namespace rubref
