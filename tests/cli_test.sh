@@ -60,5 +60,22 @@ grep -q '"whirl"' "$work/good.summary.json" || fail "summary JSON"
 "$rubref" --help >/dev/null || fail "--help"
 "$rubref" simulate --help | grep -q -- "--k1" || fail "simulate --help lists parameters"
 
+# sweep: tables, waterfalls, summary; a folder rubref made is replaced, any other is refused.
+sw=(sweep --from 1590 --to 1610 --step 10 --first-settle-revs 20 --settle-revs 10)
+"$rubref" "${sw[@]}" --orbits --out "$work/sw" >/dev/null || fail "sweep failed"
+for f in sweep.csv waterfall_up.csv waterfall_down.csv summary.json orbits/up_1600rpm.csv .rubref-output; do
+  [ -s "$work/sw/$f" ] || fail "sweep did not write $f"
+done
+[ "$(grep -vc '^#' "$work/sw/sweep.csv")" -eq 7 ] || fail "sweep.csv: expected header + 6 rows"
+grep -q '"hysteresis_bands_rpm"' "$work/sw/summary.json" || fail "sweep summary lacks the jump report"
+"$rubref" "${sw[@]}" --direction up --out "$work/sw" >/dev/null || fail "sweep could not replace its own output"
+[ ! -e "$work/sw/waterfall_down.csv" ] || fail "replaced sweep output kept a stale file"
+mkdir "$work/mine" && echo precious >"$work/mine/notes.txt"
+expect_error "was not made by rubref" "${sw[@]}" --out "$work/mine"
+[ "$(cat "$work/mine/notes.txt")" = precious ] || fail "sweep touched a folder it did not make"
+rm -rf "$work/mine"
+expect_error "multiple of 6" "${sw[@]}" --revs 10 --out "$work/sw2"
+expect_error "--direction" "${sw[@]}" --direction sideways --out "$work/sw2"
+
 [ "$failures" -eq 0 ] && echo "cli_test: all passed"
 exit "$failures"

@@ -1,0 +1,187 @@
+// Quasi-static sweeps: continuation, the contact-free limit against the closed form, coexisting
+// responses and the jumps between them, and determinism across thread counts.
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
+
+#include "ref/closed_form.hpp"
+#include "ref/errors.hpp"
+#include "ref/sweep.hpp"
+#include "ref/sweep_io.hpp"
+
+namespace rubref {
+namespace {
+
+// Each speed settles 60 revolutions after a 10 rpm step; the free transient decays with
+// 2m/c ~ 0.2 s ~ 5.3 revolutions, so e^-11 ~ 2e-5 of the step's change in the orbit remains. That
+// change is below 20 % of the amplitude even at resonance: 1e-5 of the amplitude bounds it.
+constexpr double kSettledRelTol = 1e-5;
+
+sweep_settings short_sweep(double from, double to, double step) {
+  sweep_settings s;
+  s.from_rpm = from;
+  s.to_rpm = to;
+  s.step_rpm = step;
+  return s;
+}
+
+TEST(sweep, grid_includes_both_ends) {
+  EXPECT_EQ(sweep_speeds(short_sweep(1400, 1800, 5)).size(), 81u);
+  EXPECT_EQ(sweep_speeds(short_sweep(1400, 1800, 5)).back(), 1800.0);
+  EXPECT_EQ(sweep_speeds(short_sweep(1400, 1402, 5)).size(), 1u);
+  EXPECT_EQ(sweep_speeds(short_sweep(1000, 1000.3, 0.1)).size(), 4u);  // rounding of 0.3 / 0.1 tolerated
+}
+
+TEST(sweep, bad_settings_are_rejected) {
+  auto s = short_sweep(1500, 1400, 5);
+  EXPECT_THROW(validate(s), input_error);
+  s = short_sweep(1400, 1500, 0);
+  EXPECT_THROW(validate(s), input_error);
+  s = short_sweep(1400, 1500, 5);
+  s.record_revs = 10;  // not a multiple of 6
+  EXPECT_THROW(validate(s), input_error);
+  s.record_revs = 12;
+  s.params.k1 = -1;
+  EXPECT_THROW(validate(s), input_error);
+}
+
+// Without contact every point of a sweep, in either direction, is the closed-form orbit: the
+// continuation carries the state across speeds without disturbing the forcing phase.
+TEST(sweep, contact_free_points_are_the_closed_form) {
+  auto s = short_sweep(1450, 1650, 10);
+  s.params.delta = 1.0;
+  for (const auto d : {sweep_direction::up, sweep_direction::down}) {
+    const auto b = run_branch(s, d);
+    ASSERT_EQ(b.points.size(), 21u);
+    for (const auto& p : b.points) {
+      const unbalance_response exact(s.params, rpm_to_rad_s(p.rpm));
+      // x = Re(X e^{jwt}), y = Re(Y e^{jwt}) give x + j y = (X + jY)/2 e^{jwt} + (X* + jY*)/2 e^{-jwt}.
+      const std::complex<double> j(0.0, 1.0);
+      const auto fwd = (exact.x_phasor + j * exact.y_phasor) / 2.0;
+      const auto bwd = (std::conj(exact.x_phasor) + j * std::conj(exact.y_phasor)) / 2.0;
+      const double scale = std::abs(fwd);
+      EXPECT_LE(std::abs(p.summary.forward_1x - fwd), kSettledRelTol * scale) << to_string(d) << " " << p.rpm;
+      EXPECT_LE(std::abs(p.summary.backward_1x - bwd), kSettledRelTol * scale) << to_string(d) << " " << p.rpm;
+      EXPECT_EQ(p.summary.regime, contact_regime::no_contact);
+    }
+  }
+}
+
+// Above ~1715 rpm at 0.4 mm the contact-free orbit clears the stator, yet the run-up arrives
+// there rubbing: two stable responses coexist. The run-down starts contact-free, keeps that orbit
+// while it clears the stator, and must jump onto the rubbing branch once it no longer does.
+TEST(sweep, coexisting_responses_give_a_band_and_its_jump) {
+  auto s = short_sweep(1690, 1760, 10);
+  s.params.delta = 0.4e-3;
+  s.first_settle_revs = 300;
+  const auto branches = run_branches({{s, sweep_direction::up}, {s, sweep_direction::down}}, 2);
+  const auto& up = branches[0];
+  const auto& down = branches[1];
+  EXPECT_EQ(down.points.front().summary.regime, contact_regime::no_contact);  // 1760 rpm, run-down
+  EXPECT_NE(up.points.back().summary.regime, contact_regime::no_contact);     // 1760 rpm, run-up
+
+  const jump_report rep = detect_jumps(up, down, s.step_rpm);
+  ASSERT_EQ(rep.bands.size(), 1u);
+  EXPECT_EQ(rep.bands[0].to_rpm, 1760.0);
+  // Every run-down point in the band is the closed-form, contact-free orbit.
+  for (const auto& p : down.points) {
+    if (p.rpm < rep.bands[0].from_rpm) continue;
+    EXPECT_EQ(p.summary.regime, contact_regime::no_contact) << p.rpm;
+    EXPECT_LT(std::abs(unbalance_response(s.params, rpm_to_rad_s(p.rpm)).y_phasor), s.params.delta) << p.rpm;
+  }
+  // The run-down jumps up onto the rubbing branch just below the band.
+  ASSERT_EQ(rep.jumps.size(), 1u);
+  EXPECT_EQ(rep.jumps[0].sweep, sweep_direction::down);
+  EXPECT_EQ(rep.jumps[0].from_rpm, rep.bands[0].from_rpm);
+  EXPECT_EQ(rep.jumps[0].to_rpm, rep.bands[0].from_rpm - s.step_rpm);
+  EXPECT_GT(rep.jumps[0].amplitude_after, rep.jumps[0].amplitude_before);
+}
+
+sweep_branch synthetic(sweep_direction d, std::vector<std::pair<double, double>> rpm_amplitude, double spread = 0.0) {
+  sweep_branch b{d, {}, {}};
+  for (const auto& [rpm, a] : rpm_amplitude) {
+    sweep_point p{rpm, {}, {}};
+    p.summary.max_radius = a;
+    p.summary.radius_spread = spread;
+    b.points.push_back(p);
+  }
+  return b;
+}
+
+// A hardening resonance: the run-up rides the high branch to 1030, the run-down the low one to 1010.
+TEST(jumps, band_and_jumps_of_a_hysteresis_loop) {
+  const auto up = synthetic(sweep_direction::up, {{1000, 1.0}, {1010, 2.0}, {1020, 2.2}, {1030, 2.4}, {1040, 0.5}, {1050, 0.4}});
+  const auto down = synthetic(sweep_direction::down, {{1050, 0.4}, {1040, 0.5}, {1030, 0.6}, {1020, 0.8}, {1010, 2.0}, {1000, 1.0}});
+  const auto rep = detect_jumps(up, down, 10.0);
+  ASSERT_EQ(rep.bands.size(), 1u);
+  EXPECT_EQ(rep.bands[0].from_rpm, 1020.0);
+  EXPECT_EQ(rep.bands[0].to_rpm, 1030.0);
+  EXPECT_EQ(rep.total_width_rpm, 20.0);
+  ASSERT_EQ(rep.jumps.size(), 2u);
+  EXPECT_EQ(rep.jumps[0].sweep, sweep_direction::up);  // jump down at the top of the band
+  EXPECT_EQ(rep.jumps[0].from_rpm, 1030.0);
+  EXPECT_EQ(rep.jumps[0].to_rpm, 1040.0);
+  EXPECT_EQ(rep.jumps[1].sweep, sweep_direction::down);  // jump up at its bottom
+  EXPECT_EQ(rep.jumps[1].from_rpm, 1020.0);
+  EXPECT_EQ(rep.jumps[1].to_rpm, 1010.0);
+}
+
+// An irregular orbit sampled twice differs by about its own revolution-to-revolution spread:
+// that is one attractor, not two.
+TEST(jumps, an_irregular_attractor_is_not_a_band) {
+  const auto up = synthetic(sweep_direction::up, {{1000, 1.00}, {1010, 1.10}}, 0.06);
+  const auto down = synthetic(sweep_direction::down, {{1010, 1.04}, {1000, 1.05}}, 0.06);
+  EXPECT_TRUE(detect_jumps(up, down, 10.0).bands.empty());
+  const auto steady_up = synthetic(sweep_direction::up, {{1000, 1.00}, {1010, 1.10}});
+  const auto steady_down = synthetic(sweep_direction::down, {{1010, 1.04}, {1000, 1.05}});
+  EXPECT_EQ(detect_jumps(steady_up, steady_down, 10.0).bands.size(), 1u);  // 5 % apart, no spread: two attractors
+}
+
+void expect_bitwise_equal(const sweep_branch& a, const sweep_branch& b) {
+  ASSERT_EQ(a.points.size(), b.points.size());
+  for (std::size_t i = 0; i < a.points.size(); ++i) {
+    const auto& x = a.points[i].summary;
+    const auto& y = b.points[i].summary;
+    for (const auto& [p, q] : {std::pair{x.max_radius, y.max_radius}, std::pair{x.max_penetration, y.max_penetration},
+                               std::pair{x.peak_to_peak_x, y.peak_to_peak_x}, std::pair{x.forward_1x.real(), y.forward_1x.real()},
+                               std::pair{x.backward_1x.imag(), y.backward_1x.imag()}})
+      ASSERT_EQ(std::memcmp(&p, &q, sizeof(double)), 0) << "speed " << a.points[i].rpm;
+    ASSERT_EQ(x.spectrum.coefficient, y.spectrum.coefficient);
+  }
+}
+
+TEST(sweep, same_bits_whatever_the_thread_count) {
+  auto s = short_sweep(1540, 1600, 20);
+  std::vector<branch_task> tasks;
+  for (const double delta : {0.2e-3, 0.3e-3})
+    for (const auto d : {sweep_direction::up, sweep_direction::down}) {
+      s.params.delta = delta;
+      tasks.push_back({s, d});
+    }
+  const auto one = run_branches(tasks, 1);
+  const auto two = run_branches(tasks, 2);
+  const auto many = run_branches(tasks, 4);
+  for (std::size_t i = 0; i < tasks.size(); ++i) {
+    expect_bitwise_equal(one[i], two[i]);
+    expect_bitwise_equal(one[i], many[i]);
+  }
+}
+
+TEST(sweep_io, tables_have_a_row_per_speed_and_the_reported_orders) {
+  auto s = short_sweep(1590, 1610, 10);
+  const auto branches = run_branches({{s, sweep_direction::up}, {s, sweep_direction::down}}, 2);
+  const table t = sweep_table(s, branches);
+  EXPECT_EQ(t.rows.size(), 6u);
+  EXPECT_EQ(t.columns.size(), 12u + reported_orders().size());
+  const table w = waterfall_table(s, branches[0]);
+  // record_revs = 12: order bins of 1/12 from -5 to +5 inclusive, per speed.
+  EXPECT_EQ(w.rows.size(), 3u * 121u);
+  const auto j = sweep_summary_json(s, branches);
+  EXPECT_TRUE(j.contains("jumps"));
+  EXPECT_EQ(j["branches"].size(), 2u);
+}
+
+}  // namespace
+}  // namespace rubref
