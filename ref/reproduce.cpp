@@ -7,7 +7,6 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
-#include <map>
 #include <nlohmann/json.hpp>
 #include <sstream>
 
@@ -61,37 +60,14 @@ const sweep_point& point_at(const sweep_branch& b, double rpm) {
   throw input_error("reproduce: speed " + fixed(rpm, 1) + " rpm is not on the sweep grid");
 }
 
-std::string range_text(const std::vector<std::pair<double, double>>& ranges) {
+std::string range_text(const speed_ranges& ranges) {
   if (ranges.empty()) return "none";
   std::string out;
   for (const auto& [lo, hi] : ranges) out += (out.empty() ? "" : ", ") + fixed(lo, 0) + "–" + fixed(hi, 0) + " rpm";
   return out;
 }
 
-// Contiguous grid speeds where a predicate holds.
-template <class Pred>
-std::vector<std::pair<double, double>> ranges_where(const std::vector<double>& grid, Pred&& pred) {
-  std::vector<std::pair<double, double>> out;
-  for (std::size_t i = 0; i < grid.size();) {
-    if (!pred(grid[i])) {
-      ++i;
-      continue;
-    }
-    std::size_t j = i;
-    while (j + 1 < grid.size() && pred(grid[j + 1])) ++j;
-    out.emplace_back(grid[i], grid[j]);
-    i = j + 1;
-  }
-  return out;
-}
-
-std::vector<std::pair<double, double>> rub_ranges(const sweep_branch& b, const std::vector<double>& grid) {
-  std::map<double, bool> rubs;
-  for (const auto& p : b.points) rubs[p.rpm] = p.summary.regime != contact_regime::no_contact;
-  return ranges_where(grid, [&](double rpm) { return rubs[rpm]; });
-}
-
-json ranges_json(const std::vector<std::pair<double, double>>& r) {
+json ranges_json(const speed_ranges& r) {
   json j = json::array();
   for (const auto& [lo, hi] : r) j.push_back({lo, hi});
   return j;
@@ -238,13 +214,13 @@ void reproduce(const reproduce_settings& s) {
     const auto& down = branch_of("identified", delta, sweep_direction::down);
     parameters p = paper;
     p.delta = delta;
-    const auto touching = ranges_where(grid, [&](double rpm) { return std::abs(unbalance_response(p, rpm_to_rad_s(rpm)).y_phasor) > delta; });
+    const auto touching = contiguous_ranges(grid, [&](double rpm) { return std::abs(unbalance_response(p, rpm_to_rad_s(rpm)).y_phasor) > delta; });
     const jump_report jr = detect_jumps(up, down, grid_settings.step_rpm);
     json c;
     c["clearance_mm"] = delta * 1e3;
     c["contact_free_orbit_reaches_stator_rpm"] = ranges_json(touching);
-    c["rub_up_rpm"] = ranges_json(rub_ranges(up, grid));
-    c["rub_down_rpm"] = ranges_json(rub_ranges(down, grid));
+    c["rub_up_rpm"] = ranges_json(rub_ranges(up));
+    c["rub_down_rpm"] = ranges_json(rub_ranges(down));
     c["backward_whirl_up_rpm"] = ranges_json(backward_whirl_ranges(up));
     c["backward_whirl_down_rpm"] = ranges_json(backward_whirl_ranges(down));
     c["hysteresis_bands_rpm"] = json::array();
@@ -277,7 +253,7 @@ void reproduce(const reproduce_settings& s) {
   {
     const json& c3 = numbers["clearances"][1];
     const auto list = [](const json& ranges) {
-      std::vector<std::pair<double, double>> r;
+      speed_ranges r;
       for (const auto& x : ranges) r.emplace_back(x[0].get<double>(), x[1].get<double>());
       return range_text(r);
     };

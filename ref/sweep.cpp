@@ -73,6 +73,21 @@ sweep_branch run_branch(const sweep_settings& s, sweep_direction d) {
   return branch;
 }
 
+speed_ranges contiguous_ranges(const std::vector<double>& ascending_rpm, const std::function<bool(double)>& holds) {
+  speed_ranges out;
+  for (std::size_t i = 0; i < ascending_rpm.size();) {
+    if (!holds(ascending_rpm[i])) {
+      ++i;
+      continue;
+    }
+    std::size_t j = i;
+    while (j + 1 < ascending_rpm.size() && holds(ascending_rpm[j + 1])) ++j;
+    out.emplace_back(ascending_rpm[i], ascending_rpm[j]);
+    i = j + 1;
+  }
+  return out;
+}
+
 std::vector<sweep_branch> run_branches(const std::vector<branch_task>& tasks, unsigned threads) {
   for (const auto& t : tasks) validate(t.settings);
   std::vector<sweep_branch> out(tasks.size());
@@ -93,29 +108,22 @@ jump_report detect_jumps(const sweep_branch& up, const sweep_branch& down, doubl
     spread_down[p.rpm] = p.summary.radius_spread;
   }
 
-  // Speeds (ascending) where both sweeps ran and reached different attractors.
+  // Speeds (ascending) where both sweeps ran; bands where they reached different attractors.
   std::vector<double> speeds;
-  std::vector<bool> differ;
-  for (const auto& [rpm, au] : a_up) {
-    const auto it = a_down.find(rpm);
-    if (it == a_down.end()) continue;
-    const double ad = it->second;
-    speeds.push_back(rpm);
-    differ.push_back(std::abs(au - ad) > relative_tolerance * std::max(au, ad) + spread_up[rpm] + spread_down[rpm]);
-  }
-  for (std::size_t i = 0; i < speeds.size();) {
-    if (!differ[i]) {
-      ++i;
-      continue;
-    }
-    std::size_t j = i;
-    while (j + 1 < speeds.size() && differ[j + 1]) ++j;
-    rep.bands.push_back({speeds[i], speeds[j]});
-    rep.total_width_rpm += speeds[j] - speeds[i] + step_rpm;
+  for (const auto& [rpm, au] : a_up)
+    if (a_down.count(rpm)) speeds.push_back(rpm);
+  const auto differ = [&](double rpm) {
+    const double au = a_up[rpm], ad = a_down[rpm];
+    return std::abs(au - ad) > relative_tolerance * std::max(au, ad) + spread_up[rpm] + spread_down[rpm];
+  };
+  for (const auto& [lo, hi] : contiguous_ranges(speeds, differ)) {
+    rep.bands.push_back({lo, hi});
+    rep.total_width_rpm += hi - lo + step_rpm;
     // The up sweep leaves the band at its top (onto the other branch), the down sweep at its bottom.
-    if (j + 1 < speeds.size()) rep.jumps.push_back({sweep_direction::up, speeds[j], speeds[j + 1], a_up[speeds[j]], a_up[speeds[j + 1]]});
-    if (i > 0) rep.jumps.push_back({sweep_direction::down, speeds[i], speeds[i - 1], a_down[speeds[i]], a_down[speeds[i - 1]]});
-    i = j + 1;
+    const auto top = std::find(speeds.begin(), speeds.end(), hi);
+    const auto bottom = std::find(speeds.begin(), speeds.end(), lo);
+    if (top + 1 != speeds.end()) rep.jumps.push_back({sweep_direction::up, hi, *(top + 1), a_up[hi], a_up[*(top + 1)]});
+    if (bottom != speeds.begin()) rep.jumps.push_back({sweep_direction::down, lo, *(bottom - 1), a_down[lo], a_down[*(bottom - 1)]});
   }
   return rep;
 }

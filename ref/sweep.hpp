@@ -4,7 +4,7 @@
 // starts the next. Every speed runs an integer number of revolutions from t = 0, so the unbalance
 // phase w t is a multiple of 2 pi at each hand-over and the forcing is continuous across it.
 
-#include <optional>
+#include <functional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -59,6 +59,11 @@ struct branch_task {
 // Independent branches (directions, clearances, variants) on `threads` threads (0: all cores).
 // The result is identical, bit for bit, for any thread count.
 std::vector<sweep_branch> run_branches(const std::vector<branch_task>& tasks, unsigned threads);
+
+using speed_ranges = std::vector<std::pair<double, double>>;  // [first, last] rpm, ascending
+
+// Runs of consecutive grid speeds (ascending) where `holds(rpm)` is true.
+speed_ranges contiguous_ranges(const std::vector<double>& ascending_rpm, const std::function<bool(double)>& holds);
 
 // The response measure compared between branches and plotted in the jump figure.
 inline double response_amplitude(const orbit_summary& s) { return s.max_radius; }

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
 
 #include "ref/orbit_io.hpp"
 #include "ref/parameter_io.hpp"
@@ -98,22 +99,22 @@ table waterfall_table(const sweep_settings& s, const sweep_branch& b, double max
   return t;
 }
 
-std::vector<std::pair<double, double>> backward_whirl_ranges(const sweep_branch& b) {
-  std::vector<const sweep_point*> pts;
-  for (const auto& p : b.points) pts.push_back(&p);
-  std::sort(pts.begin(), pts.end(), [](auto* a, auto* c) { return a->rpm < c->rpm; });
-  std::vector<std::pair<double, double>> out;
-  for (std::size_t i = 0; i < pts.size();) {
-    if (!pts[i]->summary.backward_whirl()) {
-      ++i;
-      continue;
-    }
-    std::size_t j = i;
-    while (j + 1 < pts.size() && pts[j + 1]->summary.backward_whirl()) ++j;
-    out.emplace_back(pts[i]->rpm, pts[j]->rpm);
-    i = j + 1;
-  }
-  return out;
+namespace {
+speed_ranges ranges_of(const sweep_branch& b, const std::function<bool(const orbit_summary&)>& holds) {
+  std::map<double, const orbit_summary*> by_speed;
+  for (const auto& p : b.points) by_speed[p.rpm] = &p.summary;
+  std::vector<double> speeds;
+  for (const auto& [rpm, summary] : by_speed) speeds.push_back(rpm);
+  return contiguous_ranges(speeds, [&](double rpm) { return holds(*by_speed.at(rpm)); });
+}
+}  // namespace
+
+speed_ranges backward_whirl_ranges(const sweep_branch& b) {
+  return ranges_of(b, [](const orbit_summary& s) { return s.backward_whirl(); });
+}
+
+speed_ranges rub_ranges(const sweep_branch& b) {
+  return ranges_of(b, [](const orbit_summary& s) { return s.regime != contact_regime::no_contact; });
 }
 
 nlohmann::ordered_json sweep_summary_json(const sweep_settings& s, const std::vector<sweep_branch>& branches) {

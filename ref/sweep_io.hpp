@@ -24,8 +24,9 @@ table sweep_table(const sweep_settings& s, const std::vector<sweep_branch>& bran
 // Waterfall (cascade) data of one branch: speed_rpm, order, amplitude_m for |order| <= max_order.
 table waterfall_table(const sweep_settings& s, const sweep_branch& b, double max_order = 5.0);
 
-// Contiguous speed ranges (ascending) where the whirl is backward in a branch.
-std::vector<std::pair<double, double>> backward_whirl_ranges(const sweep_branch& b);
+// Where a branch whirls backward (backward 1X above forward 1X), and where it touches the stator.
+speed_ranges backward_whirl_ranges(const sweep_branch& b);
+speed_ranges rub_ranges(const sweep_branch& b);
 
 // Settings, per-branch counts and backward-whirl ranges, and the jump report when both
 // directions ran.
