@@ -24,15 +24,19 @@ void validate(const sweep_settings& s) {
   require(s.first_settle_revs >= 0 && s.settle_revs >= 0, "settle revolutions must be >= 0");
   require(s.record_revs >= 6 && s.record_revs % 6 == 0,
           "sweep --revs must be a positive multiple of 6 (so orders 1/2 and 1/3 fall on spectral bins)");
-  run_request probe;
-  probe.variant = s.variant;
-  probe.params = s.params;
-  probe.rpm = s.from_rpm;
-  probe.settle_revs = s.settle_revs;
-  probe.record_revs = s.record_revs;
-  probe.samples_per_rev = s.samples_per_rev;
-  probe.integration = s.integration;
-  validate(probe);
+  validate(request_at(s, s.from_rpm));
+}
+
+run_request request_at(const sweep_settings& s, double rpm) {
+  run_request req;
+  req.variant = s.variant;
+  req.params = s.params;
+  req.rpm = rpm;
+  req.settle_revs = s.settle_revs;
+  req.record_revs = s.record_revs;
+  req.samples_per_rev = s.samples_per_rev;
+  req.integration = s.integration;
+  return req;
 }
 
 std::vector<double> sweep_speeds(const sweep_settings& s) {
@@ -49,12 +53,7 @@ sweep_branch run_branch(const sweep_settings& s, sweep_direction d) {
   if (d == sweep_direction::down) std::reverse(speeds.begin(), speeds.end());
 
   sweep_branch branch{d, {}, {}};
-  run_request req;
-  req.variant = s.variant;
-  req.params = s.params;
-  req.record_revs = s.record_revs;
-  req.samples_per_rev = s.samples_per_rev;
-  req.integration = s.integration;
+  run_request req = request_at(s, speeds.front());
   // A quasi-static sweep arrives at its first speed slowly: on the contact-free steady state when
   // that orbit clears the stator, else from rest (docs/sweeps.md).
   const unbalance_response free_orbit(s.params, rpm_to_rad_s(speeds.front()));

@@ -34,6 +34,9 @@ struct sweep_settings {
 // Throws input_error naming the first bad setting.
 void validate(const sweep_settings& s);
 
+// The single-speed run a sweep makes at `rpm` (settle_revs, from rest until continued).
+run_request request_at(const sweep_settings& s, double rpm);
+
 // The speed grid from_rpm, from_rpm + step, ... up to to_rpm (ascending).
 std::vector<double> sweep_speeds(const sweep_settings& s);
 

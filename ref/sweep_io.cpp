@@ -45,13 +45,7 @@ std::vector<std::pair<std::string, std::string>> sweep_metadata(const sweep_sett
 
 record orbit_record(const sweep_settings& s, const sweep_point& p) {
   orbit o;
-  o.request.variant = s.variant;
-  o.request.params = s.params;
-  o.request.rpm = p.rpm;
-  o.request.settle_revs = s.settle_revs;
-  o.request.record_revs = s.record_revs;
-  o.request.samples_per_rev = s.samples_per_rev;
-  o.request.integration = s.integration;
+  o.request = request_at(s, p.rpm);
   o.samples = p.samples;
   record r = to_record(o);
   r.set("generator", "rubref " + std::string(version()) + " sweep");
