@@ -35,6 +35,11 @@ nlohmann::ordered_json sweep_summary_json(const sweep_settings& s, const std::ve
 // The recorded orbit of one sweep point as a record (needs keep_orbits).
 record orbit_record(const sweep_settings& s, const sweep_point& p);
 
+// A branch as one measurement record of constant-speed dwells (needs keep_orbits), in the order
+// visited. Each dwell's times are shifted by a whole number of its own periods to follow the
+// previous dwell, so t_s keeps meaning the unbalance phase w t at every sample.
+record dwell_record(const sweep_settings& s, const sweep_branch& b);
+
 // Provenance lines for any sweep output.
 std::vector<std::pair<std::string, std::string>> sweep_metadata(const sweep_settings& s);
 

@@ -8,5 +8,6 @@ namespace rubref::cli {
 void add_simulate(CLI::App& app);
 void add_sweep(CLI::App& app);
 void add_reproduce(CLI::App& app);
+void add_identify(CLI::App& app);
 
 }  // namespace rubref::cli

@@ -21,6 +21,7 @@ int main(int argc, char** argv) {
   cli::add_reproduce(app);
   cli::add_simulate(app);
   cli::add_sweep(app);
+  cli::add_identify(app);
   app.add_subcommand("params", "print the paper's default parameters as a JSON parameter file")->callback([] {
     std::cout << to_json(parameters{}).dump(2) << "\n";
   });

@@ -36,7 +36,9 @@ void add_sweep(CLI::App& app) {
   sub->add_option("--revs", s.record_revs, "revolutions recorded per speed (a multiple of 6)")->capture_default_str();
   sub->add_option("--samples-per-rev", s.samples_per_rev, "samples per revolution")->capture_default_str();
   sub->add_option("--threads", st->threads, "threads for independent branches; 0: all cores")->capture_default_str();
-  sub->add_flag("--orbits", st->orbits, "also write the recorded orbit of every speed (orbits/<direction>_<rpm>rpm.csv)");
+  sub->add_flag("--orbits", st->orbits,
+                "also write every recorded orbit (orbits/<direction>_<rpm>rpm.csv) and each branch as one "
+                "multi-dwell measurement record (record_<direction>.csv, input for `rubref identify`)");
   sub->add_option("--out", st->out, "output directory (created; replaced if an earlier rubref run made it)")->required();
   st->integration.add_to(*sub);
   st->params.add_to(*sub);
@@ -57,6 +59,7 @@ void add_sweep(CLI::App& app) {
     dir.write("sweep.csv", to_csv(sweep_table(s, branches)));
     for (const auto& b : branches) {
       dir.write("waterfall_" + std::string(to_string(b.direction)) + ".csv", to_csv(waterfall_table(s, b)));
+      if (st->orbits) dir.write("record_" + std::string(to_string(b.direction)) + ".csv", to_csv(dwell_record(s, b)));
       if (st->orbits)
         for (const auto& p : b.points)
           dir.write("orbits/" + std::string(to_string(b.direction)) + "_" + format_number(p.rpm) + "rpm.csv",

@@ -1,0 +1,80 @@
+#include <iostream>
+#include <memory>
+
+#include "ref/atomic_output.hpp"
+#include "ref/cli/commands.hpp"
+#include "ref/errors.hpp"
+#include "ref/identification/identify.hpp"
+#include "ref/parameter_io.hpp"
+#include "ref/record.hpp"
+
+namespace rubref::cli {
+
+namespace {
+struct identify_state {
+  identify_settings settings;
+  std::vector<std::string> files;
+  std::string linear_file, stop = "err", reid_fit = "k1,k3,c2,mu", out;
+};
+
+std::vector<std::string> split_commas(const std::string& s) {
+  std::vector<std::string> out;
+  std::size_t pos = 0;
+  while (pos <= s.size()) {
+    const std::size_t comma = std::min(s.find(',', pos), s.size());
+    out.push_back(s.substr(pos, comma - pos));
+    pos = comma + 1;
+  }
+  return out;
+}
+}  // namespace
+
+void add_identify(CLI::App& app) {
+  auto st = std::make_shared<identify_state>();
+  auto& s = st->settings;
+  auto* sub = app.add_subcommand("identify", "contact law by ERR/FROLS (paper §4), friction per speed, optional NLopt re-identification");
+  sub->add_option("records", st->files, "measurement records (docs/data-format.md)")->required()->check(CLI::ExistingFile);
+  sub->add_option("--linear", st->linear_file, "JSON parameter file with the linear part (m, c, k, e); default: fit it on dwells without contact")
+      ->check(CLI::ExistingFile);
+  sub->add_option("--phase", s.unbalance_phase, "unbalance phase with --linear [rad] (rubref's own records: 0)")->capture_default_str();
+  sub->add_option("--mass", s.mass, "rotor mass when the linear part is fitted [kg] (not identifiable from displacements)")->capture_default_str();
+  sub->add_option("--clearance", s.clearance, "clearance for records without clearance_m metadata [m]");
+  sub->add_option("--library", s.library, "candidate terms, e.g. z1..4,zd1..4,abszd1*zd1,z1.5,const")->capture_default_str();
+  sub->add_option("--rho", s.frols.rho, "stop selecting when 1 - sum ERR <= rho")->capture_default_str();
+  sub->add_option("--err-threshold", s.frols.err_threshold, "keep selected terms whose ERR >= this")->capture_default_str();
+  sub->add_option("--stop", st->stop, "stopping rule: err (rho), aic or bic")->check(CLI::IsMember({"err", "aic", "bic"}))->capture_default_str();
+  sub->add_option("--sg-half-width", s.derivative.half_width, "Savitzky-Golay half-width [samples]")->capture_default_str();
+  sub->add_option("--sg-degree", s.derivative.degree, "Savitzky-Golay polynomial degree")->capture_default_str();
+  sub->add_flag("--average-revolutions", s.average_revolutions, "average each dwell's revolutions synchronously first (noisy, periodic data)");
+  sub->add_option("--bootstrap", s.bootstrap, "episode-bootstrap resamples for the 95 % intervals (0: none)")->capture_default_str();
+  sub->add_flag("--reidentify", s.reidentify, "refine by output error with NLopt (BOBYQA)");
+  sub->add_option("--reid-fit", st->reid_fit, "parameters to re-identify: any of k1,k3,c2,mu,e,delta")->capture_default_str();
+  sub->add_flag("--global", s.reid.global, "DIRECT-L global stage before BOBYQA");
+  sub->add_option("--out", st->out, "output directory: identification.json, identification.md")->required();
+  sub->callback([st] {
+    identify_settings s = st->settings;
+    s.frols.stop = st->stop == "aic" ? frols_stop::aic : st->stop == "bic" ? frols_stop::bic : frols_stop::err_sum;
+    if (!(s.frols.rho >= 0.0 && s.frols.rho < 1.0)) throw input_error("--rho must be in [0, 1)");
+    if (!(s.frols.err_threshold >= 0.0 && s.frols.err_threshold < 1.0)) throw input_error("--err-threshold must be in [0, 1)");
+    if (s.bootstrap < 0) throw input_error("--bootstrap must be >= 0");
+    if (!st->linear_file.empty()) {
+      parameters p;
+      apply_parameter_file(p, st->linear_file);
+      validate(p);
+      s.linear = p;
+    }
+    s.reid.fit = split_commas(st->reid_fit);
+    staged_directory dir(st->out);
+    std::vector<std::pair<record, std::string>> records;
+    for (const auto& f : st->files) records.emplace_back(read_record(f), f);
+    const identification id = identify(records, s);
+    dir.write("identification.json", to_json(id, s).dump(2) + "\n");
+    dir.write("identification.md", to_markdown(id));
+    dir.commit();
+    std::cout << "kept:";
+    for (const auto& e : id.estimates) std::cout << " " << e.name << " = " << e.value;
+    std::cout << "; mu = " << id.mu_mean << "\nwrote " << dir.target().string() << "/{identification.json, identification.md}\n";
+  });
+}
+
+}  // namespace rubref::cli

@@ -1,0 +1,125 @@
+#include "ref/identification/contact_forces.hpp"
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <cmath>
+#include <set>
+
+#include "ref/errors.hpp"
+#include "ref/identification/frols.hpp"
+
+namespace rubref {
+
+namespace {
+// Derivatives with windows split at y = delta; a periodic cycle is tiled three times so that its
+// windows wrap around, and the middle copy is kept.
+std::pair<derivatives, derivatives> differentiate_xy(const dwell& d, double delta, const derivative_settings& ds) {
+  const std::size_t n = d.size(), copies = d.periodic ? 3 : 1;
+  std::vector<double> x, y;
+  for (std::size_t c = 0; c < copies; ++c) {
+    x.insert(x.end(), d.x.begin(), d.x.end());
+    y.insert(y.end(), d.y.begin(), d.y.end());
+  }
+  // Segments: runs of samples on one side of y = delta (the force law switches between them).
+  std::vector<int> side(y.size());
+  for (std::size_t i = 0; i < y.size(); ++i) side[i] = (i ? side[i - 1] : 0) + (i && (y[i] > delta) != (y[i - 1] > delta));
+  derivatives dx = differentiate(x, d.dt, ds, side), dy = differentiate(y, d.dt, ds, side);
+  if (d.periodic) {
+    for (auto* v : {&dx.d1, &dx.d2, &dy.d1, &dy.d2}) *v = std::vector<double>(v->begin() + n, v->begin() + 2 * n);
+  }
+  return {std::move(dx), std::move(dy)};
+}
+}  // namespace
+
+dwell_forces contact_forces(const dwell& d, const linear_part& lin, double delta, const derivative_settings& ds) {
+  const std::size_t n = d.size();
+  const auto [dx, dy] = differentiate_xy(d, delta, ds);
+  dwell_forces f;
+  f.source = &d;
+  f.vx = dx.d1;
+  f.ax = dx.d2;
+  f.vy = dy.d1;
+  f.ay = dy.d2;
+  f.z.resize(n);
+  f.fx.resize(n);
+  f.fn.resize(n);
+  f.contact.resize(n);
+  const double w = d.omega(), unbalance = lin.m * lin.e * w * w;
+  for (std::size_t i = 0; i < n; ++i) {
+    const double phase = w * d.t[i] + lin.phase;
+    f.z[i] = d.y[i] - delta;
+    f.fx[i] = lin.m * f.ax[i] + lin.c_x * f.vx[i] + lin.k_x * d.x[i] - unbalance * std::cos(phase);
+    f.fn[i] = -(lin.m * f.ay[i] + lin.c_y * f.vy[i] + lin.k_y * d.y[i] - unbalance * std::sin(phase));
+    f.contact[i] = f.z[i] > 0.0 && std::isfinite(f.fx[i]) && std::isfinite(f.fn[i]);
+  }
+  return f;
+}
+
+friction_estimate estimate_friction(const dwell_forces& f) {
+  double peak = 0.0;
+  for (std::size_t i = 0; i < f.fn.size(); ++i)
+    if (f.contact[i]) peak = std::max(peak, f.fn[i]);
+  std::vector<double> ratio;
+  double fxfn = 0.0, fnfn = 0.0;
+  for (std::size_t i = 0; i < f.fn.size(); ++i) {
+    if (!f.contact[i] || f.fn[i] < kFrictionForceShare * peak || !(f.fn[i] > 0.0)) continue;
+    ratio.push_back(f.fx[i] / f.fn[i]);
+    fxfn += f.fx[i] * f.fn[i];
+    fnfn += f.fn[i] * f.fn[i];
+  }
+  friction_estimate e{f.source->rpm, ratio.size(), 0.0, 0.0, 0.0, 0.0};
+  if (ratio.empty()) return e;
+  for (double r : ratio) e.mean += r / ratio.size();
+  for (double r : ratio) e.std_dev += (r - e.mean) * (r - e.mean);
+  e.std_dev = ratio.size() > 1 ? std::sqrt(e.std_dev / (ratio.size() - 1)) : 0.0;
+  std::nth_element(ratio.begin(), ratio.begin() + ratio.size() / 2, ratio.end());
+  e.median = ratio[ratio.size() / 2];
+  e.slope = fxfn / fnfn;
+  return e;
+}
+
+linear_fit fit_linear_part(const std::vector<const dwell*>& no_contact, double m, const derivative_settings& ds) {
+  std::set<double> speeds;
+  for (const auto* d : no_contact) speeds.insert(d->rpm);
+  if (speeds.size() < 2)
+    throw input_error("the linear part needs dwells without contact at 2 or more speeds (found " + std::to_string(speeds.size()) +
+                      "); give it with --linear instead");
+  // Unknowns: c_x/m, k_x/m, c_y/m, k_y/m, p = e cos(phase), q = e sin(phase).
+  //   x'' = -(c_x/m) x' - (k_x/m) x + w^2 (p cos wt - q sin wt)
+  //   y'' = -(c_y/m) y' - (k_y/m) y + w^2 (p sin wt + q cos wt)
+  std::vector<std::array<double, 6>> rows;
+  std::vector<double> rhs;
+  for (const auto* d : no_contact) {
+    const derivatives dx = differentiate(d->x, d->dt, ds), dy = differentiate(d->y, d->dt, ds);
+    const double w = d->omega(), w2 = w * w;
+    for (std::size_t i = 0; i < d->size(); ++i) {
+      const double c = std::cos(w * d->t[i]), s = std::sin(w * d->t[i]);
+      rows.push_back({-dx.d1[i], -d->x[i], 0.0, 0.0, w2 * c, -w2 * s});
+      rhs.push_back(dx.d2[i]);
+      rows.push_back({0.0, 0.0, -dy.d1[i], -d->y[i], w2 * s, w2 * c});
+      rhs.push_back(dy.d2[i]);
+    }
+  }
+  Eigen::MatrixXd P(rows.size(), 6);
+  Eigen::VectorXd y(rows.size());
+  for (std::size_t i = 0; i < rows.size(); ++i) {
+    for (int j = 0; j < 6; ++j) P(i, j) = rows[i][j];
+    y[i] = rhs[i];
+  }
+  const least_squares_fit ls = least_squares(P, y, {0, 1, 2, 3, 4, 5});
+  const auto& b = ls.coefficients;
+  const auto& se = ls.standard_errors;
+  linear_fit out;
+  out.value = {m, b[0] * m, b[2] * m, b[1] * m, b[3] * m, std::hypot(b[4], b[5]), std::atan2(b[5], b[4])};
+  const double e = out.value.e;
+  // First-order propagation to e and phase from p, q (covariance between them neglected).
+  out.standard_error = {se[0] * m, se[2] * m, se[1] * m, se[3] * m,
+                        e > 0 ? std::hypot(b[4] * se[4], b[5] * se[5]) / e : 0.0,
+                        e > 0 ? std::hypot(b[5] * se[4], b[4] * se[5]) / (e * e) : 0.0};
+  out.dwells = no_contact.size();
+  out.samples = rows.size() / 2;
+  out.residual_rms = std::sqrt(ls.residual.squaredNorm() / static_cast<double>(rows.size()));
+  return out;
+}
+
+}  // namespace rubref

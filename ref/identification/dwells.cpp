@@ -1,0 +1,99 @@
+#include "ref/identification/dwells.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "ref/errors.hpp"
+#include "ref/state.hpp"
+
+namespace rubref {
+
+double dwell::omega() const { return rpm_to_rad_s(rpm); }
+
+std::vector<dwell> split_dwells(const record& r, const std::string& source, std::size_t min_samples) {
+  const auto& t = r.column("t_s");
+  const auto& x = r.column("x_m");
+  const auto& y = r.column("y_m");
+  const auto& rpm = r.column("speed_rpm");
+  // Data row i sits on file line first_line + i; the reader checked the layout, so the line is
+  // only for messages and counts the metadata and header lines.
+  const std::size_t first_line = r.metadata.size() + 2;
+  const double clearance = r.find("clearance_m") ? r.number("clearance_m") : 0.0;
+  if (r.find("clearance_m") && !(clearance > 0.0 && std::isfinite(clearance)))
+    throw input_error(source + ": clearance_m must be a finite length > 0");
+  std::vector<dwell> out;
+  for (std::size_t i = 0; i < t.size();) {
+    std::size_t j = i;
+    while (j + 1 < t.size() && rpm[j + 1] == rpm[i]) ++j;
+    dwell d;
+    d.rpm = rpm[i];
+    d.clearance = clearance;
+    d.source = source + ", lines " + std::to_string(first_line + i) + "-" + std::to_string(first_line + j);
+    if (!(d.rpm > 0.0)) throw input_error(d.source + ": speed_rpm must be > 0 (got " + std::to_string(d.rpm) + ")");
+    if (j - i + 1 < min_samples)
+      throw input_error(d.source + ": a dwell of " + std::to_string(j - i + 1) + " samples is shorter than " + std::to_string(min_samples));
+    d.t.assign(t.begin() + i, t.begin() + j + 1);
+    d.x.assign(x.begin() + i, x.begin() + j + 1);
+    d.y.assign(y.begin() + i, y.begin() + j + 1);
+    d.dt = (d.t.back() - d.t.front()) / static_cast<double>(d.size() - 1);
+    // Uniform to 1e-6 of a step: enough for the fixed-weight derivative filters.
+    constexpr double kUniformTol = 1e-6;
+    for (std::size_t k = 1; k < d.size(); ++k)
+      if (std::abs((d.t[k] - d.t[k - 1]) - d.dt) > kUniformTol * d.dt)
+        throw input_error(source + ":" + std::to_string(first_line + i + k) + ": sampling is not uniform within the dwell at " +
+                          std::to_string(d.rpm) + " rpm");
+    out.push_back(std::move(d));
+    i = j + 1;
+  }
+  return out;
+}
+
+averaged_dwell synchronous_average(const dwell& d) {
+  const double period = 60.0 / d.rpm;
+  const double per_rev = period / d.dt;
+  const auto n = static_cast<std::size_t>(std::lround(per_rev));
+  const bool on_grid = std::abs(per_rev - static_cast<double>(n)) < 1e-6 * per_rev;
+  const int revs = static_cast<int>(std::floor((d.t.back() - d.t.front()) / period + 1e-9));
+  if (n < 8 || revs < 1)
+    throw input_error(d.source + ": synchronous averaging needs at least one whole revolution of 8 or more samples");
+  // Catmull-Rom cubic interpolation of v at time t (only when the grid does not land on samples).
+  const auto at = [&](const std::vector<double>& v, double t) {
+    const double u = (t - d.t.front()) / d.dt;
+    const auto i = static_cast<std::ptrdiff_t>(std::floor(u));
+    const double f = u - static_cast<double>(i);
+    const auto s = [&](std::ptrdiff_t k) { return v[static_cast<std::size_t>(std::clamp<std::ptrdiff_t>(k, 0, static_cast<std::ptrdiff_t>(v.size()) - 1))]; };
+    const double p0 = s(i - 1), p1 = s(i), p2 = s(i + 1), p3 = s(i + 2);
+    return p1 + 0.5 * f * (p2 - p0 + f * (2 * p0 - 5 * p1 + 4 * p2 - p3 + f * (3 * (p1 - p2) + p3 - p0)));
+  };
+  averaged_dwell out;
+  out.revolutions = revs;
+  dwell& c = out.cycle;
+  c.rpm = d.rpm;
+  c.clearance = d.clearance;
+  c.periodic = true;
+  c.dt = period / static_cast<double>(n);
+  c.source = d.source + " (averaged over " + std::to_string(revs) + " revolutions)";
+  c.t.resize(n);
+  c.x.assign(n, 0.0);
+  c.y.assign(n, 0.0);
+  std::vector<double> xs(n * revs), ys(n * revs);
+  for (int r = 0; r < revs; ++r)
+    for (std::size_t k = 0; k < n; ++k) {
+      const std::size_t i = static_cast<std::size_t>(r) * n + k;
+      xs[i] = on_grid ? d.x[i] : at(d.x, d.t.front() + r * period + k * c.dt);
+      ys[i] = on_grid ? d.y[i] : at(d.y, d.t.front() + r * period + k * c.dt);
+      c.x[k] += xs[i] / revs;
+      c.y[k] += ys[i] / revs;
+    }
+  double sq = 0.0;
+  for (int r = 0; r < revs; ++r)
+    for (std::size_t k = 0; k < n; ++k) {
+      const std::size_t i = static_cast<std::size_t>(r) * n + k;
+      sq += std::pow(xs[i] - c.x[k], 2) + std::pow(ys[i] - c.y[k], 2);
+    }
+  out.spread = std::sqrt(sq / (2.0 * n * revs));
+  for (std::size_t k = 0; k < n; ++k) c.t[k] = d.t.front() + static_cast<double>(k) * c.dt;
+  return out;
+}
+
+}  // namespace rubref

@@ -1,0 +1,40 @@
+#pragma once
+// A measurement record as constant-speed dwells (docs/data-format.md): the speed column is
+// constant within a dwell and changes between dwells; samples are uniform within a dwell.
+
+#include <string>
+#include <vector>
+
+#include "ref/record.hpp"
+
+namespace rubref {
+
+struct dwell {
+  double rpm = 0.0;
+  double dt = 0.0;                // s, uniform sample spacing
+  std::vector<double> t, x, y;    // s, m, m
+  double clearance = 0.0;         // m, from the record's clearance_m metadata (0: not stated)
+  bool periodic = false;          // the samples are one revolution of a periodic orbit (averaged)
+  std::string source;             // "file.csv, lines a-b" for messages
+
+  double omega() const;           // rad/s
+  std::size_t size() const { return t.size(); }
+};
+
+// Synchronous (order-tracked) averaging of a steady dwell: its whole revolutions are resampled
+// onto `round(T / dt)` phase points (cubic interpolation when T / dt is not an integer) and
+// averaged, which divides white noise by sqrt(revolutions). The result is one revolution,
+// `periodic` = true, times starting at the dwell's first sample. Meaningful only for orbits that
+// repeat every revolution; `spread` reports the RMS deviation of the revolutions from their mean.
+struct averaged_dwell {
+  dwell cycle;
+  int revolutions = 0;
+  double spread = 0.0;  // m
+};
+averaged_dwell synchronous_average(const dwell& d);
+
+// Splits every record into its dwells. input_error (naming the file and line) if a dwell is
+// shorter than `min_samples`, its sampling is not uniform, or its speed is not positive.
+std::vector<dwell> split_dwells(const record& r, const std::string& source, std::size_t min_samples = 16);
+
+}  // namespace rubref

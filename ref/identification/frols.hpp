@@ -1,0 +1,52 @@
+#pragma once
+// Forward Regression with Orthogonal Least Squares (Billings; the paper's Eq. 3 and Fig. 4).
+//
+// Candidates are selected one at a time. At each step every remaining regressor is
+// orthogonalised (modified Gram-Schmidt, twice) against those already chosen, and the one with
+// the largest error reduction ratio ERR = (w'y)^2 / ((w'w)(y'y)) is taken. ERR is invariant to the
+// scale of a regressor, and the ERRs of all steps sum to the share of y'y explained.
+// Selection stops when 1 - sum ERR <= rho (paper: 0.01) or, if chosen, where AIC / BIC is least;
+// the model keeps the selected terms whose ERR reaches err_threshold (paper: 1 %), and their
+// coefficients come from ordinary least squares on those terms alone.
+
+#include <Eigen/Dense>
+#include <string>
+#include <vector>
+
+namespace rubref {
+
+enum class frols_stop { err_sum, aic, bic };
+
+struct frols_settings {
+  double rho = 0.01;            // stop when 1 - sum ERR <= rho
+  double err_threshold = 0.01;  // keep terms whose ERR >= this
+  frols_stop stop = frols_stop::err_sum;
+};
+
+struct frols_step {
+  std::size_t candidate;  // column index in the candidate matrix
+  double err;             // its error reduction ratio at this step
+  double err_sum;         // cumulative
+  double aic, bic;        // of the model made of steps 1..this one
+};
+
+struct frols_result {
+  std::vector<frols_step> order;     // every candidate, in the order FROLS ranks them (Table 1)
+  std::size_t steps_selected = 0;    // steps taken before the stopping rule held
+  std::vector<std::size_t> kept;     // candidate indices in the final model (ERR >= threshold)
+  Eigen::VectorXd coefficients;      // least squares on `kept`, in the units of the candidates
+  Eigen::VectorXd standard_errors;   // from the residual variance (assumes uncorrelated residuals)
+  Eigen::VectorXd residual;          // y - P_kept coefficients
+  double err_sum_kept = 0.0;         // share of y'y explained by the kept terms (their ERRs)
+};
+
+// P: N x M candidates (columns), y: N targets. Throws input_error if N <= M or y is zero.
+frols_result frols(const Eigen::MatrixXd& P, const Eigen::VectorXd& y, const frols_settings& s);
+
+// Ordinary least squares of y on the columns `cols` of P, with standard errors.
+struct least_squares_fit {
+  Eigen::VectorXd coefficients, standard_errors, residual;
+};
+least_squares_fit least_squares(const Eigen::MatrixXd& P, const Eigen::VectorXd& y, const std::vector<std::size_t>& cols);
+
+}  // namespace rubref

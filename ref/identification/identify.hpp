@@ -1,0 +1,86 @@
+#pragma once
+// `rubref identify`: the paper's §4 from measurement records (docs/identification.md).
+//  1. split records into dwells; a dwell is in contact if any sample has y > clearance
+//  2. the linear part of Eq. 1: given (--linear), or fitted on the dwells without contact
+//  3. contact forces at every sample (Eq. 1 inverted), friction mu per speed (Fig. 5)
+//  4. FROLS on f_N over the contact samples with the candidate library (Eq. 3-4, Tables 1-2),
+//     standard errors, an episode bootstrap, residual correlation tests
+//  5. optionally, output-error re-identification with NLopt
+
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "ref/identification/contact_forces.hpp"
+#include "ref/identification/frols.hpp"
+#include "ref/identification/output_error.hpp"
+#include "ref/identification/validity.hpp"
+#include "ref/parameters.hpp"
+
+namespace rubref {
+
+struct identify_settings {
+  std::optional<parameters> linear;      // the linear part (m, c, k, e) if known; else fitted
+  double unbalance_phase = 0.0;          // rad, with `linear` (rubref's own records: 0)
+  double mass = parameters{}.m;          // kg, when the linear part is fitted (m is not identifiable)
+  double clearance = 0.0;                // m, for records without clearance_m metadata (0: required there)
+  derivative_settings derivative;
+  bool average_revolutions = false;      // synchronous averaging of each dwell before differentiating
+  std::string library = "z1..4,zd1..4";  // Eq. 4, L = 4
+  frols_settings frols;
+  int bootstrap = 200;                   // resamples of whole contact episodes (0: none)
+  unsigned seed = 20041122;              // for the bootstrap: same inputs, same intervals
+  int correlation_lags = 10;
+  parameters reference;                  // the law whose term shares are reported (Table 2)
+  bool reidentify = false;
+  reid_settings reid;
+};
+
+struct term_estimate {
+  std::string name, pretty;
+  double value, standard_error;  // in N per unit of the term (k1: N/m, c2: kg/m, ...)
+  double ci_low, ci_high;        // 95 % episode-bootstrap interval (NaN without bootstrap)
+};
+
+struct term_share {
+  std::string term;
+  double peak_share;  // max over samples of |term contribution| / max f_N
+};
+
+struct dwell_report {
+  double rpm, clearance;
+  int averaged_revolutions = 0;            // 0: not averaged
+  double average_spread = 0.0;             // m, RMS deviation of the revolutions from their mean
+  std::size_t samples, contact_samples, episodes;
+  double max_penetration;                  // m
+  std::optional<friction_estimate> friction;
+  std::vector<term_share> reference_shares;   // the reference law on these z, z_dot
+  std::vector<term_share> identified_shares;  // the identified law on these z, z_dot
+};
+
+struct identification {
+  linear_part linear;
+  std::string linear_source;             // "given" or "fitted"
+  std::optional<linear_fit> linear_fitted;
+  std::vector<dwell_report> dwells;
+  double mu_mean = 0.0, mu_spread = 0.0;  // mean and standard deviation of the per-speed means
+  double mu_slope = 0.0;                  // pooled least squares f_x = mu f_N
+  std::vector<std::string> candidates, candidates_pretty;
+  std::vector<double> first_step_err;     // each candidate alone: (p'y)^2 / (p'p y'y)
+  frols_result frols;
+  std::vector<term_estimate> estimates;   // the kept terms
+  double residual_rms = 0.0;              // N
+  double force_rms = 0.0;                 // N, of f_N over the contact samples
+  std::size_t contact_samples = 0, episodes = 0;
+  std::vector<correlation_test> validity;
+  std::optional<reid_result> reid;
+};
+
+// Records with their names (for messages). Throws input_error on anything unusable.
+identification identify(const std::vector<std::pair<record, std::string>>& records, const identify_settings& s);
+
+nlohmann::ordered_json to_json(const identification& id, const identify_settings& s);
+std::string to_markdown(const identification& id);
+
+}  // namespace rubref

@@ -1,0 +1,219 @@
+#include "ref/identification/output_error.hpp"
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numbers>
+#include <nlopt.hpp>
+#include <sstream>
+
+#include "ref/errors.hpp"
+#include "ref/hybrid_integrator.hpp"
+#include "ref/parallel.hpp"
+#include "variants/identified.hpp"
+
+namespace rubref {
+
+namespace {
+
+// Revolutions a periodic cycle's model settles before comparison: about 7 decay times 2m/c at
+// the paper's speeds, so an initial mismatch has shrunk below 1e-3 of itself.
+constexpr double kSteadySettleRevs = 40.0;
+
+double parameters::*member_named(const std::string& name) {
+  if (name == "k1") return &parameters::k1;
+  if (name == "k3") return &parameters::k3;
+  if (name == "c2") return &parameters::c2;
+  if (name == "mu") return &parameters::mu;
+  if (name == "e") return &parameters::e;
+  if (name == "delta") return &parameters::delta;
+  std::ostringstream msg;  // (not "literal" + string: GCC 12 raises a false -Wrestrict on it)
+  msg << "re-identification: unknown parameter '" << name << "' (k1, k3, c2, mu, e, delta)";
+  throw input_error(msg.str());
+}
+
+struct grid_recorder {
+  std::vector<double> x, y;
+  template <class System>
+  void on_sample(double, const state_type& s, const System&) {
+    x.push_back(s[idx::x]);
+    y.push_back(s[idx::y]);
+  }
+  void on_event(const contact_event&) {}
+};
+
+class orbit_error {
+ public:
+  orbit_error(const std::vector<dwell_forces>& dwells, double phase, int first, bool fit_delta)
+      : dwells_(dwells), phase_(phase), first_(first), fit_delta_(fit_delta) {
+    for (const auto& d : dwells_) samples_ += d.source->size() - first_sample(*d.source);
+  }
+
+  // Residuals (x then y per sample, dwell after dwell) of the model with parameters p.
+  Eigen::VectorXd residuals(const parameters& p) const {
+    std::vector<Eigen::VectorXd> parts(dwells_.size());
+    parallel_for(dwells_.size(), 0, [&](std::size_t k) { parts[k] = dwell_residuals(dwells_[k], p); });
+    Eigen::VectorXd r(2 * samples_);
+    Eigen::Index at = 0;
+    for (const auto& part : parts) {
+      r.segment(at, part.size()) = part;
+      at += part.size();
+    }
+    return r;
+  }
+  std::size_t samples() const { return samples_; }
+
+ private:
+  Eigen::VectorXd dwell_residuals(const dwell_forces& f, const parameters& p) const {
+    const dwell& d = *f.source;
+    parameters q = p;
+    if (!fit_delta_ && d.clearance > 0.0) q.delta = d.clearance;  // each record keeps its own clearance
+    const double w = d.omega(), period = 2.0 * std::numbers::pi / w;
+    // A periodic (averaged) cycle is compared with the model's steady state: settle from the
+    // cycle's own state, then one revolution. A raw dwell is simulated from its first centred
+    // sample and compared sample by sample.
+    const std::size_t i0 = first_sample(d), n = d.size() - i0;
+    const double settle = d.periodic ? kSteadySettleRevs * period : 0.0;
+    // Model time runs ahead by phase / w so that cos(w t_model) = cos(w t + phase).
+    const double t0 = d.t[i0] + phase_ / w;
+    const state_type s0{d.x[i0], d.y[i0], f.vx[i0], f.vy[i0]};
+    const rotor_system<identified> model(q, w);
+    integration_options opt;
+    opt.stepper.rtol = 1e-9;
+    opt.stepper.atol = 1e-13;
+    grid_recorder rec;
+    rec.x.reserve(n);
+    rec.y.reserve(n);
+    Eigen::VectorXd r(2 * n);
+    try {
+      integrate_hybrid(model, start_state(model, s0, t0), t0 + settle + (n - 1) * d.dt, opt,
+                       sample_grid{t0 + settle, d.dt, n}, rec);
+    } catch (const numerical_error&) {
+      r.setConstant(1.0);  // 1 m: a parameter set the integrator cannot follow is far off
+      return r;
+    }
+    for (std::size_t i = 0; i < n; ++i) {
+      r[2 * i] = i < rec.x.size() ? rec.x[i] - d.x[i0 + i] : 1.0;
+      r[2 * i + 1] = i < rec.y.size() ? rec.y[i] - d.y[i0 + i] : 1.0;
+    }
+    return r;
+  }
+
+  std::size_t first_sample(const dwell& d) const { return d.periodic ? 0 : static_cast<std::size_t>(first_); }
+
+  const std::vector<dwell_forces>& dwells_;
+  double phase_;
+  int first_;
+  bool fit_delta_;
+  std::size_t samples_ = 0;
+};
+
+}  // namespace
+
+reid_result reidentify(const std::vector<dwell_forces>& dwells, const parameters& start, double unbalance_phase,
+                       const reid_settings& s) {
+  if (dwells.empty()) throw input_error("re-identification needs at least one dwell with contact");
+  std::vector<double parameters::*> members;
+  std::vector<double> scale;
+  for (const auto& name : s.fit) {
+    members.push_back(member_named(name));
+    const double v = start.*members.back();
+    if (!(v > 0.0)) {
+      std::ostringstream msg;
+      msg << "re-identification of '" << name << "' needs a positive starting value";
+      throw input_error(msg.str());
+    }
+    scale.push_back(v);
+  }
+  const bool fit_delta = std::find(s.fit.begin(), s.fit.end(), "delta") != s.fit.end();
+  if (fit_delta)
+    for (const auto& d : dwells)
+      if (d.source->clearance > 0.0 && d.source->clearance != dwells.front().source->clearance)
+        throw input_error("re-identification of delta needs records of one clearance");
+  const orbit_error err(dwells, unbalance_phase, s.derivative_half_width, fit_delta);
+  const auto at = [&](const std::vector<double>& u) {
+    parameters p = start;
+    for (std::size_t i = 0; i < u.size(); ++i) p.*members[i] = u[i] * scale[i];
+    return p;
+  };
+  // Minimise the mean square, smooth at a perfect fit (its square root, the RMS, is a cone there
+  // and stalls BOBYQA's quadratic models); report the RMS.
+  const auto mean_square = [&](const std::vector<double>& u) {
+    return err.residuals(at(u)).squaredNorm() / static_cast<double>(2 * err.samples());
+  };
+  const auto rms = [&](const std::vector<double>& u) { return std::sqrt(mean_square(u)); };
+
+  reid_result out;
+  std::vector<double> u(members.size(), 1.0);
+  out.initial_rms = rms(u);
+  struct context {
+    const decltype(mean_square)* f;
+    int calls = 0;
+  } ctx{&mean_square};
+  const auto objective = [](const std::vector<double>& x, std::vector<double>&, void* data) {
+    auto* c = static_cast<context*>(data);
+    ++c->calls;
+    return (*c->f)(x);
+  };
+  // Scaled parameters u = value / start live in [0, 10]: positive laws, and room for a start 10x off.
+  const std::vector<double> lower(u.size(), 0.0), upper(u.size(), 10.0);
+  out.algorithm = "NLopt LN_BOBYQA";
+  if (s.global) {
+    nlopt::opt global(nlopt::GN_DIRECT_L, static_cast<unsigned>(u.size()));
+    global.set_lower_bounds(std::vector<double>(u.size(), 0.1));
+    global.set_upper_bounds(upper);
+    global.set_min_objective(objective, &ctx);
+    global.set_maxeval(s.max_evaluations);
+    double f = 0.0;
+    try {
+      global.optimize(u, f);
+    } catch (const nlopt::roundoff_limited&) {
+    }
+    out.algorithm = "NLopt GN_DIRECT_L, then LN_BOBYQA";
+  }
+  nlopt::opt local(nlopt::LN_BOBYQA, static_cast<unsigned>(u.size()));
+  local.set_lower_bounds(lower);
+  local.set_upper_bounds(upper);
+  local.set_min_objective(objective, &ctx);
+  local.set_xtol_rel(s.relative_tolerance);
+  local.set_maxeval(s.max_evaluations);
+  local.set_initial_step(std::vector<double>(u.size(), 0.05));
+  double f = 0.0;
+  try {
+    local.optimize(u, f);
+  } catch (const nlopt::roundoff_limited&) {
+    // The objective stopped improving at rounding level: u holds the best point.
+  }
+  out.evaluations = ctx.calls;
+  out.final_rms = rms(u);
+
+  // Standard errors from the Jacobian of the residuals (central differences in u).
+  const Eigen::VectorXd r0 = err.residuals(at(u));
+  Eigen::MatrixXd J(r0.size(), static_cast<Eigen::Index>(u.size()));
+  constexpr double kStep = 1e-4;  // relative: well above the 1e-9 integration tolerance
+  for (std::size_t i = 0; i < u.size(); ++i) {
+    auto up = u, down = u;
+    up[i] += kStep;
+    down[i] -= kStep;
+    J.col(static_cast<Eigen::Index>(i)) = (err.residuals(at(up)) - err.residuals(at(down))) / (2 * kStep);
+  }
+  const double dof = std::max(1.0, static_cast<double>(r0.size()) - static_cast<double>(u.size()));
+  const double sigma = std::max(std::sqrt(r0.squaredNorm() / dof), kOrbitNoiseFloor);
+  // Cov = sigma^2 (J'J)^-1. A parameter the orbit barely feels has a tiny pivot and so a huge
+  // standard error; an exactly singular J'J leaves it undetermined (infinite).
+  const Eigen::MatrixXd info = J.transpose() * J;
+  const Eigen::LDLT<Eigen::MatrixXd> ldlt(info);
+  const Eigen::MatrixXd cov = sigma * sigma * ldlt.solve(Eigen::MatrixXd::Identity(info.rows(), info.cols()));
+  const bool solvable = ldlt.info() == Eigen::Success && ldlt.isPositive();
+  for (std::size_t i = 0; i < u.size(); ++i) {
+    const double se = std::sqrt(std::max(0.0, cov(i, i))) * scale[i];
+    const double value = u[i] * scale[i];
+    const bool felt = solvable && cov(i, i) > 0.0 && std::isfinite(se);
+    out.parameters.push_back({s.fit[i], scale[i], value, felt ? se : std::numeric_limits<double>::infinity(),
+                              felt && value > 1.96 * se});
+  }
+  return out;
+}
+
+}  // namespace rubref

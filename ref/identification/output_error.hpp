@@ -1,0 +1,52 @@
+#pragma once
+// Re-identification by output error (simulation error): the contact-law parameters of Eq. 5's
+// family (k1, k3, c2, mu; optionally e and delta) that make simulated orbits match the measured
+// ones, found with NLopt (BOBYQA, after an optional DIRECT-L global stage).
+//
+// A raw dwell is simulated from its measured state (positions, and velocities from the
+// derivative filter) at its first fully centred sample, with the model's unbalance phase, and
+// compared with the measurement at every later sample. A synchronously averaged dwell (one
+// periodic cycle) is compared with the model's steady state, reached by settling from the
+// cycle's own state: no sensitivity to the initial velocity. The objective is the RMS orbit error.
+
+#include <string>
+#include <vector>
+
+#include "ref/identification/contact_forces.hpp"
+#include "ref/parameters.hpp"
+
+namespace rubref {
+
+struct reid_settings {
+  std::vector<std::string> fit = {"k1", "k3", "c2", "mu"};  // any of k1, k3, c2, mu, e, delta
+  bool global = false;        // DIRECT-L over [0.1, 10] x start before the local stage
+  int max_evaluations = 600;  // local stage
+  double relative_tolerance = 1e-6;  // on the scaled parameters
+  int derivative_half_width = 4;     // as used for the velocities of the initial states
+};
+
+struct reid_parameter {
+  std::string name;
+  double initial, value;
+  double standard_error;  // from the Jacobian of the orbit residuals (docs/identification.md)
+  bool identifiable;      // value > 1.96 standard errors
+};
+
+struct reid_result {
+  std::string algorithm;
+  int evaluations = 0;
+  double initial_rms = 0.0, final_rms = 0.0;  // m, orbit error
+  std::vector<reid_parameter> parameters;
+};
+
+// The smallest orbit error the identifiability judgement takes as noise: 10 nm, a decade below
+// what a proximity probe resolves, so that noise-free data cannot make every parameter look
+// identifiable.
+inline constexpr double kOrbitNoiseFloor = 1e-8;  // m
+
+// `start`: linear part, clearance and the law's starting values. Dwells need their forces
+// computed (for the initial velocities) with the same linear part.
+reid_result reidentify(const std::vector<dwell_forces>& dwells, const parameters& start, double unbalance_phase,
+                       const reid_settings& s);
+
+}  // namespace rubref
