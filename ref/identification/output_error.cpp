@@ -17,9 +17,11 @@ namespace rubref {
 
 namespace {
 
-// Revolutions a periodic cycle's model settles before comparison: about 7 decay times 2m/c at
-// the paper's speeds, so an initial mismatch has shrunk below 1e-3 of itself.
-constexpr double kSteadySettleRevs = 40.0;
+// Newton shooting for the model's periodic orbit near an averaged cycle: converged when one
+// revolution maps the state onto itself to these (m, m/s), far below probe resolution.
+constexpr double kShootPositionTol = 1e-12;
+constexpr double kShootVelocityTol = 1e-10;
+constexpr int kShootIterations = 12;
 
 double parameters::*member_named(const std::string& name) {
   if (name == "k1") return &parameters::k1;
@@ -69,35 +71,63 @@ class orbit_error {
     const dwell& d = *f.source;
     parameters q = p;
     if (!fit_delta_ && d.clearance > 0.0) q.delta = d.clearance;  // each record keeps its own clearance
-    const double w = d.omega(), period = 2.0 * std::numbers::pi / w;
-    // A periodic (averaged) cycle is compared with the model's steady state: settle from the
-    // cycle's own state, then one revolution. A raw dwell is simulated from its first centred
-    // sample and compared sample by sample.
+    const double w = d.omega();
     const std::size_t i0 = first_sample(d), n = d.size() - i0;
-    const double settle = d.periodic ? kSteadySettleRevs * period : 0.0;
     // Model time runs ahead by phase / w so that cos(w t_model) = cos(w t + phase).
     const double t0 = d.t[i0] + phase_ / w;
-    const state_type s0{d.x[i0], d.y[i0], f.vx[i0], f.vy[i0]};
     const rotor_system<identified> model(q, w);
     integration_options opt;
-    opt.stepper.rtol = 1e-9;
-    opt.stepper.atol = 1e-13;
-    grid_recorder rec;
-    rec.x.reserve(n);
-    rec.y.reserve(n);
+    opt.stepper.rtol = 1e-10;
+    opt.stepper.atol = 1e-14;
     Eigen::VectorXd r(2 * n);
+    r.setConstant(1.0);  // 1 m: a parameter set the integrator cannot follow is far off
     try {
-      integrate_hybrid(model, start_state(model, s0, t0), t0 + settle + (n - 1) * d.dt, opt,
-                       sample_grid{t0 + settle, d.dt, n}, rec);
+      state_type s0{d.x[i0], d.y[i0], f.vx[i0], f.vy[i0]};
+      if (d.periodic) s0 = periodic_orbit(model, s0, t0, opt);
+      grid_recorder rec;
+      rec.x.reserve(n);
+      rec.y.reserve(n);
+      integrate_hybrid(model, start_state(model, s0, t0), t0 + static_cast<double>(n - 1) * d.dt, opt,
+                       sample_grid{t0, d.dt, n}, rec);
+      for (std::size_t i = 0; i < n && i < rec.x.size(); ++i) {
+        r[2 * i] = rec.x[i] - d.x[i0 + i];
+        r[2 * i + 1] = rec.y[i] - d.y[i0 + i];
+      }
     } catch (const numerical_error&) {
-      r.setConstant(1.0);  // 1 m: a parameter set the integrator cannot follow is far off
-      return r;
-    }
-    for (std::size_t i = 0; i < n; ++i) {
-      r[2 * i] = i < rec.x.size() ? rec.x[i] - d.x[i0 + i] : 1.0;
-      r[2 * i + 1] = i < rec.y.size() ? rec.y[i] - d.y[i0 + i] : 1.0;
     }
     return r;
+  }
+
+  // The model's periodic orbit through a state near `guess` at t0 (Newton shooting on one
+  // revolution, Jacobian by finite differences). A periodic cycle is compared with this orbit:
+  // no dependence on a noisy initial velocity, and no drift onto a coexisting attractor.
+  static state_type periodic_orbit(const rotor_system<identified>& model, state_type guess, double t0,
+                                   const integration_options& opt) {
+    const double period = 2.0 * std::numbers::pi / model.omega();
+    null_observer none;
+    const auto flow = [&](const state_type& s) {
+      return integrate_hybrid(model, start_state(model, s, t0), t0 + period, opt, sample_grid{}, none).s;
+    };
+    for (int it = 0; it < kShootIterations; ++it) {
+      const state_type end = flow(guess);
+      Eigen::Vector4d f;
+      for (int k = 0; k < 4; ++k) f[k] = end[k] - guess[k];
+      if (std::abs(f[0]) < kShootPositionTol && std::abs(f[1]) < kShootPositionTol && std::abs(f[2]) < kShootVelocityTol &&
+          std::abs(f[3]) < kShootVelocityTol)
+        return guess;
+      Eigen::Matrix4d J;
+      for (int k = 0; k < 4; ++k) {
+        state_type s = guess;
+        const double h = k < 2 ? 1e-9 : 1e-7;  // m, m/s: 1e-5 of the orbit, far above integration error
+        s[k] += h;
+        const state_type e = flow(s);
+        for (int i = 0; i < 4; ++i) J(i, k) = (e[i] - end[i]) / h - (i == k ? 1.0 : 0.0);
+      }
+      const Eigen::Vector4d step = J.partialPivLu().solve(-f);
+      for (int k = 0; k < 4; ++k) guess[k] += step[k];
+      if (!is_finite(guess)) throw numerical_error("shooting diverged");
+    }
+    throw numerical_error("shooting did not converge");
   }
 
   std::size_t first_sample(const dwell& d) const { return d.periodic ? 0 : static_cast<std::size_t>(first_); }

@@ -6,8 +6,9 @@
 // A raw dwell is simulated from its measured state (positions, and velocities from the
 // derivative filter) at its first fully centred sample, with the model's unbalance phase, and
 // compared with the measurement at every later sample. A synchronously averaged dwell (one
-// periodic cycle) is compared with the model's steady state, reached by settling from the
-// cycle's own state: no sensitivity to the initial velocity. The objective is the RMS orbit error.
+// periodic cycle, noise divided by sqrt(revolutions)) is compared with the model's own periodic
+// orbit near it, found by Newton shooting. The objective is the mean square orbit error; its root
+// (RMS) is reported.
 
 #include <string>
 #include <vector>

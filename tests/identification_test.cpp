@@ -1,0 +1,368 @@
+// Identification (paper §4): derivatives, FROLS, the linear part, and the honest checks of the
+// issue on records rubref simulates itself, where the truth is known.
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <numbers>
+#include <map>
+#include <random>
+
+#include "ref/closed_form.hpp"
+#include "ref/errors.hpp"
+#include "ref/identification/identify.hpp"
+#include "ref/identification/term_library.hpp"
+#include "ref/sweep_io.hpp"
+
+namespace rubref {
+namespace {
+
+// ---------------------------------------------------------------- derivatives
+
+// A degree-4 local polynomial reproduces any quartic exactly, centred or shifted at the ends.
+TEST(derivatives, exact_on_quartics_everywhere) {
+  const double dt = 1e-3;
+  std::vector<double> v;
+  for (int i = 0; i < 50; ++i) {
+    const double t = i * dt;
+    v.push_back(2.0 - 3.0 * t + 5.0 * t * t + 7.0 * t * t * t - 11.0 * t * t * t * t);
+  }
+  const auto d = differentiate(v, dt, {4, 4});
+  for (int i = 0; i < 50; ++i) {
+    const double t = i * dt;
+    EXPECT_NEAR(d.d1[i], -3.0 + 10.0 * t + 21.0 * t * t - 44.0 * t * t * t, 1e-8) << i;
+    EXPECT_NEAR(d.d2[i], 10.0 + 42.0 * t - 132.0 * t * t, 1e-4) << i;  // 1e-4 of 10: rounding / dt^2
+  }
+}
+
+// The documented accuracy on a sinusoid sampled N times per period (docs/identification.md),
+// for the default window (h = 4, degree 4): interior errors of order (w dt)^4; the h samples at
+// each end use shifted windows, and their second derivative is one order less accurate.
+TEST(derivatives, sinusoid_error_follows_the_sampling) {
+  for (const int per_period : {128, 256, 512}) {
+    const double dt = 1.0 / per_period, w = 2.0 * std::numbers::pi;
+    const int n = 3 * per_period, h = derivative_settings{}.half_width;
+    std::vector<double> v;
+    for (int i = 0; i < n; ++i) v.push_back(std::sin(w * i * dt));
+    const auto d = differentiate(v, dt, {});
+    double inner1 = 0.0, inner2 = 0.0, end1 = 0.0, end2 = 0.0;
+    for (int i = 0; i < n; ++i) {
+      const double e1 = std::abs(d.d1[i] - w * std::cos(w * i * dt)) / w;
+      const double e2 = std::abs(d.d2[i] + w * w * std::sin(w * i * dt)) / (w * w);
+      const bool end = i < h || i >= n - h;
+      (end ? end1 : inner1) = std::max(end ? end1 : inner1, e1);
+      (end ? end2 : inner2) = std::max(end ? end2 : inner2, e2);
+    }
+    const double h4 = std::pow(w * dt, 4);
+    SCOPED_TRACE(per_period);
+    const double h3 = std::pow(w * dt, 3);
+    // Measured: interior 0.66 and 0.38 (w dt)^4; ends 3.1 (w dt)^4 and, one-sided, 6.5 (w dt)^3 for
+    // the second derivative. Bounds: 1.5 times those.
+    EXPECT_LT(inner1, 1.0 * h4);
+    EXPECT_LT(inner2, 0.6 * h4);
+    EXPECT_LT(end1, 4.7 * h4);
+    EXPECT_LT(end2, 10.0 * h3);
+  }
+}
+
+// Windows split at a segment boundary keep a jump in the second derivative sharp.
+TEST(derivatives, segments_keep_a_kink_sharp) {
+  const double dt = 1e-3;
+  std::vector<double> v;
+  std::vector<int> seg;
+  for (int i = -30; i <= 30; ++i) {
+    const double t = i * dt;
+    v.push_back(t < 0 ? t * t : 3.0 * t * t);  // v'' jumps from 2 to 6 at t = 0
+    seg.push_back(t < 0 ? 0 : 1);
+  }
+  const auto split = differentiate(v, dt, {4, 4}, seg);
+  const auto blurred = differentiate(v, dt, {4, 4});
+  for (int k = 0; k < 61; ++k) EXPECT_NEAR(split.d2[k], k < 30 ? 2.0 : 6.0, 1e-6) << k;
+  EXPECT_GT(std::abs(blurred.d2[29] - 2.0), 0.5);  // without the split the jump smears
+}
+
+TEST(derivatives, synchronous_average_divides_noise_by_sqrt_revolutions) {
+  dwell d;
+  d.rpm = 600.0;  // 10 Hz
+  d.dt = 0.1 / 64;
+  std::mt19937_64 rng(7);
+  std::normal_distribution<double> noise(0.0, 1e-6);
+  const int revs = 64;
+  for (int i = 0; i < revs * 64; ++i) {
+    d.t.push_back(i * d.dt);
+    d.x.push_back(1e-4 * std::cos(2 * std::numbers::pi * 10 * i * d.dt) + noise(rng));
+    d.y.push_back(1e-4 * std::sin(2 * std::numbers::pi * 10 * i * d.dt) + noise(rng));
+  }
+  const auto a = synchronous_average(d);
+  EXPECT_EQ(a.revolutions, revs - 1);  // the last partial revolution is left out
+  EXPECT_EQ(a.cycle.size(), 64u);
+  double err = 0.0;
+  for (std::size_t k = 0; k < 64; ++k) err += std::pow(a.cycle.x[k] - 1e-4 * std::cos(2 * std::numbers::pi * 10 * a.cycle.t[k]), 2) / 64;
+  // The mean of 63 revolutions: noise 1e-6 / sqrt(63) ~ 1.3e-7; 2x for the scatter of 64 bins.
+  EXPECT_LT(std::sqrt(err), 2.0 * 1e-6 / std::sqrt(63.0));
+  EXPECT_NEAR(a.spread, 1e-6, 0.1e-6);  // the revolutions scatter by the noise
+}
+
+// ---------------------------------------------------------------- FROLS and the library
+
+TEST(frols, selects_the_generating_terms_and_is_scale_invariant) {
+  std::mt19937_64 rng(3);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  const int n = 400;
+  Eigen::MatrixXd P(n, 4);
+  Eigen::VectorXd y(n);
+  for (int i = 0; i < n; ++i) {
+    P.row(i) << u(rng), u(rng), u(rng), u(rng);
+    y[i] = 2.0 * P(i, 0) + 3.0 * P(i, 3);
+  }
+  const auto r = frols(P, y, {});
+  ASSERT_EQ(r.kept.size(), 2u);
+  double sum = 0.0;
+  for (const auto& st : r.order) {
+    EXPECT_GE(st.err, 0.0);
+    EXPECT_LE(st.err, 1.0);
+    sum += st.err;
+  }
+  EXPECT_NEAR(sum, 1.0, 1e-12);  // exact data: everything explained
+  const std::vector<std::size_t> want{0, 3};
+  std::vector<std::size_t> kept = r.kept;
+  std::sort(kept.begin(), kept.end());
+  EXPECT_EQ(kept, want);
+  // Rescaling a regressor by 1e-12 changes neither ERR nor the selection (units of z: m vs um).
+  Eigen::MatrixXd Q = P;
+  Q.col(3) *= 1e-12;
+  const auto s = frols(Q, y, {});
+  for (std::size_t k = 0; k < r.order.size(); ++k) {
+    EXPECT_EQ(s.order[k].candidate, r.order[k].candidate);
+    EXPECT_NEAR(s.order[k].err, r.order[k].err, 1e-10);
+  }
+}
+
+TEST(term_library, parses_the_papers_library_and_extensions) {
+  const auto lib = parse_library("z1..4,zd1..4,abszd1*zd1,z1.5,const");
+  ASSERT_EQ(lib.size(), 11u);
+  EXPECT_EQ(lib[0].name(), "z1");
+  EXPECT_EQ(lib[5].name(), "zd2");
+  EXPECT_EQ(lib[8].pretty(), "|ż|·ż");
+  EXPECT_DOUBLE_EQ(lib[8](0.0, -2.0), -4.0);
+  EXPECT_DOUBLE_EQ(lib[9](4.0, 0.0), 8.0);
+  EXPECT_DOUBLE_EQ(lib[10](3.0, 5.0), 1.0);
+  EXPECT_DOUBLE_EQ(lib[6](0.0, -2.0), -8.0);  // integer powers keep the sign: z_dot^3
+  EXPECT_THROW(parse_library("z1,,z2"), input_error);
+  EXPECT_THROW(parse_library("w2"), input_error);
+  EXPECT_THROW(parse_library("z1,z1"), input_error);
+  EXPECT_THROW(parse_library("z1..x"), input_error);
+}
+
+// ---------------------------------------------------------------- on rubref's own records
+
+// Runs of one variant at 1500-1700 rpm, 0.3 mm, as one multi-dwell record.
+record simulated(const std::string& variant, parameters p, int samples_per_rev, double from = 1500, double to = 1700,
+                 double step = 50, int revs = 12) {
+  sweep_settings s;
+  s.variant = variant;
+  s.params = p;
+  s.from_rpm = from;
+  s.to_rpm = to;
+  s.step_rpm = step;
+  s.samples_per_rev = samples_per_rev;
+  s.record_revs = revs;
+  s.keep_orbits = true;
+  return dwell_record(s, run_branch(s, sweep_direction::up));
+}
+
+void add_noise(record& r, double share, std::uint64_t seed) {
+  std::mt19937_64 rng(seed);
+  std::normal_distribution<double> n(0.0, 1.0);
+  for (const char* col : {"x_m", "y_m"}) {
+    auto& v = r.data[col == std::string("x_m") ? 1 : 2];
+    double rms = 0.0;
+    for (double x : v) rms += x * x / v.size();
+    rms = std::sqrt(rms);
+    for (double& x : v) x += share * rms * n(rng);
+  }
+}
+
+identify_settings knowing(const parameters& p) {
+  identify_settings s;
+  s.linear = p;
+  s.reference = p;
+  return s;
+}
+
+const term_estimate* estimate_of(const identification& id, const std::string& term) {
+  for (const auto& e : id.estimates)
+    if (e.name == term) return &e;
+  return nullptr;
+}
+
+std::vector<std::string> kept_names(const identification& id) {
+  std::vector<std::string> out;
+  for (const auto& e : id.estimates) out.push_back(e.name);
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+// Table 2's law, no noise: z and z_dot^2 carry the force, z^3 is invisible at 6-16 um.
+TEST(identification, identified_law_gives_z_and_zdot2_and_not_z3) {
+  const parameters paper;
+  const identification id = identify({{simulated("identified", paper, 1024), "identified.csv"}}, knowing(paper));
+  EXPECT_EQ(kept_names(id), (std::vector<std::string>{"z1", "zd2"}));
+  constexpr double kPaperTermTol = 0.005;  // the issue's 0.5 %
+  EXPECT_NEAR(estimate_of(id, "z1")->value / paper.k1, 1.0, kPaperTermTol);
+  EXPECT_NEAR(estimate_of(id, "zd2")->value / paper.c2, 1.0, kPaperTermTol);
+  constexpr double kMuTol = 0.001;  // the issue's bound
+  EXPECT_NEAR(id.mu_mean, paper.mu, kMuTol);
+  for (const auto& d : id.dwells) {
+    ASSERT_TRUE(d.friction.has_value());
+    EXPECT_NEAR(d.friction->mean, paper.mu, kMuTol) << d.rpm;
+    // k3 z^3 is below 1e-4 of the peak force at these penetrations: not identifiable.
+    EXPECT_LT(d.reference_shares[1].peak_share, 1e-4) << d.rpm;
+    EXPECT_LT(d.max_penetration, 20e-6) << d.rpm;
+  }
+  // z^3's ERR, once z is in, is at the level of the derivative error (far below 1 %).
+  for (const auto& st : id.frols.order) {
+    if (id.candidates[st.candidate] == "z3") EXPECT_LT(st.err, 1e-6);
+  }
+}
+
+// A law where k1 z, k3 z^3 and c2 z_dot^2 each carry >= 10 % of the peak force. z^3 is nearly
+// collinear with z over 0-25 um, so it adds only ~0.4 % ERR after z and z_dot^2: the paper's
+// rho = 1 % and 1 % threshold would stop before it. With rho = 1e-4 and threshold 1e-3 it is found.
+TEST(identification, all_three_terms_when_each_matters) {
+  parameters p;
+  p.k1 = 1e6;
+  p.k3 = 1e15;
+  identify_settings s = knowing(p);
+  s.frols.rho = 1e-4;
+  s.frols.err_threshold = 1e-3;
+  const identification id = identify({{simulated("identified", p, 1024), "three.csv"}}, s);
+  double share[3] = {0, 0, 0};
+  for (const auto& d : id.dwells)
+    for (int j = 0; j < 3; ++j) share[j] = std::max(share[j], d.reference_shares[j].peak_share);
+  ASSERT_GE(share[0], 0.1);
+  ASSERT_GE(share[1], 0.1);
+  ASSERT_GE(share[2], 0.1);
+  EXPECT_EQ(kept_names(id), (std::vector<std::string>{"z1", "z3", "zd2"}));
+  constexpr double kThreeTermTol = 0.01;  // the issue's 1 %
+  EXPECT_NEAR(estimate_of(id, "z1")->value / p.k1, 1.0, kThreeTermTol);
+  EXPECT_NEAR(estimate_of(id, "z3")->value / p.k3, 1.0, kThreeTermTol);
+  EXPECT_NEAR(estimate_of(id, "zd2")->value / p.c2, 1.0, kThreeTermTol);
+}
+
+TEST(identification, piecewise_linear_gives_z_alone) {
+  const parameters paper;
+  const identification id = identify({{simulated("piecewise-linear", paper, 1024), "pl.csv"}}, knowing(paper));
+  EXPECT_EQ(kept_names(id), (std::vector<std::string>{"z1"}));
+  EXPECT_NEAR(estimate_of(id, "z1")->value / paper.k1, 1.0, 0.005);
+}
+
+// §3 from data: without contact Eq. 1 / m is linear in c/m, k/m and the unbalance.
+TEST(identification, linear_part_from_records_without_contact) {
+  parameters p;
+  p.delta = 1.0;  // no contact anywhere
+  record r = simulated("identified", p, 256, 1400, 1700, 100);
+  const auto dwells = split_dwells(r, "free.csv");
+  std::vector<const dwell*> free;
+  for (const auto& d : dwells) free.push_back(&d);
+  const linear_fit fit = fit_linear_part(free, p.m, {});
+  constexpr double kLinearTol = 1e-4;  // derivative error at 256 samples per revolution ~1e-7
+  EXPECT_NEAR(fit.value.c_x / p.c_x, 1.0, kLinearTol);
+  EXPECT_NEAR(fit.value.c_y / p.c_y, 1.0, kLinearTol);
+  EXPECT_NEAR(fit.value.k_x / p.k_x, 1.0, kLinearTol);
+  EXPECT_NEAR(fit.value.k_y / p.k_y, 1.0, kLinearTol);
+  EXPECT_NEAR(fit.value.e / p.e, 1.0, kLinearTol);
+  EXPECT_NEAR(fit.value.phase, 0.0, kLinearTol);
+  EXPECT_THROW(fit_linear_part({free.front()}, p.m, {}), input_error);  // one speed cannot separate c, k, e
+}
+
+std::vector<dwell_forces> averaged_forces(const record& r, const parameters& p, std::vector<averaged_dwell>& keep) {
+  keep.clear();
+  for (const auto& d : split_dwells(r, "r.csv")) keep.push_back(synchronous_average(d));
+  std::vector<dwell_forces> out;
+  const linear_part lin{p.m, p.c_x, p.c_y, p.k_x, p.k_y, p.e, 0.0};
+  for (const auto& a : keep) out.push_back(contact_forces(a.cycle, lin, a.cycle.clearance, {}));
+  return out;
+}
+
+parameters thirty_percent_off(const parameters& truth) {
+  parameters p = truth;
+  p.k1 *= 1.3;
+  p.k3 *= 1.3;
+  p.c2 *= 0.7;
+  p.mu *= 1.3;
+  return p;
+}
+
+// NLopt from 30 % away: every identifiable parameter within 1 %, k3 reported not identifiable.
+TEST(reidentification, recovers_identifiable_parameters_from_30_percent_off) {
+  const parameters truth;
+  std::vector<averaged_dwell> keep;
+  const auto forces = averaged_forces(simulated("identified", truth, 256, 1550, 1650, 50), truth, keep);
+  const reid_result r = reidentify(forces, thirty_percent_off(truth), 0.0, {});
+  EXPECT_LT(r.final_rms, 1e-3 * r.initial_rms);
+  for (const auto& p : r.parameters) {
+    SCOPED_TRACE(p.name);
+    if (p.name == "k3") {
+      EXPECT_FALSE(p.identifiable);
+      continue;
+    }
+    EXPECT_TRUE(p.identifiable);
+    const double want = p.name == "k1" ? truth.k1 : p.name == "c2" ? truth.c2 : truth.mu;
+    EXPECT_NEAR(p.value / want, 1.0, 0.01);  // the issue's 1 %
+  }
+}
+
+// 1 % white noise (of the RMS displacement, ~2 um against 6-16 um penetrations): the bounds
+// measured and stated in docs/identification.md. Output error on the averaged cycles holds up;
+// see the docs for what equation-error FROLS does at this level.
+TEST(reidentification, one_percent_noise_within_measured_bounds) {
+  const parameters truth;
+  record r = simulated("identified", truth, 256, 1500, 1700, 50, 24);
+  add_noise(r, 0.01, 11);
+  std::vector<averaged_dwell> keep;
+  const auto forces = averaged_forces(r, truth, keep);
+  reid_settings rs;
+  rs.fit = {"k1", "c2", "mu"};
+  const reid_result res = reidentify(forces, thirty_percent_off(truth), 0.0, rs);
+  // Relative bounds stated in docs/identification.md; measured with this seed: k1 -0.77 %,
+  // c2 +3.4 %, mu -0.025 %, each inside its standard error (1.5 %, 8.6 %, 0.02 %).
+  const std::map<std::string, double> bound{{"k1", 0.03}, {"c2", 0.1}, {"mu", 0.002}};
+  for (const auto& p : res.parameters) {
+    SCOPED_TRACE(p.name);
+    const double want = p.name == "k1" ? truth.k1 : p.name == "c2" ? truth.c2 : truth.mu;
+    EXPECT_NEAR(p.value / want, 1.0, bound.at(p.name));
+    EXPECT_LT(std::abs(p.value - want), 3.0 * p.standard_error);  // the stated uncertainty covers the error
+  }
+}
+
+// Equation error (FROLS) under 0.1 % noise with synchronous averaging: the bounds measured.
+TEST(identification, one_permille_noise_averaged_within_measured_bounds) {
+  const parameters paper;
+  record r = simulated("identified", paper, 512, 1500, 1700, 50, 96);
+  add_noise(r, 0.001, 5);
+  identify_settings s = knowing(paper);
+  s.average_revolutions = true;
+  s.derivative.half_width = 8;
+  const identification id = identify({{r, "noisy.csv"}}, s);
+  ASSERT_NE(estimate_of(id, "z1"), nullptr);
+  ASSERT_NE(estimate_of(id, "zd2"), nullptr);
+  // Bounds stated in docs/identification.md; measured with this seed: k1 -0.05 %, c2 +1.3 %,
+  // pooled mu 0.2416 (the per-speed mean, 0.263, suffers more from small forces).
+  EXPECT_NEAR(estimate_of(id, "z1")->value / paper.k1, 1.0, 0.03);
+  EXPECT_NEAR(estimate_of(id, "zd2")->value / paper.c2, 1.0, 0.08);
+  EXPECT_NEAR(id.mu_slope, paper.mu, 0.02);
+}
+
+TEST(identification, refuses_unusable_input) {
+  parameters far;
+  far.delta = 1.0;
+  const record no_contact = simulated("identified", far, 64, 1500, 1600, 50);
+  EXPECT_THROW(identify({{no_contact, "free.csv"}}, knowing(far)), input_error);
+  record unknown_clearance = no_contact;
+  std::erase_if(unknown_clearance.metadata, [](const auto& kv) { return kv.first == "clearance_m"; });
+  EXPECT_THROW(identify({{unknown_clearance, "x.csv"}}, knowing(far)), input_error);
+}
+
+}  // namespace
+}  // namespace rubref
