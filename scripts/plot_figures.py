@@ -68,6 +68,20 @@ def fig03(folder, man):
     save(fig, folder, "fig03_orbits_no_rub")
 
 
+def fig05(folder, man):
+    _, d = read_csv(folder / man["fig05"]["file"])
+    fig, ax = plt.subplots(figsize=(7, 4))
+    ax.errorbar(d["speed_rpm"], d["mu_mean"], yerr=d["mu_std"], fmt="o", capsize=3, label="rubref: mean ± std over contact samples")
+    ax.axhline(man["fig05"]["mu_paper"], color="tab:red", ls="--", lw=1, label="paper: average 0.24")
+    ax.set_xlabel("speed [rpm]")
+    ax.set_ylabel("friction coefficient μ = f_x / f_N")
+    ax.set_ylim(0, 0.5)
+    ax.grid(True, lw=0.3)
+    ax.legend(fontsize=8)
+    ax.set_title("Fig. 5 — Variation of the friction coefficient with speed (identified from rubref's own records)", fontsize=10)
+    save(fig, folder, "fig05_friction")
+
+
 def orbit_row(folder, items, clearance_mm, title, name, overlay=None):
     fig, axes = plt.subplots(1, len(items), figsize=(3.2 * len(items), 3.6), layout="constrained")
     for i, (ax, item) in enumerate(zip(axes, items)):
@@ -203,6 +217,7 @@ def main():
     man = json.loads((folder / "data" / "figures.json").read_text())
     numbers = json.loads((folder / "reproduce.json").read_text())
     fig03(folder, man)
+    fig05(folder, man)
     fig06(folder, man)
     fig07(folder, man)
     fig08(folder, man)

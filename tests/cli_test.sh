@@ -77,5 +77,20 @@ rm -rf "$work/mine"
 expect_error "multiple of 6" "${sw[@]}" --revs 10 --out "$work/sw2"
 expect_error "--direction" "${sw[@]}" --direction sideways --out "$work/sw2"
 
+# identify: on a sweep's multi-dwell record, with the linear part given.
+"$rubref" sweep --from 1550 --to 1650 --step 50 --samples-per-rev 512 --direction up --orbits --out "$work/id_sw" >/dev/null \
+  || fail "sweep for identify failed"
+"$rubref" params >"$work/paper.json"
+"$rubref" identify "$work/id_sw/record_up.csv" --linear "$work/paper.json" --out "$work/id" >/dev/null || fail "identify failed"
+grep -q '"term": "z1"' "$work/id/identification.json" || fail "identify did not keep z"
+grep -q "Table 1" "$work/id/identification.md" || fail "identification.md lacks Table 1"
+printf 't_s,x_m,y_m,speed_rpm\n0,0,0,1500\n1,0,0,1500\n' >"$work/short.csv"
+expect_error "short.csv" identify "$work/short.csv" --clearance 3e-4 --out "$work/id2"
+printf 't_s,x_m,y_m,speed_rpm\n0,0,zero,1500\n' >"$work/bad.csv"
+expect_error "bad.csv:2: column 'y_m'" identify "$work/bad.csv" --out "$work/id2"
+expect_error "library term 'w2'" identify "$work/id_sw/record_up.csv" --linear "$work/paper.json" --library z1,w2 --out "$work/id2"
+grep -v '^# clearance_m' "$work/id_sw/record_up.csv" >"$work/no_clearance.csv"
+expect_error "no clearance_m" identify "$work/no_clearance.csv" --linear "$work/paper.json" --out "$work/id2"
+
 [ "$failures" -eq 0 ] && echo "cli_test: all passed"
 exit "$failures"

@@ -40,6 +40,23 @@ least_squares_fit least_squares(const Eigen::MatrixXd& P, const Eigen::VectorXd&
   return out;
 }
 
+std::vector<double> err_in_order(const Eigen::MatrixXd& P, const Eigen::VectorXd& y, const std::vector<std::size_t>& order) {
+  const double yy = y.squaredNorm();
+  std::vector<Eigen::VectorXd> basis;
+  std::vector<double> out;
+  for (const std::size_t j : order) {
+    Eigen::VectorXd w = P.col(static_cast<Eigen::Index>(j));
+    const double norm0 = w.norm();
+    if (norm0 > 0.0) w /= norm0;
+    for (int pass = 0; pass < 2; ++pass)
+      for (const auto& q : basis) w -= q.dot(w) * q;
+    const double ww = w.squaredNorm();
+    out.push_back(ww > 1e-20 && yy > 0.0 ? std::pow(w.dot(y), 2) / (ww * yy) : 0.0);
+    if (ww > 1e-20) basis.push_back(w / std::sqrt(ww));
+  }
+  return out;
+}
+
 frols_result frols(const Eigen::MatrixXd& P, const Eigen::VectorXd& y, const frols_settings& s) {
   const Eigen::Index n = P.rows(), m = P.cols();
   if (n <= m) throw input_error("FROLS needs more samples (" + std::to_string(n) + ") than candidate terms (" + std::to_string(m) + ")");

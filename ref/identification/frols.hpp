@@ -43,6 +43,10 @@ struct frols_result {
 // P: N x M candidates (columns), y: N targets. Throws input_error if N <= M or y is zero.
 frols_result frols(const Eigen::MatrixXd& P, const Eigen::VectorXd& y, const frols_settings& s);
 
+// ERR of the candidates taken in a fixed order (not greedily): what Table 1 shows when the
+// selection order is given, e.g. the paper's apparent one.
+std::vector<double> err_in_order(const Eigen::MatrixXd& P, const Eigen::VectorXd& y, const std::vector<std::size_t>& order);
+
 // Ordinary least squares of y on the columns `cols` of P, with standard errors.
 struct least_squares_fit {
   Eigen::VectorXd coefficients, standard_errors, residual;

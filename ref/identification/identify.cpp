@@ -142,6 +142,19 @@ identification identify(const std::vector<std::pair<record, std::string>>& recor
     id.first_step_err.push_back(pp > 0.0 ? std::pow(P.col(j).dot(y), 2) / (pp * y.squaredNorm()) : 0.0);
   }
   id.residual_rms = std::sqrt(id.frols.residual.squaredNorm() / std::max<Eigen::Index>(1, n));
+  {
+    // The paper's Table 1 ranks z^3 (0.568) above z (0.392): its values in that order.
+    const std::vector<std::string> paper_order{"z3", "z1", "zd2", "z2", "zd1", "zd3", "z4", "zd4"};
+    std::vector<std::size_t> order;
+    for (const auto& name : paper_order)
+      for (std::size_t c = 0; c < id.candidates.size(); ++c)
+        if (id.candidates[c] == name) order.push_back(c);
+    if (order.size() == paper_order.size() && id.candidates.size() == paper_order.size()) {
+      const std::vector<double> err = err_in_order(P, y, order);
+      id.paper_order_err.assign(id.candidates.size(), 0.0);
+      for (std::size_t k = 0; k < order.size(); ++k) id.paper_order_err[order[k]] = err[k];
+    }
+  }
 
   // Episode bootstrap: contact samples within an episode are correlated, whole episodes are not.
   const auto& kept = id.frols.kept;
@@ -266,6 +279,7 @@ nlohmann::ordered_json to_json(const identification& id, const identify_settings
                                    {"err_sum", st.err_sum}, {"aic", st.aic}, {"bic", st.bic}});
   }
   for (std::size_t c = 0; c < id.candidates.size(); ++c) j["frols"]["first_step_err"][id.candidates[c]] = id.first_step_err[c];
+  for (std::size_t c = 0; c < id.paper_order_err.size(); ++c) j["frols"]["paper_order_err"][id.candidates[c]] = id.paper_order_err[c];
   j["frols"]["steps_selected"] = id.frols.steps_selected;
   j["frols"]["err_sum_kept"] = id.frols.err_sum_kept;
   j["frols"]["residual_rms_N"] = id.residual_rms;

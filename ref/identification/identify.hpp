@@ -68,6 +68,8 @@ struct identification {
   double mu_slope = 0.0;                  // pooled least squares f_x = mu f_N
   std::vector<std::string> candidates, candidates_pretty;
   std::vector<double> first_step_err;     // each candidate alone: (p'y)^2 / (p'p y'y)
+  std::vector<double> paper_order_err;    // ERR in the order of the paper's Table 1 ranking, when
+                                          // the library is Eq. 4's (z^3, z, z_dot^2, z^2, z_dot, z_dot^3, z^4, z_dot^4); else empty
   frols_result frols;
   std::vector<term_estimate> estimates;   // the kept terms
   double residual_rms = 0.0;              // N
