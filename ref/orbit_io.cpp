@@ -8,6 +8,28 @@
 
 namespace rubref {
 
+void orbit_columns::append(std::span<const orbit_sample> samples, double speed_rpm, double time_shift) {
+  for (const auto& smp : samples) {
+    t.push_back(smp.t + time_shift);
+    x.push_back(smp.s[idx::x]);
+    y.push_back(smp.s[idx::y]);
+    rpm.push_back(speed_rpm);
+    vx.push_back(smp.s[idx::vx]);
+    vy.push_back(smp.s[idx::vy]);
+    fn.push_back(smp.fn);
+  }
+}
+
+void orbit_columns::move_into(record& r) {
+  r.add_column("t_s", std::move(t));
+  r.add_column("x_m", std::move(x));
+  r.add_column("y_m", std::move(y));
+  r.add_column("speed_rpm", std::move(rpm));
+  r.add_column("vx_m_s", std::move(vx));
+  r.add_column("vy_m_s", std::move(vy));
+  r.add_column("fn_N", std::move(fn));
+}
+
 record to_record(const orbit& o) {
   const auto& req = o.request;
   const double period = 60.0 / req.rpm;
@@ -36,24 +58,9 @@ record to_record(const orbit& o) {
   r.set("event_time_tolerance_s", req.integration.events.time_tolerance);
   r.set("stick_velocity_m_s", req.integration.events.stick_velocity);
 
-  const std::size_t n = o.samples.size();
-  std::vector<double> t(n), x(n), y(n), rpm(n, req.rpm), vx(n), vy(n), fn(n);
-  for (std::size_t i = 0; i < n; ++i) {
-    const auto& smp = o.samples[i];
-    t[i] = smp.t;
-    x[i] = smp.s[idx::x];
-    y[i] = smp.s[idx::y];
-    vx[i] = smp.s[idx::vx];
-    vy[i] = smp.s[idx::vy];
-    fn[i] = smp.fn;
-  }
-  r.add_column("t_s", std::move(t));
-  r.add_column("x_m", std::move(x));
-  r.add_column("y_m", std::move(y));
-  r.add_column("speed_rpm", std::move(rpm));
-  r.add_column("vx_m_s", std::move(vx));
-  r.add_column("vy_m_s", std::move(vy));
-  r.add_column("fn_N", std::move(fn));
+  orbit_columns cols;
+  cols.append(o.samples, req.rpm);
+  cols.move_into(r);
   return r;
 }
 

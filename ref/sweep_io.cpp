@@ -60,7 +60,7 @@ record dwell_record(const sweep_settings& s, const sweep_branch& b) {
   r.metadata = sweep_metadata(s);
   r.set("clearance_m", s.params.delta);
   r.set("description", "rubref sweep, " + std::string(to_string(b.direction)) + ", one dwell per speed");
-  std::vector<double> t, x, y, rpm, vx, vy, fn;
+  orbit_columns cols;
   double t_end = -std::numeric_limits<double>::infinity();
   for (const auto& p : b.points) {
     if (p.samples.empty()) throw input_error("dwell_record needs the sweep's orbits (keep_orbits)");
@@ -68,24 +68,10 @@ record dwell_record(const sweep_settings& s, const sweep_branch& b) {
     const double dt = period / s.samples_per_rev;
     // Whole periods of this speed: cos(w (t + n T)) = cos(w t).
     const double shift = std::max(0.0, std::ceil((t_end + dt - p.samples.front().t) / period)) * period;
-    for (const auto& smp : p.samples) {
-      t.push_back(smp.t + shift);
-      x.push_back(smp.s[idx::x]);
-      y.push_back(smp.s[idx::y]);
-      rpm.push_back(p.rpm);
-      vx.push_back(smp.s[idx::vx]);
-      vy.push_back(smp.s[idx::vy]);
-      fn.push_back(smp.fn);
-    }
-    t_end = t.back();
+    cols.append(p.samples, p.rpm, shift);
+    t_end = cols.t.back();
   }
-  r.add_column("t_s", std::move(t));
-  r.add_column("x_m", std::move(x));
-  r.add_column("y_m", std::move(y));
-  r.add_column("speed_rpm", std::move(rpm));
-  r.add_column("vx_m_s", std::move(vx));
-  r.add_column("vy_m_s", std::move(vy));
-  r.add_column("fn_N", std::move(fn));
+  cols.move_into(r);
   return r;
 }
 

@@ -222,7 +222,9 @@ TEST(identification, identified_law_gives_z_and_zdot2_and_not_z3) {
   }
   // z^3's ERR, once z is in, is at the level of the derivative error (far below 1 %).
   for (const auto& st : id.frols.order) {
-    if (id.candidates[st.candidate] == "z3") EXPECT_LT(st.err, 1e-6);
+    if (id.candidates[st.candidate] == "z3") {
+      EXPECT_LT(st.err, 1e-6);
+    }
   }
 }
 
