@@ -1,7 +1,7 @@
 #pragma once
 // Known answers. The contact-free rotor (Eq. 1 with f_x = f_y = 0) is linear with harmonic
-// forcing, so its steady state is closed form: per axis, X = m e w^2 / (k - m w^2 + j c w),
-// x(t) = Re(X e^{jwt}) and y(t) = Re(-j Y e^{jwt}) because sin(wt) = Re(-j e^{jwt}).
+// forcing, so its steady state is closed form: per axis, X = m e w^2 e^{j phi} / (k - m w^2 + j c w),
+// x(t) = Re(X e^{jwt}) and y(t) = Re(-j Y e^{jwt}) because sin(a) = Re(-j e^{ja}).
 
 #include <complex>
 
@@ -17,7 +17,7 @@ struct unbalance_response {
 
   unbalance_response(const parameters& p, double w) : omega(w) {
     using namespace std::complex_literals;
-    const double force = p.m * p.e * w * w;
+    const std::complex<double> force = p.m * p.e * w * w * std::exp(1i * p.unbalance_phase);
     x_phasor = force / std::complex<double>(p.k_x - p.m * w * w, p.c_x * w);
     y_phasor = -1i * force / std::complex<double>(p.k_y - p.m * w * w, p.c_y * w);
   }

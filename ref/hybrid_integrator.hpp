@@ -134,7 +134,7 @@ hybrid_state hybrid_loop(const rotor_system<Law>& base, Stepper& st, hybrid_stat
                          integration_counts& counts) {
   using system = rotor_system<Law>;
   const double tol = opt.events.time_tolerance;
-  const double period = 2.0 * std::numbers::pi / base.omega();
+  const double period = base.period();
   const double max_events = opt.events.max_events_per_rev * std::max(1.0, (t_end - hs.t) / period);
   const double t_start = hs.t;
   std::size_t events_here = 0;
@@ -320,7 +320,7 @@ hybrid_state integrate_hybrid(const rotor_system<Law>& model, const hybrid_state
   integration_counts local;
   integration_counts& c = counts ? *counts : local;
   integration_options resolved = opt;
-  resolved.stepper = with_default_steps(opt.stepper, 2.0 * std::numbers::pi / model.omega());
+  resolved.stepper = with_default_steps(opt.stepper, model.period());
   return with_stepper<rotor_system<Law>>(resolved.stepper, [&](auto& st) {
     return detail::hybrid_loop(model, st, start, t_end, resolved, grid, obs, c);
   });

@@ -12,6 +12,7 @@ std::string_view describe(constraint rule) {
     case constraint::positive: return "> 0";
     case constraint::non_negative: return ">= 0";
     case constraint::unit_interval: return "in [0, 1]";
+    case constraint::finite: return "any real";
   }
   return "?";
 }
@@ -22,6 +23,7 @@ bool satisfies(double v, constraint rule) {
     case constraint::positive: return v > 0.0;
     case constraint::non_negative: return v >= 0.0;
     case constraint::unit_interval: return v >= 0.0 && v <= 1.0;
+    case constraint::finite: return true;  // finiteness is checked for every parameter
   }
   return false;
 }
@@ -33,7 +35,9 @@ void validate(const parameters& p) {
     if (!std::isfinite(v) || !satisfies(v, info.rule)) {
       std::ostringstream msg;
       msg.precision(17);
-      msg << "parameter " << info.key << " must be finite and " << describe(info.rule) << " (got " << v << ")";
+      msg << "parameter " << info.key << " must be finite";
+      if (info.rule != constraint::finite) msg << " and " << describe(info.rule);
+      msg << " (got " << v << ")";
       throw input_error(msg.str());
     }
   }

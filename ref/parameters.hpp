@@ -11,6 +11,7 @@ namespace rubref {
 struct parameters {
   double m = 1.52;          // kg, rotor mass (§3)
   double e = 0.0706e-3;     // m, mass eccentricity (§3)
+  double unbalance_phase = 0.0;  // rad, angle of the unbalance from +x at t = 0 (Eq. 1 has 0)
   double c_x = 15.100;      // kg/s, damping in x (§3)
   double c_y = 14.727;      // kg/s, damping in y (§3)
   double k_x = 38.521e3;    // N/m, stiffness in x (§3)
@@ -26,7 +27,7 @@ struct parameters {
 };
 
 // What a parameter must satisfy to be physically meaningful and numerically safe.
-enum class constraint { positive, non_negative, unit_interval };
+enum class constraint { positive, non_negative, unit_interval, finite };
 
 // One row per parameter: the single source for the CLI options, the parameter-file and record
 // metadata keys, --help, and validation. `key` carries the unit so a file is self-describing.
@@ -39,9 +40,11 @@ struct parameter_info {
   constraint rule;
 };
 
-inline constexpr std::array<parameter_info, 12> parameter_table{{
+inline constexpr std::array<parameter_info, 13> parameter_table{{
     {&parameters::m, "m", "m_kg", "kg", "rotor mass", constraint::positive},
     {&parameters::e, "e", "e_m", "m", "mass eccentricity (unbalance me omega^2)", constraint::non_negative},
+    {&parameters::unbalance_phase, "unbalance-phase", "unbalance_phase_rad", "rad",
+     "angle of the unbalance from +x at t = 0: forcing m e omega^2 (cos(omega t + phase), sin(omega t + phase))", constraint::finite},
     {&parameters::c_x, "c-x", "c_x_kg_s", "kg/s", "damping, horizontal", constraint::non_negative},
     {&parameters::c_y, "c-y", "c_y_kg_s", "kg/s", "damping, vertical", constraint::non_negative},
     {&parameters::k_x, "k-x", "k_x_N_m", "N/m", "stiffness, horizontal", constraint::positive},
@@ -57,7 +60,7 @@ inline constexpr std::array<parameter_info, 12> parameter_table{{
 // Throws input_error naming the first parameter that is non-finite or violates its constraint.
 void validate(const parameters& p);
 
-// The rule as words, for --help and error messages ("> 0", ">= 0", "in [0, 1]").
+// The rule as words, for --help and error messages ("> 0", ">= 0", "in [0, 1]", "any real").
 std::string_view describe(constraint rule);
 
 }  // namespace rubref

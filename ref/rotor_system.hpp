@@ -1,13 +1,15 @@
 #pragma once
 // The rub rotor as an odeint System (Eq. 1-2): a small value type, no I/O, no stepper.
 //
-//   m x'' + c_x x' + k_x x = f_x + m e w^2 cos(w t)
-//   m y'' + c_y y' + k_y y = f_y + m e w^2 sin(w t)
-//   f_x = +mu f_N,  f_y = -f_N,  while z = y - delta > 0          (Eq. 2)
+//   m x'' + c_x x' + k_x x = f_x + m e w^2 cos(w t + phi)
+//   m y'' + c_y y' + k_y y = f_y + m e w^2 sin(w t + phi)
+//   f_x = +mu f_N sgn(w),  f_y = -f_N,  while z = y - delta > 0          (Eq. 2)
 //
-// Sign conventions (docs/model.md): the shaft spins counter-clockwise, x -> y, the sense of the
-// unbalance force; the protrusion is at the top (+y). The shaft surface at the top then moves
-// towards -x, so the friction it receives from the stator points to +x: f_x = +mu f_N.
+// Sign conventions (docs/model.md): w > 0 spins the shaft counter-clockwise, x -> y, the sense
+// of the unbalance force; the protrusion is at the top (+y). The shaft surface at the top then
+// moves towards -x, so the friction it receives from the stator points to +x: f_x = +mu f_N, as
+// Eq. 2. A negative w is the mirror image, clockwise rotation, and the friction turns with it.
+// phi is the unbalance angle at t = 0 (the paper's Eq. 1 has phi = 0).
 
 #include "ref/contact_law.hpp"
 #include "ref/parameters.hpp"
@@ -34,16 +36,18 @@ class rotor_system {
         inv_m_(1.0 / p.m),
         c_x_(p.c_x), c_y_(p.c_y), k_x_(p.k_x), k_y_(p.k_y),
         delta_(p.delta), mu_(p.mu),
+        friction_sign_(omega < 0.0 ? -1.0 : 1.0),
         unbalance_acc_(p.e * omega * omega),
+        unbalance_phase_(p.unbalance_phase),
         omega_(omega),
         phase_(phase) {}
 
   void operator()(const state_type& s, state_type& ds, double t) const {
-    const double cos_wt = std::cos(omega_ * t);
-    const double sin_wt = std::sin(omega_ * t);
+    const double cos_wt = std::cos(forcing_angle(t));
+    const double sin_wt = std::sin(forcing_angle(t));
     const double fn = normal_force(s, t);
     double fx = 0.0;
-    if constexpr (compliant_law<Law>) fx = mu_ * fn;
+    if constexpr (compliant_law<Law>) fx = friction_sign_ * mu_ * fn;
     ds[idx::x] = s[idx::vx];
     ds[idx::vx] = (fx - c_x_ * s[idx::vx] - k_x_ * s[idx::x]) * inv_m_ + unbalance_acc_ * cos_wt;
     if (phase_ == contact_phase::stuck) {
@@ -74,12 +78,15 @@ class rotor_system {
 
   // y'' the rotor would have with no contact force (m/s^2): decides sticking and release.
   double free_vertical_acceleration(const state_type& s, double t) const noexcept {
-    return (-c_y_ * s[idx::vy] - k_y_ * s[idx::y]) * inv_m_ + unbalance_acc_ * std::sin(omega_ * t);
+    return (-c_y_ * s[idx::vy] - k_y_ * s[idx::y]) * inv_m_ + unbalance_acc_ * std::sin(forcing_angle(t));
   }
   // Its time derivative along a stuck trajectory (y = delta, y' = 0): only the forcing varies.
   double free_vertical_jerk_stuck(double t) const noexcept {
-    return unbalance_acc_ * omega_ * std::cos(omega_ * t);
+    return unbalance_acc_ * omega_ * std::cos(forcing_angle(t));
   }
+
+  // Angle of the unbalance force at t, rad: w t + phi.
+  double forcing_angle(double t) const noexcept { return omega_ * t + unbalance_phase_; }
 
   rotor_system with_phase(contact_phase phase) const {
     rotor_system copy = *this;
@@ -88,7 +95,8 @@ class rotor_system {
   }
 
   contact_phase phase() const noexcept { return phase_; }
-  double omega() const noexcept { return omega_; }
+  double omega() const noexcept { return omega_; }  // rad/s, signed: < 0 is clockwise
+  double period() const noexcept { return 2.0 * std::numbers::pi / std::abs(omega_); }  // s
   double clearance() const noexcept { return delta_; }
   const Law& law() const noexcept { return law_; }
 
@@ -97,7 +105,9 @@ class rotor_system {
   double inv_m_;
   double c_x_, c_y_, k_x_, k_y_;
   double delta_, mu_;
+  double friction_sign_;  // +1 counter-clockwise, -1 clockwise
   double unbalance_acc_;  // e w^2, m/s^2
+  double unbalance_phase_;  // rad
   double omega_;          // rad/s
   contact_phase phase_;
 };

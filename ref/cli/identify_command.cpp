@@ -34,9 +34,8 @@ void add_identify(CLI::App& app) {
   auto& s = st->settings;
   auto* sub = app.add_subcommand("identify", "contact law by ERR/FROLS (paper §4), friction per speed, optional NLopt re-identification");
   sub->add_option("records", st->files, "measurement records (docs/data-format.md)")->required()->check(CLI::ExistingFile);
-  sub->add_option("--linear", st->linear_file, "JSON parameter file with the linear part (m, c, k, e); default: fit it on dwells without contact")
+  sub->add_option("--linear", st->linear_file, "JSON parameter file with the linear part (m, c, k, e, unbalance_phase_rad); default: fit it on dwells without contact")
       ->check(CLI::ExistingFile);
-  sub->add_option("--phase", s.unbalance_phase, "unbalance phase with --linear [rad] (rubref's own records: 0)")->capture_default_str();
   sub->add_option("--mass", s.mass, "rotor mass when the linear part is fitted [kg] (not identifiable from displacements)")->capture_default_str();
   sub->add_option("--clearance", s.clearance, "clearance for records without clearance_m metadata [m]");
   sub->add_option("--library", s.library, "candidate terms, e.g. z1..4,zd1..4,abszd1*zd1,z1.5,const")->capture_default_str();

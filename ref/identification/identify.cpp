@@ -62,7 +62,7 @@ identification identify(const std::vector<std::pair<record, std::string>>& recor
   identification id;
   if (s.linear) {
     const parameters& p = *s.linear;
-    id.linear = {p.m, p.c_x, p.c_y, p.k_x, p.k_y, p.e, s.unbalance_phase};
+    id.linear = {p.m, p.c_x, p.c_y, p.k_x, p.k_y, p.e, p.unbalance_phase};
     id.linear_source = "given";
   } else {
     std::vector<const dwell*> free;

@@ -21,8 +21,7 @@
 namespace rubref {
 
 struct identify_settings {
-  std::optional<parameters> linear;      // the linear part (m, c, k, e) if known; else fitted
-  double unbalance_phase = 0.0;          // rad, with `linear` (rubref's own records: 0)
+  std::optional<parameters> linear;      // the linear part (m, c, k, e, unbalance phase) if known; else fitted
   double mass = parameters{}.m;          // kg, when the linear part is fitted (m is not identifiable)
   double clearance = 0.0;                // m, for records without clearance_m metadata (0: required there)
   derivative_settings derivative;

@@ -73,8 +73,8 @@ class orbit_error {
     if (!fit_delta_ && d.clearance > 0.0) q.delta = d.clearance;  // each record keeps its own clearance
     const double w = d.omega();
     const std::size_t i0 = first_sample(d), n = d.size() - i0;
-    // Model time runs ahead by phase / w so that cos(w t_model) = cos(w t + phase).
-    const double t0 = d.t[i0] + phase_ / w;
+    q.unbalance_phase = phase_;  // the fitted or given unbalance angle at t = 0
+    const double t0 = d.t[i0];
     const rotor_system<identified> model(q, w);
     integration_options opt;
     opt.stepper.rtol = 1e-10;
@@ -103,7 +103,7 @@ class orbit_error {
   // no dependence on a noisy initial velocity, and no drift onto a coexisting attractor.
   static state_type periodic_orbit(const rotor_system<identified>& model, state_type guess, double t0,
                                    const integration_options& opt) {
-    const double period = 2.0 * std::numbers::pi / model.omega();
+    const double period = model.period();
     null_observer none;
     const auto flow = [&](const state_type& s) {
       return integrate_hybrid(model, start_state(model, s, t0), t0 + period, opt, sample_grid{}, none).s;
