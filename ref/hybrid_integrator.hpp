@@ -146,6 +146,10 @@ hybrid_state hybrid_loop(const rotor_system<Law>& base, Stepper& st, hybrid_stat
   st.initialize(hs.s, hs.t, first_dt);
 
   // A phase that starts on its own boundary (after every event) is being entered, not left.
+  // Free and contact phases start on y = delta; below this, h < 0 is dense-output noise there
+  // (Bulirsch-Stoer's reaches ~1e-16 m), above it a real exit. A stuck phase never starts on its
+  // boundary (it needs a free acceleration > 0).
+  const double boundary_noise = 1e-10 * base.clearance();  // m
   bool entering = exit_value(sys, hs.s, hs.t) <= 0.0;
   std::size_t next_sample = 0;
   while (next_sample < grid.count && grid.time(next_sample) < t_start) ++next_sample;
@@ -158,11 +162,31 @@ hybrid_state hybrid_loop(const rotor_system<Law>& base, Stepper& st, hybrid_stat
   const auto h_at = [&](double t) { return exit_value(sys, state_at(t), t); };
   const auto hdot_at = [&](double t) { return exit_rate(sys, state_at(t), t); };
 
+  // One accepted step. odeint's controllers accept a trial whose error estimate is NaN, so a
+  // step that overflowed (a stiff contact law's stages can, for a step sized in free flight:
+  // c2 z_dot^2 has a finite-time blow-up on the way out) comes back non-finite. An adaptive
+  // stepper retakes it from its start with an 8 times smaller step; rk4's step is the user's, so
+  // there it is an error. odeint's own give-up (step adjustment) is a numerical_error too.
+  constexpr int kMaxOverflowRetries = 30;  // 8^-30: far below any useful step
+  const bool adaptive = opt.stepper.kind != stepper_kind::rk4;
+  const auto accepted_step = [&]() -> std::pair<double, double> {
+    for (int retry = 0;; ++retry) {
+      std::pair<double, double> span;
+      try {
+        span = st.do_step(sys);
+      } catch (const boost::numeric::odeint::odeint_error& e) {
+        throw numerical_error(std::string("stepper gave up (") + e.what() + ") at " + describe_state(hs.t, hs.s));
+      }
+      if (is_finite(st.current_state())) return span;
+      if (!adaptive || retry == kMaxOverflowRetries)
+        throw numerical_error("non-finite state after a step from " + describe_state(span.first, hs.s));
+      st.initialize(hs.s, hs.t, (span.second - span.first) / 8.0);
+    }
+  };
+
   while (hs.t < t_end) {
-    const auto [ta, tb] = st.do_step(sys);
+    const auto [ta, tb] = accepted_step();
     ++counts.steps;
-    if (!is_finite(st.current_state()))
-      throw numerical_error("non-finite state after a step from " + describe_state(ta, hs.s));
     const double next_dt = st.current_time_step();
     if (!(next_dt > 16.0 * std::numeric_limits<double>::epsilon() * std::max(1.0, std::abs(tb))))
       throw numerical_error("step size underflow (dt = " + std::to_string(next_dt) + " s) at " +
@@ -186,7 +210,27 @@ hybrid_state hybrid_loop(const rotor_system<Law>& base, Stepper& st, hybrid_stat
         } else {
           bracket = std::pair{ta, ta};  // it never moved inside: a zero-depth touch
         }
-      }  // else: still on the boundary, still moving in
+      } else if (h_hi < -boundary_noise) {
+        // Well outside at the step end and turning back: a whole excursion (a chatter hop, which
+        // can be far shorter than any step cap) went in and out within this step, and h has two
+        // extrema here. h > 0 from ta to the exit and < 0 after it, so the largest
+        // ta + (t_hi - ta) / 2^k with h > 0 brackets the exit with t_hi. In contact that is a
+        // whole episode inside one step: an adaptive step is accurate through it by its error
+        // control, a fixed rk4 step has not resolved it and its result cannot be trusted.
+        if (!adaptive && sys.phase() == contact_phase::contact)
+          throw numerical_error("the fixed rk4 step (dt = " + std::to_string(opt.stepper.dt) +
+                                " s) does not resolve a contact episode: it began and ended within one step from " +
+                                describe_state(ta, hs.s) + "; use a smaller dt or an adaptive stepper");
+        double t_in = ta, h_in = 0.0;
+        for (double span = 0.5 * (t_hi - ta); span > tol; span *= 0.5) {
+          h_in = h_at(ta + span);
+          if (h_in > 0.0) {
+            t_in = ta + span;
+            break;
+          }
+        }
+        bracket = t_in > ta ? bracket_root(h_at, t_in, t_hi, h_in, h_hi, tol) : std::pair{ta, ta};
+      }  // else: still on the boundary (to dense-output noise), still moving in
     } else if (h_hi < 0.0) {
       bracket = bracket_root(h_at, ta, t_hi, std::max(0.0, h_lo), h_hi, tol);
     } else if (r_lo < 0.0 && r_hi > 0.0) {
@@ -285,7 +329,9 @@ hybrid_state hybrid_loop(const rotor_system<Law>& base, Stepper& st, hybrid_stat
     last_event_t = ev.t;
 
     obs.on_event(ev);
-    entering = true;
+    // Free and contact phases start on y = delta. A stuck phase starts where the free
+    // acceleration is > 0, not on its boundary: its exit may come within the first step.
+    entering = hs.phase != contact_phase::stuck;
     hs.s = ev.state;
     hs.t = ev.t;
     sys = base.with_phase(hs.phase);
