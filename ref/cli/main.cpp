@@ -1,6 +1,7 @@
 // rubref command line. Each subcommand validates all of its input before it integrates, and
 // writes its outputs atomically: a failure prints one line "rubref: error: ..." and exits non-zero
-// (2: bad input, 3: numerical failure) with no output touched.
+// (2: bad input, 3: numerical failure) with no output touched. `validate` exits 1 when a candidate
+// fails its case.
 
 #include <CLI/CLI.hpp>
 #include <iostream>
@@ -22,6 +23,8 @@ int main(int argc, char** argv) {
   cli::add_simulate(app);
   cli::add_sweep(app);
   cli::add_identify(app);
+  int exit_status = 0;
+  cli::add_validate(app, exit_status);
   app.add_subcommand("params", "print the paper's default parameters as a JSON parameter file")->callback([] {
     std::cout << to_json(parameters{}).dump(2) << "\n";
   });
@@ -50,5 +53,5 @@ int main(int argc, char** argv) {
     std::cerr << "rubref: error: " << e.what() << "\n";
     return 4;
   }
-  return 0;
+  return exit_status;
 }

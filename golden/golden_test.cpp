@@ -1,0 +1,95 @@
+// rubref's default fast path (dopri5, rtol 1e-10, located events) against every golden file, and
+// the files' own provenance. A missing or hand-edited file fails here.
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include "ref/golden.hpp"
+#include "ref/orbit_io.hpp"
+#include "ref/validation.hpp"
+
+namespace rubref {
+namespace {
+
+// The fast path agrees with the careful method to ~3e-13 m on every orbit case (measured when
+// the files were made); 1e-11 m leaves a margin of 30 and is still 1e4 below the tolerance the
+// files give other codes. Statistics cases (chaotic) are held to their files' own tolerances.
+constexpr double kFastPathOrbitTol = 1e-11;  // m
+
+golden_case load(const golden_spec& spec) {
+  const std::filesystem::path path = std::filesystem::path(RUBREF_GOLDEN_DIR) / golden_file_name(spec);
+  return read_golden_case(read_record(path), path.filename().string());
+}
+
+class golden_regression : public ::testing::TestWithParam<golden_spec> {};
+
+TEST_P(golden_regression, fast_path_matches_the_golden_file) {
+  const golden_case g = load(GetParam());
+  const orbit o = simulate(g.request);  // rubref's defaults: the fast path
+  ASSERT_EQ(o.samples.size(), g.t.size());
+  if (g.comparison == comparison_kind::orbit) {
+    double worst = 0.0;
+    std::size_t at = 0;
+    for (std::size_t i = 0; i < g.t.size(); ++i) {
+      ASSERT_EQ(o.samples[i].t, g.t[i]) << "sample " << i;  // same grid to the bit: t = t0 + k dt
+      const double e = std::hypot(o.samples[i].s[idx::x] - g.x[i], o.samples[i].s[idx::y] - g.y[i]);
+      if (e > worst) {
+        worst = e;
+        at = i;
+      }
+    }
+    EXPECT_LE(worst, kFastPathOrbitTol) << "worst sample " << at << " at t = " << g.t[at] << " s: golden (" << g.x[at] << ", "
+                                        << g.y[at] << "), fast path (" << o.samples[at].s[idx::x] << ", "
+                                        << o.samples[at].s[idx::y] << ") m, error " << worst << " m";
+  }
+  // Both kinds: every statistic within the file's tolerance (what `rubref validate` checks).
+  record mine;
+  orbit_columns cols;
+  cols.append(o.samples, g.request.rpm);
+  cols.move_into(mine);
+  const validation_result v = validate_candidate(g, mine, "fast path");
+  EXPECT_TRUE(v.pass) << to_text(v);
+}
+
+// Provenance: what made the file, with what, when, and how to compare with it.
+TEST_P(golden_regression, carries_its_provenance) {
+  const std::filesystem::path path = std::filesystem::path(RUBREF_GOLDEN_DIR) / golden_file_name(GetParam());
+  const record r = read_record(path);
+  for (const char* key : {"generator", "commit", "date", "method", "stepper", "rtol", "atol", "max_dt_s", "event_time_tolerance_s",
+                          "settle_revs", "record_revs", "samples_per_rev", "cross_check_stepper", "cross_check_max_difference_m",
+                          "comparison", "period_revs"})
+    EXPECT_NE(r.find(key), nullptr) << path << " lacks '" << key << "'";
+  const golden_case g = read_golden_case(r, path.filename().string());
+  EXPECT_EQ(g.request.variant, GetParam().variant);
+  EXPECT_EQ(g.request.params.delta, GetParam().clearance);
+  EXPECT_EQ(g.request.rpm, GetParam().rpm);
+  EXPECT_EQ(*r.find("stepper"), "rkf78");  // the careful method, not the fast path
+  EXPECT_LE(r.number("rtol"), 1e-13);
+  if (g.comparison == comparison_kind::orbit) {
+    EXPECT_LE(r.number("cross_check_max_difference_m"), kReproducibleRelTol * g.statistics.max_radius);
+    EXPECT_EQ(g.orbit_tolerance, kGoldenOrbitRelTol * g.statistics.max_radius);
+  }
+  // Every cell at 17 significant digits, e.g. 7.5000000000000000e+00.
+  std::ifstream in(path);
+  std::string line;
+  while (std::getline(in, line) && (line.empty() || line[0] == '#' || line[0] == 't')) {
+  }
+  EXPECT_EQ(line.substr(0, line.find(',')).size(), std::string("7.5000000000000000e+00").size()) << line;
+}
+
+std::string case_name(const ::testing::TestParamInfo<golden_spec>& info) {
+  std::string n = golden_file_name(info.param);
+  n = n.substr(0, n.size() - 4);
+  for (char& c : n)
+    if (!std::isalnum(static_cast<unsigned char>(c))) c = '_';
+  return n;
+}
+
+INSTANTIATE_TEST_SUITE_P(every_case, golden_regression, ::testing::ValuesIn(golden_matrix()), case_name);
+
+}  // namespace
+}  // namespace rubref

@@ -1,0 +1,112 @@
+#pragma once
+// Golden orbits (golden/, docs/validation.md): steady-state orbits of every variant at the
+// clearances and speeds of the paper's Figs. 10-12, made by a deliberately careful method, with
+// their provenance and the tolerance a comparison should use, in the record format.
+//
+// A case is compared one of two ways, decided when it is generated:
+//  - orbit:      two independent careful integrations agree to 1e-9 of the orbit, so the orbit
+//                itself is the reference; a candidate must match it sample by sample.
+//  - statistics: they do not (the steady state is chaotic: a difference of 1e-15 m grows to
+//                ~0.1 mm over the settling revolutions), so no code can reproduce the samples and
+//                only the orbit's statistics (peak-to-peak, 1X whirl, contact share) are compared,
+//                with tolerances measured from an ensemble of careful runs.
+
+#include <array>
+#include <span>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "ref/record.hpp"
+#include "ref/simulate.hpp"
+
+namespace rubref {
+
+// What validation compares besides the samples, all from the recorded samples alone so that any
+// implementation's output yields them the same way.
+struct orbit_statistics {
+  double peak_to_peak_x = 0.0;  // m
+  double peak_to_peak_y = 0.0;  // m
+  double max_radius = 0.0;      // m, max |x + j y|
+  double forward_1x = 0.0;      // m, |coefficient of e^{+j w t}| of x + j y (Eq. 7), least squares
+  double backward_1x = 0.0;     // m, |coefficient of e^{-j w t}|
+  double contact_fraction = 0.0;  // share of samples with y > clearance
+};
+
+struct statistic_info {
+  double orbit_statistics::*member;
+  std::string_view key;  // record metadata key and JSON name (with unit)
+  std::string_view description;
+};
+
+inline constexpr std::array<statistic_info, 6> statistic_table{{
+    {&orbit_statistics::peak_to_peak_x, "peak_to_peak_x_m", "peak-to-peak x"},
+    {&orbit_statistics::peak_to_peak_y, "peak_to_peak_y_m", "peak-to-peak y"},
+    {&orbit_statistics::max_radius, "max_radius_m", "largest |x + j y|"},
+    {&orbit_statistics::forward_1x, "forward_1x_m", "forward 1X whirl amplitude"},
+    {&orbit_statistics::backward_1x, "backward_1x_m", "backward 1X whirl amplitude"},
+    {&orbit_statistics::contact_fraction, "contact_fraction", "share of samples with y > clearance"},
+}};
+
+// Statistics of samples (t, x, y) of a rotor at `omega` rad/s with clearance `delta` m. The 1X
+// components are the least-squares fit of a + b e^{jwt} + c e^{-jwt} to x + j y: on whole
+// revolutions sampled uniformly that is the DFT bin, and it needs neither.
+orbit_statistics statistics_of(std::span<const double> t, std::span<const double> x, std::span<const double> y,
+                               double omega, double delta);
+
+enum class comparison_kind { orbit, statistics };
+std::string_view to_string(comparison_kind k);
+
+// The case matrix of the golden files: every variant x clearance x speed.
+struct golden_spec {
+  std::string variant;
+  double clearance;  // m
+  double rpm;
+};
+inline constexpr std::array<double, 3> kGoldenClearances{0.2e-3, 0.3e-3, 0.4e-3};         // m, Fig. 12
+inline constexpr std::array<double, 5> kGoldenSpeeds{1450.0, 1550.0, 1600.0, 1650.0, 1750.0};  // rpm
+inline constexpr int kGoldenSettleRevs = 200;    // from rest at t = 0 (~40 decay times 2m/c)
+inline constexpr int kGoldenRecordRevs = 8;      // holds two periods of any period <= 4 rev
+inline constexpr int kGoldenSamplesPerRev = 128;
+
+std::vector<golden_spec> golden_matrix();
+std::string golden_file_name(const golden_spec& spec);  // e.g. "identified_0.3mm_1600rpm.csv"
+
+// The case as rubref runs it by default (its fast path): paper parameters with the case's
+// clearance, from rest at t = 0, kGoldenSettleRevs then kGoldenRecordRevs at kGoldenSamplesPerRev.
+run_request golden_request(const golden_spec& spec);
+
+// The careful method the files are made with, and the independent one that cross-checks it.
+integration_options golden_method();       // rkf78, rtol 1e-13, atol 1e-18
+integration_options golden_cross_check();  // Bulirsch-Stoer at the same tolerances
+
+// Orbit tolerance of a case: 1e-4 of the largest radius (docs/validation.md, "What the
+// tolerance means"): 20x above what event-located integration at rtol 1e-6 reaches on these
+// cases (<= 3e-9 m measured), and 20x below the smallest fault validation must catch
+// (r = 0.85 instead of 0.86: >= 1.2e-6 m).
+inline constexpr double kGoldenOrbitRelTol = 1e-4;
+// Two careful integrations that agree to this share of the orbit make it an `orbit` case
+// (they agree to ~1e-12 on periodic cases and differ by ~0.2 on chaotic ones).
+inline constexpr double kReproducibleRelTol = 1e-9;
+
+// A golden file as read back: the run that makes it, how to compare, and its samples.
+struct golden_case {
+  std::string name;           // file name
+  run_request request;        // variant, parameters, speed, sampling; rubref's default integration
+  comparison_kind comparison = comparison_kind::orbit;
+  int period_revs = 0;        // the orbit repeats every period_revs revolutions; 0: not within the record
+  double orbit_tolerance = 0.0;    // m, on the largest sample error (orbit cases)
+  orbit_statistics statistics;     // of the golden samples
+  orbit_statistics statistics_tolerance;
+  std::vector<double> t, x, y, vx, vy;  // the samples
+  double omega() const { return rpm_to_rad_s(request.rpm); }
+};
+
+// Reads a golden record; input_error naming the source and the missing or bad key.
+golden_case read_golden_case(const record& r, const std::string& source);
+
+// Makes the golden record of `spec` with the careful method, cross-checked, on `threads`
+// threads (ensemble runs of statistics cases). `date` goes into the provenance (YYYY-MM-DD).
+record make_golden(const golden_spec& spec, std::string_view date, unsigned threads = 1);
+
+}  // namespace rubref
