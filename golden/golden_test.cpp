@@ -15,9 +15,9 @@
 namespace rubref {
 namespace {
 
-// The fast path agrees with the careful method to ~3e-13 m on every orbit case (measured when
-// the files were made); 1e-11 m leaves a margin of 30 and is still 1e4 below the tolerance the
-// files give other codes. Statistics cases (chaotic) are held to their files' own tolerances.
+// The fast path agrees with the careful method to 2.8e-13 m or better on every orbit case (the
+// table of docs/validation.md, made by scripts/update-doc-validation); 1e-11 m leaves a margin
+// of 35 and is still 3000 below the tolerance the files give other codes. Statistics cases (chaotic) are held to their files' own tolerances.
 constexpr double kFastPathOrbitTol = 1e-11;  // m
 
 golden_case load(const golden_spec& spec) {

@@ -7,7 +7,9 @@
 #include <algorithm>
 #include <boost/numeric/odeint.hpp>
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
+#include <fstream>
 #include <numbers>
 #include <string>
 
@@ -59,6 +61,16 @@ record candidate(const golden_case& g, const parameters& p, int settle, int revs
   return as_record(o);
 }
 
+// With RUBREF_FAULT_CANDIDATES_DIR set, the candidates are also written there, for the worked
+// examples of docs/validation.md (scripts/update-doc-validation).
+record keep_for_docs(const std::string& file, record r) {
+  if (const char* dir = std::getenv("RUBREF_FAULT_CANDIDATES_DIR")) {
+    std::ofstream out(std::filesystem::path(dir) / file);
+    out << to_csv(r);
+  }
+  return r;
+}
+
 bool names(const validation_result& r, const std::string& words) {
   return std::any_of(r.likely_causes.begin(), r.likely_causes.end(),
                      [&](const std::string& c) { return c.find(words) != std::string::npos; });
@@ -73,7 +85,8 @@ TEST(validate, correct_output_passes_on_the_case_samples_and_on_its_own) {
     EXPECT_TRUE(same.pass) << to_text(same);
     // Another sampling (100 a revolution), another stretch (3 revolutions after 205): compared
     // by phase with the golden orbit integrated again at those times.
-    const record other = visit_variant(g.request.variant, [&]<class V>() { return candidate<V>(g, g.request.params, 205, 3, 100); });
+    const record other = keep_for_docs("own_sampling_" + std::string(name),
+                                       visit_variant(g.request.variant, [&]<class V>() { return candidate<V>(g, g.request.params, 205, 3, 100); }));
     const validation_result shifted = validate_candidate(g, other, "rubref, own sampling");
     EXPECT_TRUE(shifted.pass) << to_text(shifted);
     EXPECT_NE(shifted.sampling.find("modulo the orbit's period"), std::string::npos) << shifted.sampling;
@@ -85,7 +98,8 @@ TEST(validate, reversed_friction_sign_fails_and_is_named) {
   const golden_case g = load(kIdentifiedCase);
   parameters wrong = g.request.params;
   wrong.mu = -wrong.mu;
-  const validation_result r = validate_candidate(g, candidate<identified>(g, wrong, 200, 8, 128), "reversed friction");
+  const validation_result r =
+      validate_candidate(g, keep_for_docs("friction_reversed.csv", candidate<identified>(g, wrong, 200, 8, 128)), "reversed friction");
   EXPECT_FALSE(r.pass);
   EXPECT_GT(r.max_error, 100.0 * r.tolerance);
   EXPECT_TRUE(names(r, "wrong friction sign")) << to_text(r);
@@ -96,7 +110,8 @@ TEST(validate, wrong_coefficient_of_restitution_fails_and_is_named) {
   const golden_case g = load(kRestitutionCase);
   parameters wrong = g.request.params;
   wrong.r = std::sqrt(g.request.params.r);
-  const validation_result r = validate_candidate(g, candidate<restitution>(g, wrong, 200, 8, 128), "energy restitution");
+  const validation_result r =
+      validate_candidate(g, keep_for_docs("energy_restitution.csv", candidate<restitution>(g, wrong, 200, 8, 128)), "energy restitution");
   EXPECT_FALSE(r.pass);
   EXPECT_TRUE(names(r, "wrong coefficient of restitution")) << to_text(r);
   EXPECT_TRUE(names(r, "kinetic energy")) << to_text(r);
@@ -124,7 +139,7 @@ record naive_restitution(const golden_case& g) {
 
 TEST(validate, missed_impacts_fail_and_are_named) {
   const golden_case g = load(kRestitutionCase);
-  const validation_result r = validate_candidate(g, naive_restitution(g), "step-end impacts");
+  const validation_result r = validate_candidate(g, keep_for_docs("step_end_impacts.csv", naive_restitution(g)), "step-end impacts");
   EXPECT_FALSE(r.pass);
   EXPECT_TRUE(names(r, "missed impacts")) << to_text(r);
 }
