@@ -11,7 +11,7 @@
 #include <numbers>
 
 #include "props/generators.hpp"
-#include "tests/test_support.hpp"
+#include "props/prop_support.hpp"
 
 namespace rubref::props {
 namespace {
@@ -24,13 +24,6 @@ using testing::trajectory;
 constexpr double kSameLawTol = 1e-12;
 constexpr double kEventTimeTol = 1e-12;  // s
 constexpr int kRevolutions = 3;
-
-integration_options careful() {
-  integration_options opt = testing::reference_options();
-  opt.stepper.rtol = 1e-12;
-  opt.stepper.atol = 1e-17;
-  return opt;
-}
 
 template <class Law>
 trajectory run_for(const parameters& p, double rpm, const state_type& s0, double t_end, std::size_t samples) {
@@ -84,12 +77,12 @@ RC_GTEST_PROP(continuity, stiff_penalty_contact_approaches_restitution_with_r_on
   // episode would decide whether it falls).
   c.p.e = 0.0;
   c.p.c_y = std::max(c.p.c_y, 1.0);
-  const double vertical_period = 2.0 * std::numbers::pi * std::sqrt(c.p.m / c.p.k_y);
+  const double period_y = vertical_period(c.p);
   const rotor_system<restitution> impact_model(c.p, rpm_to_rad_s(c.rpm));
-  const trajectory scout = testing::run(impact_model, c.start, 0.75 * vertical_period, careful());
+  const trajectory scout = testing::run(impact_model, c.start, 0.75 * period_y, careful());
   RC_PRE(!scout.events.empty());
   // A while after the impact, before the next approach (at least a quarter period away).
-  const double t_after = scout.events.front().t + vertical_period / 8.0;
+  const double t_after = scout.events.front().t + period_y / 8.0;
   const trajectory exact = run_for<restitution>(c.p, c.rpm, c.start, t_after, 1);
   RC_PRE(exact.events.size() == 1u);
   const state_type& want = exact.end.s;

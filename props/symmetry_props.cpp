@@ -11,7 +11,7 @@
 #include <vector>
 
 #include "props/generators.hpp"
-#include "tests/test_support.hpp"
+#include "props/prop_support.hpp"
 
 namespace rubref::props {
 namespace {
@@ -38,13 +38,6 @@ constexpr double kRk4EventTimeTol = 1e-8;  // s
 constexpr double kLinearTol = 1e-9;       // of the orbit's scale
 constexpr int kRevolutions = 3;
 constexpr int kSamplesPerRev = 64;
-
-integration_options careful() {
-  integration_options opt = testing::reference_options();
-  opt.stepper.rtol = 1e-12;
-  opt.stepper.atol = 1e-17;
-  return opt;
-}
 
 // Runs `model` from `s0` at `t0` over kRevolutions, sampled uniformly from t0.
 template <class Law>
@@ -108,11 +101,6 @@ void assert_same_events(const std::vector<contact_event>& a, const std::vector<c
   }
 }
 
-template <class... Vs>
-void for_each_variant_type(auto&& f, type_list<Vs...>) {
-  (f.template operator()<Vs>(), ...);
-}
-
 state_type mirrored(const state_type& s) { return {-s[idx::x], s[idx::y], -s[idx::vx], s[idx::vy]}; }
 
 // x -> -x with the rotation reversed: the unbalance m e w^2 (cos(wt + phi), sin(wt + phi))
@@ -131,8 +119,7 @@ RC_GTEST_PROP(symmetry, mirror_image_with_reversed_rotation_without_contact, (co
         const trajectory b = revolutions(rotor_system<Law>(reversed, -omega), mirrored(c.start), 0.0, careful());
         RC_ASSERT(a.events.empty());
         RC_ASSERT(largest_difference(a, b, mirrored) <= kSameMotionTol);
-      },
-      all_variants{});
+      });
 }
 
 // ... and with contact: the protrusion is on the mirror axis, and rubref turns the friction with
@@ -148,8 +135,7 @@ RC_GTEST_PROP(symmetry, mirror_image_with_reversed_rotation_in_contact, (const t
         RC_PRE(!a.events.empty());  // damping can stop a weak throw short of the stator
         assert_same_events(a.events, b.events);
         RC_ASSERT(largest_difference(a, b, mirrored) <= kSameMotionTol);
-      },
-      all_variants{});
+      });
 }
 
 // The unbalance angle is a time shift: the rotor with angle phi started at t = 0 moves exactly
@@ -165,8 +151,7 @@ RC_GTEST_PROP(symmetry, unbalance_phase_shifts_the_orbit_in_time, (const throw_c
         const trajectory b = revolutions(rotor_system<Law>(at_zero, omega), c.start, tau, careful());
         assert_same_events(a.events, b.events, tau);
         RC_ASSERT(largest_difference(a, b, [](const state_type& s) { return s; }) <= kSameMotionTol);
-      },
-      all_variants{});
+      });
 }
 
 // Without contact Eq. 1 is linear in the forcing: from rest, e times lambda gives the orbit
@@ -235,8 +220,7 @@ RC_GTEST_PROP(symmetry, event_times_do_not_depend_on_the_step_size, (const throw
         const trajectory rk4_half = revolutions(model, c.start, 0.0, with(stepper_kind::rk4, dt / 2, 0.0));
         assert_same_events(first_episode(rk4.events), first_episode(rk4_half.events), 0.0, kRk4EventTimeTol);
         assert_same_events(first_episode(fine.events), first_episode(rk4_half.events), 0.0, kRk4EventTimeTol);
-      },
-      all_variants{});
+      });
 }
 
 }  // namespace
