@@ -41,21 +41,40 @@ inline std::string_view to_string(event_kind k) {
   return "?";
 }
 
-struct contact_event {
+template <class State>
+struct basic_contact_event {
   event_kind kind;
   double t;                      // s, located to event_settings::time_tolerance
-  state_type state;              // the state the next phase starts from (after an impact map)
-  double approach_velocity;      // m/s, y_dot at the event before any impact map
+  State state;                   // the state the next phase starts from (after an impact map)
+  double approach_velocity;      // m/s, penetration rate (y_dot) at the event before any impact map
   double max_penetration = 0.0;  // m, peak z of the episode (separation only)
 };
+using contact_event = basic_contact_event<state_type>;
 
 // Where an integration stands: state, time, phase, and the running peak penetration of an open
 // contact episode, so a run can be continued (settle, then record; or a speed sweep).
-struct hybrid_state {
-  state_type s{};
+template <class State>
+struct basic_hybrid_state {
+  State s{};
   double t = 0.0;
   contact_phase phase = contact_phase::free;
   double episode_peak = 0.0;  // m
+};
+using hybrid_state = basic_hybrid_state<state_type>;
+
+// What the hybrid integrator needs of a model (docs/concepts.md, "ContactSystem"): an odeint
+// System that holds its contact phase, with a penetration z (> 0 inside) and its rate. A model
+// whose contact is not `compliant` (an impact map) also gives the stuck phase's exit function
+// (the free normal acceleration and its rate) and its law's rebound.
+template <class S>
+concept contact_system = odeint_system<S> && requires(const S sys, const state_of<S>& x, double t, contact_phase ph) {
+  { S::compliant } -> std::convertible_to<bool>;
+  { sys.phase() } -> std::same_as<contact_phase>;
+  { sys.with_phase(ph) } -> std::same_as<S>;
+  { sys.penetration(x) } -> std::same_as<double>;
+  { sys.penetration_rate(x) } -> std::same_as<double>;
+  { sys.period() } -> std::same_as<double>;
+  { sys.clearance() } -> std::same_as<double>;
 };
 
 struct event_settings {
@@ -94,35 +113,43 @@ struct integration_counts {
 
 // An observer that wants nothing.
 struct null_observer {
-  template <class System>
-  void on_sample(double, const state_type&, const System&) {}
-  void on_event(const contact_event&) {}
+  template <class State, class System>
+  void on_sample(double, const State&, const System&) {}
+  template <class State>
+  void on_event(const basic_contact_event<State>&) {}
 };
 
 namespace detail {
 
-inline std::string describe_state(double t, const state_type& s) {
+template <std::size_t N>
+std::string describe_state(double t, const std::array<double, N>& s) {
   std::ostringstream out;
   out.precision(17);
-  out << "t = " << t << " s, state (x, y, vx, vy) = (" << s[0] << ", " << s[1] << ", " << s[2] << ", " << s[3] << ")";
+  out << "t = " << t << " s, state (x, y, vx, vy" << (N > 4 ? ", ..." : "") << ") = (";
+  for (std::size_t i = 0; i < N; ++i) out << (i ? ", " : "") << s[i];
+  out << ")";
   return out.str();
 }
 
-template <class Law>
-double exit_value(const rotor_system<Law>& sys, const state_type& s, double t) {
+template <contact_system System>
+double exit_value(const System& sys, const state_of<System>& s, double t) {
   switch (sys.phase()) {
     case contact_phase::contact: return sys.penetration(s);
-    case contact_phase::stuck: return sys.free_vertical_acceleration(s, t);
+    case contact_phase::stuck:
+      if constexpr (!System::compliant) return sys.free_vertical_acceleration(s, t);
+      [[fallthrough]];
     default: return -sys.penetration(s);
   }
 }
 
-template <class Law>
-double exit_rate(const rotor_system<Law>& sys, const state_type& s, double t) {
+template <contact_system System>
+double exit_rate(const System& sys, const state_of<System>& s, double t) {
   switch (sys.phase()) {
-    case contact_phase::contact: return s[idx::vy];
-    case contact_phase::stuck: return sys.free_vertical_jerk_stuck(t);
-    default: return -s[idx::vy];
+    case contact_phase::contact: return sys.penetration_rate(s);
+    case contact_phase::stuck:
+      if constexpr (!System::compliant) return sys.free_vertical_jerk_stuck(t);
+      [[fallthrough]];
+    default: return -sys.penetration_rate(s);
   }
 }
 
@@ -138,12 +165,13 @@ std::pair<double, double> bracket_root(F&& f, double a, double b, double fa, dou
   return boost::math::tools::toms748_solve(f, a, b, fa, fb, done, max_iter);
 }
 
-template <class Law, class Stepper, class Observer>
-  requires dense_stepper<Stepper, rotor_system<Law>>
-hybrid_state hybrid_loop(const rotor_system<Law>& base, Stepper& st, hybrid_state hs, double t_end,
-                         const integration_options& opt, const sample_grid& grid, Observer& obs,
-                         integration_counts& counts) {
-  using system = rotor_system<Law>;
+template <contact_system System, class Stepper, class Observer>
+  requires dense_stepper<Stepper, System>
+basic_hybrid_state<state_of<System>> hybrid_loop(const System& base, Stepper& st, basic_hybrid_state<state_of<System>> hs,
+                                                 double t_end, const integration_options& opt, const sample_grid& grid,
+                                                 Observer& obs, integration_counts& counts) {
+  using system = System;
+  using state_type = state_of<System>;
   const double tol = opt.events.time_tolerance;
   const double period = base.period();
   const double max_events = opt.events.max_events_per_rev * std::max(1.0, (t_end - hs.t) / period);
@@ -256,13 +284,13 @@ hybrid_state hybrid_loop(const rotor_system<Law>& base, Stepper& st, hybrid_stat
     // Peak penetration of an open contact episode: step end, and an interior maximum of z.
     if (sys.phase() == contact_phase::contact) {
       const double z_lo = sys.penetration(state_at(ta));
-      const double v_lo = tmp[idx::vy];
+      const double v_lo = sys.penetration_rate(tmp);
       const double z_hi = sys.penetration(state_at(t_stop));
-      const double v_hi = tmp[idx::vy];
+      const double v_hi = sys.penetration_rate(tmp);
       hs.episode_peak = std::max({hs.episode_peak, z_lo, z_hi});
       if (v_lo > 0.0 && v_hi < 0.0) {
-        const auto vy_at = [&](double t) { return state_at(t)[idx::vy]; };
-        const auto [p_lo, p_hi] = bracket_root(vy_at, ta, t_stop, v_lo, v_hi, tol);
+        const auto rate_at = [&](double t) { return sys.penetration_rate(state_at(t)); };
+        const auto [p_lo, p_hi] = bracket_root(rate_at, ta, t_stop, v_lo, v_hi, tol);
         hs.episode_peak = std::max(hs.episode_peak, sys.penetration(state_at(0.5 * (p_lo + p_hi))));
       }
     }
@@ -287,11 +315,11 @@ hybrid_state hybrid_loop(const rotor_system<Law>& base, Stepper& st, hybrid_stat
     // Transition at the located event. Onset, separation and release start the next phase from
     // the bracket end already inside it (so its exit function starts >= 0); an impact maps the
     // velocity at the bracket end still outside the stator.
-    contact_event ev{};
-    if constexpr (compliant_law<Law>) {
+    basic_contact_event<state_type> ev{};
+    if constexpr (System::compliant) {
       ev.t = bracket->second;
       ev.state = state_at(ev.t);
-      ev.approach_velocity = ev.state[idx::vy];
+      ev.approach_velocity = sys.penetration_rate(ev.state);
       if (sys.phase() == contact_phase::free) {
         ev.kind = event_kind::contact_onset;
         hs.phase = contact_phase::contact;
@@ -354,13 +382,13 @@ hybrid_state hybrid_loop(const rotor_system<Law>& base, Stepper& st, hybrid_stat
 }  // namespace detail
 
 // The phase a trajectory starting at s is in. An impact law cannot start inside the stator.
-template <contact_variant Law>
-hybrid_state start_state(const rotor_system<Law>& sys, const state_type& s, double t) {
-  hybrid_state hs{s, t, contact_phase::free, 0.0};
+template <contact_system System>
+basic_hybrid_state<state_of<System>> start_state(const System& sys, const state_of<System>& s, double t) {
+  basic_hybrid_state<state_of<System>> hs{s, t, contact_phase::free, 0.0};
   const double z = sys.penetration(s);
   if (z > 0.0) {
-    if constexpr (impact_law<Law>) {
-      throw input_error("initial state is inside the stator (y > clearance), impossible for " + std::string(Law::name));
+    if constexpr (!System::compliant) {
+      throw input_error("initial state is inside the stator (y > clearance), impossible for an impact law");
     } else {
       hs.phase = contact_phase::contact;
       hs.episode_peak = z;
@@ -370,15 +398,15 @@ hybrid_state start_state(const rotor_system<Law>& sys, const state_type& s, doub
 }
 
 // Integrates from `start` to t_end, reporting samples on `grid` and every located event.
-template <contact_variant Law, class Observer = null_observer>
-hybrid_state integrate_hybrid(const rotor_system<Law>& model, const hybrid_state& start, double t_end,
-                              const integration_options& opt, const sample_grid& grid, Observer& obs,
-                              integration_counts* counts = nullptr) {
+template <contact_system System, class Observer = null_observer>
+basic_hybrid_state<state_of<System>> integrate_hybrid(const System& model, const basic_hybrid_state<state_of<System>>& start,
+                                                      double t_end, const integration_options& opt, const sample_grid& grid,
+                                                      Observer& obs, integration_counts* counts = nullptr) {
   integration_counts local;
   integration_counts& c = counts ? *counts : local;
   integration_options resolved = opt;
   resolved.stepper = with_default_steps(opt.stepper, model.period());
-  return with_stepper<rotor_system<Law>>(resolved.stepper, [&](auto& st) {
+  return with_stepper<System>(resolved.stepper, [&](auto& st) {
     return detail::hybrid_loop(model, st, start, t_end, resolved, grid, obs, c);
   });
 }

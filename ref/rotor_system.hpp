@@ -31,6 +31,11 @@ enum class contact_phase {
 template <contact_variant Law>
 class rotor_system {
  public:
+  using state_type = rubref::state_type;
+  // Whether the contact is a force (else an impact map with sticking): the hybrid integrator's
+  // view of the law (docs/concepts.md, "ContactSystem").
+  static constexpr bool compliant = compliant_law<Law>;
+
   rotor_system(const parameters& p, double omega, contact_phase phase = contact_phase::by_penetration)
       : law_(Law::from(p)),
         inv_m_(1.0 / p.m),
@@ -73,8 +78,9 @@ class rotor_system {
     }
   }
 
-  // z = y - delta in m; positive inside the stator (Eq. 2).
+  // z = y - delta in m; positive inside the stator (Eq. 2). Its rate is y'.
   double penetration(const state_type& s) const noexcept { return s[idx::y] - delta_; }
+  double penetration_rate(const state_type& s) const noexcept { return s[idx::vy]; }
 
   // y'' the rotor would have with no contact force (m/s^2): decides sticking and release.
   double free_vertical_acceleration(const state_type& s, double t) const noexcept {

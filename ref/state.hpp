@@ -17,8 +17,11 @@ inline constexpr int vx = 2;
 inline constexpr int vy = 3;
 }  // namespace idx
 
-inline bool is_finite(const state_type& s) {
-  return std::isfinite(s[0]) && std::isfinite(s[1]) && std::isfinite(s[2]) && std::isfinite(s[3]);
+template <std::size_t N>
+bool is_finite(const std::array<double, N>& s) {
+  for (const double v : s)
+    if (!std::isfinite(v)) return false;
+  return true;
 }
 
 inline constexpr double rpm_to_rad_s(double rpm) { return rpm * (2.0 * std::numbers::pi / 60.0); }

@@ -24,19 +24,24 @@
 
 namespace rubref {
 
-// An odeint System over the rotor state (Boost.Odeint doc/concepts/system.qbk).
+// The state a System integrates: its own `state_type` (a fixed-size std::array; the rotor's is
+// rubref::state_type, the virtual rig's carries the stator too).
+template <class System>
+using state_of = typename System::state_type;
+
+// An odeint System (Boost.Odeint doc/concepts/system.qbk) over its own state type.
 template <class S>
-concept odeint_system = std::copy_constructible<S> && requires(const S sys, const state_type& x, state_type& dxdt, double t) {
+concept odeint_system = std::copy_constructible<S> && requires(const S sys, const state_of<S>& x, state_of<S>& dxdt, double t) {
   sys(x, dxdt, t);
 };
 
 // What the hybrid integrator needs of a stepper (docs/concepts.md, "DenseStepper").
 template <class S, class System>
-concept dense_stepper = requires(S st, const S cst, const System& sys, const state_type& x, state_type& out, double t) {
+concept dense_stepper = requires(S st, const S cst, const System& sys, const state_of<System>& x, state_of<System>& out, double t) {
   st.initialize(x, t, t);
   { st.do_step(sys) } -> std::convertible_to<std::pair<double, double>>;
   cst.calc_state(t, out);
-  { cst.current_state() } -> std::convertible_to<const state_type&>;
+  { cst.current_state() } -> std::convertible_to<const state_of<System>&>;
   { cst.current_time_step() } -> std::convertible_to<double>;
 };
 
@@ -64,6 +69,8 @@ inline stepper_kind parse_stepper(std::string_view name) {
 // Fixed-step classical RK4 (odeint runge_kutta4).
 template <class System>
 class rk4_dense {
+  using state_type = state_of<System>;
+
  public:
   explicit rk4_dense(double dt) : dt_(dt) {}
 
@@ -107,6 +114,7 @@ class rk4_dense {
 #pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
 template <class System>
 class rkf78_dense {
+  using state_type = state_of<System>;
   using error_stepper = boost::numeric::odeint::runge_kutta_fehlberg78<state_type>;
   using controlled = boost::numeric::odeint::controlled_runge_kutta<error_stepper>;
 
@@ -183,6 +191,7 @@ inline stepper_settings with_default_steps(stepper_settings s, double period) {
 template <class System, class F>
 decltype(auto) with_stepper(const stepper_settings& s, F&& f) {
   namespace ode = boost::numeric::odeint;
+  using state_type = state_of<System>;
   switch (s.kind) {
     case stepper_kind::rk4: {
       rk4_dense<System> st(s.dt);
