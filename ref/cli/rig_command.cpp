@@ -1,0 +1,68 @@
+#include <filesystem>
+#include <iostream>
+#include <memory>
+
+#include "ref/atomic_output.hpp"
+#include "ref/cli/commands.hpp"
+#include "ref/cli/options.hpp"
+#include "ref/rig/rig.hpp"
+
+namespace rubref::cli {
+
+namespace {
+struct rig_state {
+  rig_request req;
+  parameter_options params;
+  std::vector<std::string> effects;
+  std::string out, truth;
+};
+}  // namespace
+
+void add_rig(CLI::App& app) {
+  auto st = std::make_shared<rig_state>();
+  auto* sub = app.add_subcommand("rig", "virtual test rig: a measurement record of the model plus undeclared effects (docs/loop.md)");
+  auto& r = st->req;
+  sub->add_option("--variant", r.variant, "the truth's contact law (compliant): piecewise-linear, piecewise-nonlinear, identified")
+      ->capture_default_str();
+  sub->add_option("--speeds", r.speeds_rpm, "dwell speeds [rev/min], comma-separated")->delimiter(',')->capture_default_str();
+  sub->add_option("--settle-revs", r.settle_revs, "revolutions from rest before each dwell is recorded")->capture_default_str();
+  sub->add_option("--revs", r.record_revs, "revolutions recorded per dwell")->capture_default_str();
+  sub->add_option("--effect", st->effects,
+                  "an effect of the library, at its moderate level or as name:key=value,... (repeatable; `rubref effects` lists them)");
+  sub->add_option("--speed-fluctuation", r.fluctuation.amplitude, "relative speed fluctuation eps, w(1 + eps sin 2 pi f t) (not a library effect)")
+      ->capture_default_str();
+  sub->add_option("--fluctuation-hz", r.fluctuation.frequency, "its frequency f [Hz]")->capture_default_str();
+  sub->add_option("--sample-rate", r.probes.sample_rate, "probe sample rate [Hz]")->capture_default_str();
+  sub->add_option("--noise", r.probes.noise, "probe white noise, standard deviation [m]")->capture_default_str();
+  sub->add_option("--quantisation", r.probes.quantisation, "probe quantisation step [m]")->capture_default_str();
+  sub->add_option("--keyphasor-angle", r.probes.keyphasor_angle, "the keyphasor notch's angle from the unbalance [rad]")->capture_default_str();
+  sub->add_option("--seed", r.probes.seed, "noise seed")->capture_default_str();
+  sub->add_option("--out", st->out, "measurement record to write (docs/data-format.md)")->required();
+  sub->add_option("--truth", st->truth, "truth JSON to write (the effects; for tests); default: <out without .csv>.truth.json");
+  st->params.add_to(*sub);
+  sub->callback([st] {
+    rig_request req = st->req;
+    req.params = st->params.resolve();
+    for (const auto& e : st->effects) apply_effect(req.effects, e);
+    std::string truth = st->truth;
+    if (truth.empty()) {
+      std::filesystem::path p(st->out);
+      truth = (p.extension() == ".csv" ? p.replace_extension("") : p).string() + ".truth.json";
+    }
+    const rig_output o = run_rig(req);
+    atomic_output files;
+    files.stage(st->out, to_csv(o.measurement));
+    files.stage(truth, o.truth.dump(2) + "\n");
+    files.commit();
+    std::cout << "wrote " << st->out << " (" << o.measurement.rows() << " samples, " << req.speeds_rpm.size() << " dwells) and " << truth << "\n";
+  });
+  app.add_subcommand("effects", "list the effect library (docs/loop.md)")->callback([] {
+    for (const auto& e : effect_library()) {
+      std::cout << e.name << (e.measurement_only ? " (measurement)" : "") << ": " << e.model << "\n";
+      for (const auto& q : e.parameters)
+        std::cout << "    " << q.key << " [" << q.unit << "] moderate " << q.moderate << ", range [" << q.lo << ", " << q.hi << "]\n";
+    }
+  });
+}
+
+}  // namespace rubref::cli

@@ -1,0 +1,177 @@
+#include "ref/rig/rig.hpp"
+
+#include <cmath>
+#include <numbers>
+#include <random>
+#include <sstream>
+
+#include "ref/errors.hpp"
+#include "ref/parallel.hpp"
+#include "ref/parameter_io.hpp"
+#include "ref/simulate.hpp"
+#include "ref/version.hpp"
+#include "variants/all_variants.hpp"
+
+namespace rubref {
+
+namespace {
+
+void require(bool ok, const std::string& what) {
+  if (!ok) throw input_error(what);
+}
+
+std::string str(double v) {
+  std::ostringstream out;
+  out.precision(17);
+  out << v;
+  return out.str();
+}
+
+struct truth_samples {
+  std::vector<std::array<double, 6>> s;
+  std::vector<double> angle;  // rad, shaft angle at each sample
+};
+
+template <class Law>
+truth_samples run_dwell(const rig_request& req, double rpm, std::size_t count) {
+  const rig_system<Law> model(req.params, req.effects, rpm_to_rad_s(rpm), req.fluctuation);
+  const double t0 = req.settle_revs * model.period(), dt = 1.0 / req.probes.sample_rate;
+  struct keep {
+    const rig_system<Law>* model;
+    truth_samples* out;
+    void on_sample(double t, const std::array<double, 6>& x, const rig_system<Law>&) {
+      out->s.push_back(x);
+      out->angle.push_back(model->shaft_angle(t));
+    }
+    void on_event(const basic_contact_event<std::array<double, 6>>&) {}
+  };
+  truth_samples out;
+  keep obs{&model, &out};
+  integrate_hybrid(model, start_state(model, std::array<double, 6>{}, 0.0), t0 + static_cast<double>(count) * dt,
+                   req.integration, sample_grid{t0, dt, count}, obs);
+  return out;
+}
+
+// The probes: turned by the misorientation, reading the shaft surface's runout, with white noise,
+// quantised.
+void measure(const rig_request& req, const truth_samples& truth, std::size_t dwell, std::vector<double>& x, std::vector<double>& y,
+             std::vector<double>& keyphasor) {
+  const effect_parameters& fx = req.effects;
+  const double ca = std::cos(fx.misorientation), sa = std::sin(fx.misorientation);
+  std::mt19937_64 rng(req.probes.seed * 1000003ull + dwell);  // one stream per dwell: thread-independent
+  std::normal_distribution<double> noise(0.0, 1.0);
+  const auto runout = [&](double psi) {
+    return fx.runout_1x * std::cos(psi + fx.runout_1x_phase) + fx.runout_2x * std::cos(2.0 * psi + fx.runout_2x_phase);
+  };
+  const auto quantise = [&](double v) { return req.probes.quantisation > 0.0 ? std::round(v / req.probes.quantisation) * req.probes.quantisation : v; };
+  const double two_pi = 2.0 * std::numbers::pi;
+  for (std::size_t i = 0; i < truth.s.size(); ++i) {
+    const auto& s = truth.s[i];
+    const double psi = truth.angle[i];
+    const double xm = ca * s[idx::x] + sa * s[idx::y] + runout(psi);
+    const double ym = -sa * s[idx::x] + ca * s[idx::y] + runout(psi - 0.5 * std::numbers::pi);
+    x.push_back(quantise(xm + req.probes.noise * noise(rng)));
+    y.push_back(quantise(ym + req.probes.noise * noise(rng)));
+    const double now = std::floor((psi + req.probes.keyphasor_angle) / two_pi);
+    const double before = i > 0 ? std::floor((truth.angle[i - 1] + req.probes.keyphasor_angle) / two_pi) : now;
+    keyphasor.push_back(now > before ? 1.0 : 0.0);
+  }
+}
+
+}  // namespace
+
+void validate(const rig_request& req) {
+  validate(req.params);
+  const bool compliant = visit_variant(req.variant, []<class V>() { return compliant_law<V>; });
+  require(compliant, "the rig's truth needs a contact force law; '" + req.variant + "' is an impact map");
+  require(!req.speeds_rpm.empty(), "the rig needs at least one speed");
+  for (const double rpm : req.speeds_rpm)
+    require(std::isfinite(rpm) && rpm > 0.0 && rpm <= kMaxSpeedRpm, "speed " + str(rpm) + " rpm must be finite, > 0 and <= " + str(kMaxSpeedRpm));
+  require(req.settle_revs >= 0, "settle-revs must be >= 0");
+  require(req.record_revs >= 1, "revs must be >= 1");
+  const auto& pr = req.probes;
+  require(std::isfinite(pr.sample_rate) && pr.sample_rate > 0.0 && pr.sample_rate <= 1e7, "sample rate must be in (0, 1e7] Hz (got " + str(pr.sample_rate) + ")");
+  require(std::isfinite(pr.noise) && pr.noise >= 0.0, "probe noise must be finite and >= 0 (got " + str(pr.noise) + ")");
+  require(std::isfinite(pr.quantisation) && pr.quantisation >= 0.0, "quantisation must be finite and >= 0 (got " + str(pr.quantisation) + ")");
+  require(std::isfinite(pr.keyphasor_angle), "keyphasor angle must be finite");
+  const auto& fl = req.fluctuation;
+  require(std::isfinite(fl.amplitude) && fl.amplitude >= 0.0 && fl.amplitude < 0.5, "speed fluctuation amplitude must be in [0, 0.5)");
+  require(fl.amplitude == 0.0 || (std::isfinite(fl.frequency) && fl.frequency > 0.0), "speed fluctuation needs a frequency > 0 Hz");
+  for (const auto& e : effect_library())
+    for (const auto& q : e.parameters) {
+      const double v = req.effects.*q.member;
+      require(std::isfinite(v) && ((q.is_switch && v == q.off) || (v >= q.lo && v <= q.hi)),
+              "effect " + std::string(e.name) + ": " + std::string(q.key) + " = " + str(v) + " is outside [" + str(q.lo) + ", " + str(q.hi) + "]");
+    }
+  double samples = 0.0;
+  for (const double rpm : req.speeds_rpm) samples += req.record_revs * 60.0 / rpm * pr.sample_rate;
+  require(samples <= 1e8, "the record would hold over 1e8 samples");
+}
+
+rig_output run_rig(const rig_request& req) {
+  validate(req);
+  const std::size_t n = req.speeds_rpm.size();
+  std::vector<std::size_t> counts(n);
+  for (std::size_t i = 0; i < n; ++i)
+    counts[i] = static_cast<std::size_t>(std::floor(req.record_revs * 60.0 / req.speeds_rpm[i] * req.probes.sample_rate));
+  std::vector<truth_samples> truth(n);
+  parallel_for(n, 0, [&](std::size_t i) {
+    truth[i] = visit_variant(req.variant, [&]<class V>() {
+      if constexpr (compliant_law<V>) {
+        return run_dwell<V>(req, req.speeds_rpm[i], counts[i]);
+      } else {
+        return truth_samples{};  // rejected by validate
+      }
+    });
+  });
+
+  std::vector<double> t, x, y, rpm, kp;
+  const double dt = 1.0 / req.probes.sample_rate;
+  std::size_t k = 0;  // the acquisition clock runs on across dwells
+  for (std::size_t i = 0; i < n; ++i) {
+    measure(req, truth[i], i, x, y, kp);
+    for (std::size_t j = 0; j < truth[i].s.size(); ++j, ++k) {
+      t.push_back(static_cast<double>(k) * dt);
+      rpm.push_back(req.speeds_rpm[i]);
+    }
+  }
+
+  rig_output out;
+  record& r = out.measurement;
+  r.set("description", "virtual rig: rotor kit, two proximity probes (x at 0 deg, y at 90 deg), keyphasor; t_s is the acquisition clock");
+  r.set("generator", "rubref " + std::string(version()) + " rig");
+  r.set("commit", std::string(commit()));
+  r.set("clearance_m", req.params.delta);
+  r.set("m_kg", req.params.m);
+  r.set("sample_rate_hz", req.probes.sample_rate);
+  r.set("keyphasor", "column keyphasor: 1 at the first sample after the shaft's notch passes its probe");
+  r.add_column("t_s", std::move(t));
+  r.add_column("x_m", std::move(x));
+  r.add_column("y_m", std::move(y));
+  r.add_column("speed_rpm", std::move(rpm));
+  r.add_column("keyphasor", std::move(kp));
+
+  nlohmann::ordered_json& j = out.truth;
+  j["generator"] = "rubref " + std::string(version()) + " rig";
+  j["variant"] = req.variant;
+  j["parameters"] = to_json(req.params);
+  j["effects"] = nlohmann::ordered_json::array();
+  for (const auto& e : effect_library()) {
+    if (!has_effect(req.effects, e)) continue;
+    nlohmann::ordered_json params;
+    for (const auto& q : e.parameters) params[std::string(q.key)] = req.effects.*q.member;
+    j["effects"].push_back({{"name", e.name}, {"params", params}});
+  }
+  j["speed_fluctuation"] = {{"amplitude", req.fluctuation.amplitude}, {"frequency_hz", req.fluctuation.frequency}};
+  j["probes"] = {{"sample_rate_hz", req.probes.sample_rate},
+                 {"noise_m", req.probes.noise},
+                 {"quantisation_m", req.probes.quantisation},
+                 {"keyphasor_angle_rad", req.probes.keyphasor_angle},
+                 {"seed", req.probes.seed}};
+  j["speeds_rpm"] = req.speeds_rpm;
+  j["settle_revs"] = req.settle_revs;
+  j["record_revs"] = req.record_revs;
+  return out;
+}
+
+}  // namespace rubref

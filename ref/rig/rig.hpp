@@ -1,0 +1,51 @@
+#pragma once
+// The virtual test rig (`rubref rig`, docs/loop.md): a lab rotor kit as two proximity probes see
+// it. The truth is the paper's model plus any set of library effects (ref/rig/effects.hpp); the
+// probes sample it at a fixed rate, not synchronised with the shaft, add their runout and white
+// noise, are turned by their misorientation, and quantise; a keyphasor marks each revolution.
+// The record states what a lab would write down (clearance, sample rate, speeds), never the
+// effects: those go to a separate truth file that only tests read.
+
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "ref/hybrid_integrator.hpp"
+#include "ref/parameters.hpp"
+#include "ref/record.hpp"
+#include "ref/rig/effects.hpp"
+#include "ref/rig/rig_system.hpp"
+
+namespace rubref {
+
+struct probe_settings {
+  double sample_rate = 10e3;       // Hz
+  double noise = 0.5e-6;           // m, standard deviation of each probe's white noise
+  double quantisation = 61e-9;     // m, ADC step (16 bits over +-2 mm)
+  double keyphasor_angle = 0.0;    // rad, the notch's angle from the unbalance at t = 0 (unknown to the loop)
+  unsigned seed = 1;               // noise: same seed, same bits
+};
+
+struct rig_request {
+  std::string variant = "identified";   // the truth's contact law (a compliant one)
+  parameters params;                     // the truth rotor (the paper's by default)
+  effect_parameters effects;             // the truth's effects (none by default)
+  speed_fluctuation fluctuation;
+  std::vector<double> speeds_rpm{1450, 1500, 1550, 1600, 1650, 1700, 1750};  // one dwell each
+  int settle_revs = 100;                 // from rest, per dwell
+  int record_revs = 16;                  // per dwell
+  probe_settings probes;
+  integration_options integration;       // of the truth (rubref's defaults)
+};
+
+// Throws input_error naming the first bad setting.
+void validate(const rig_request& req);
+
+struct rig_output {
+  record measurement;           // t_s (acquisition clock), x_m, y_m, speed_rpm, keyphasor
+  nlohmann::ordered_json truth;  // the effects, parameters and probe settings
+};
+
+rig_output run_rig(const rig_request& req);
+
+}  // namespace rubref
