@@ -51,8 +51,8 @@ const std::vector<effect_info>& effect_library() {
        "H. F. Black, Interaction of a whirling rotor with a vibrating stator across a clearance annulus, J. Mech. Eng. Sci. 10 (1968)",
        false,
        {{&P::stator_k, "k_s", "N/m", true, 0.0, 4e6, 1e5, 1e9},
-        {&P::stator_c, "c_s", "N s/m", false, 0.0, 20.0, 0.0, 1e3},
-        {&P::stator_m, "m_s", "kg", false, 0.05, 0.05, 0.005, 1.0}}},
+        {&P::stator_c, "c_s", "N s/m", false, 0.0, 100.0, 0.0, 1e3},
+        {&P::stator_m, "m_s", "kg", false, 1.0, 1.0, 0.1, 5.0}}},
       {"velocity_dependent_friction", "mu(v) = mu + (mu_s - mu) exp(-v / v_c), v = R|w| - tangential rotor speed",
        "Stribeck-type falling friction; B. Armstrong-Helouvry et al., Automatica 30 (1994)", false,
        {{&P::mu_static, "mu_s", "-", true, 0.0, 0.6, 0.0, 2.0},
@@ -60,7 +60,7 @@ const std::vector<effect_info>& effect_library() {
         {&P::shaft_radius, "R", "m", false, 5e-3, 5e-3, 1e-3, 0.1}}},
       {"cross_coupling", "stiffness k_xy (x: -k_xy y), k_yx (y: -k_yx x)",
        "J. M. Vance, Rotordynamics of Turbomachinery, 1988, Ch. 6 (cross-coupled stiffness)", false,
-       {{&P::k_xy, "k_xy", "N/m", true, 0.0, 3e3, -2e4, 2e4}, {&P::k_yx, "k_yx", "N/m", true, 0.0, -3e3, -2e4, 2e4}}},
+       {{&P::k_xy, "k_xy", "N/m", true, 0.0, 1.5e3, -2e4, 2e4}, {&P::k_yx, "k_yx", "N/m", true, 0.0, -1.5e3, -2e4, 2e4}}},
   };
   return library;
 }

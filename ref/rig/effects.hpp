@@ -39,7 +39,8 @@ struct effect_parameters {
   // stator_compliance: the protrusion on its own spring and damper (mass m_s) along the normal.
   double stator_k = 0.0;     // N/m; 0: rigid stator
   double stator_c = 0.0;     // N s/m
-  double stator_m = 0.05;    // kg
+  double stator_m = 1.0;     // kg (a housing segment; a light stator under the identified law's
+                             // c2 z_dot^2, which pushes apart at exit too, is driven unstable)
   // velocity_dependent_friction: mu(v) = mu + (mu_s - mu) exp(-v / v_c) at the sliding speed
   // v = R |w| - sgn(w) (tangential rotor velocity); mu_s <= mu: off.
   double mu_static = 0.0;          // -
