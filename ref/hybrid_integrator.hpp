@@ -86,6 +86,8 @@ struct event_settings {
 struct integration_options {
   stepper_settings stepper;
   event_settings events;
+  std::size_t max_steps = 0;  // accepted steps per call before a numerical_error (0: no limit);
+                              // a fit's trial point with a runaway law fails fast instead of crawling
 };
 
 // Output times: uniform, t0 + k dt for k < count, or the ascending `times` given (`at`).
@@ -226,6 +228,8 @@ basic_hybrid_state<state_of<System>> hybrid_loop(const System& base, Stepper& st
   while (hs.t < t_end) {
     const auto [ta, tb] = accepted_step();
     ++counts.steps;
+    if (opt.max_steps > 0 && counts.steps > opt.max_steps)
+      throw numerical_error("more than " + std::to_string(opt.max_steps) + " steps at " + describe_state(tb, st.current_state()));
     const double next_dt = st.current_time_step();
     if (!(next_dt > 16.0 * std::numeric_limits<double>::epsilon() * std::max(1.0, std::abs(tb))))
       throw numerical_error("step size underflow (dt = " + std::to_string(next_dt) + " s) at " +

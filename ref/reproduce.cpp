@@ -1,8 +1,5 @@
 #include "ref/reproduce.hpp"
 
-#include <spawn.h>
-#include <sys/wait.h>
-
 #include <array>
 #include <chrono>
 #include <cmath>
@@ -17,11 +14,10 @@
 #include "ref/identification/identify.hpp"
 #include "ref/orbit_io.hpp"
 #include "ref/parallel.hpp"
+#include "ref/python_script.hpp"
 #include "ref/sweep_io.hpp"
 #include "ref/version.hpp"
 #include "variants/all_variants.hpp"
-
-extern char** environ;
 
 namespace rubref {
 
@@ -89,17 +85,7 @@ json ranges_json(const speed_ranges& r) {
 }
 
 void run_plot_script(const reproduce_settings& s, const std::filesystem::path& dir) {
-  const std::string python = s.python.empty() ? RUBREF_PYTHON : s.python.string();
-  const std::string script = s.plot_script.empty() ? RUBREF_PLOT_SCRIPT : s.plot_script.string();
-  const std::string folder = dir.string();
-  std::vector<char*> argv{const_cast<char*>(python.c_str()), const_cast<char*>(script.c_str()),
-                          const_cast<char*>(folder.c_str()), nullptr};
-  pid_t pid = 0;
-  if (posix_spawn(&pid, python.c_str(), nullptr, nullptr, argv.data(), environ) != 0)
-    throw input_error("cannot run " + python + " for the figures (is python3-matplotlib installed? scripts/setup installs it)");
-  int status = 0;
-  if (waitpid(pid, &status, 0) < 0 || !WIFEXITED(status) || WEXITSTATUS(status) != 0)
-    throw input_error("drawing the figures failed: " + python + " " + script + " " + folder);
+  run_python_script(s.python.empty() ? default_python() : s.python, s.plot_script.empty() ? script_path("plot_figures.py") : s.plot_script, dir);
 }
 
 }  // namespace

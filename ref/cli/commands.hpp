@@ -10,6 +10,7 @@ void add_sweep(CLI::App& app);
 void add_reproduce(CLI::App& app);
 void add_identify(CLI::App& app);
 void add_rig(CLI::App& app);  // also `effects`
+void add_loop(CLI::App& app);
 // Sets exit_status to 1 when a candidate fails (2 and 3 stay for bad input and numerical failure).
 void add_validate(CLI::App& app, int& exit_status);
 

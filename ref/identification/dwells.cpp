@@ -15,6 +15,7 @@ std::vector<dwell> split_dwells(const record& r, const std::string& source, std:
   const auto& x = r.column("x_m");
   const auto& y = r.column("y_m");
   const auto& rpm = r.column("speed_rpm");
+  const bool has_keyphasor = std::find(r.columns.begin(), r.columns.end(), "keyphasor") != r.columns.end();
   // Data row i sits on file line first_line + i; the reader checked the layout, so the line is
   // only for messages and counts the metadata and header lines.
   const std::size_t first_line = r.metadata.size() + 2;
@@ -35,6 +36,10 @@ std::vector<dwell> split_dwells(const record& r, const std::string& source, std:
     d.t.assign(t.begin() + i, t.begin() + j + 1);
     d.x.assign(x.begin() + i, x.begin() + j + 1);
     d.y.assign(y.begin() + i, y.begin() + j + 1);
+    if (has_keyphasor) {
+      const auto& kp = r.column("keyphasor");
+      d.keyphasor.assign(kp.begin() + i, kp.begin() + j + 1);
+    }
     d.dt = (d.t.back() - d.t.front()) / static_cast<double>(d.size() - 1);
     // Uniform to 1e-6 of a step: enough for the fixed-weight derivative filters.
     constexpr double kUniformTol = 1e-6;

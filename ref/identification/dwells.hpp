@@ -13,6 +13,7 @@ struct dwell {
   double rpm = 0.0;
   double dt = 0.0;                // s, uniform sample spacing
   std::vector<double> t, x, y;    // s, m, m
+  std::vector<double> keyphasor;  // 1 at the first sample after the shaft's notch (empty: no such column)
   double clearance = 0.0;         // m, from the record's clearance_m metadata (0: not stated)
   bool periodic = false;          // the samples are one revolution of a periodic orbit (averaged)
   std::string source;             // "file.csv, lines a-b" for messages

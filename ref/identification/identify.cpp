@@ -48,7 +48,6 @@ double percentile(std::vector<double> v, double q) {
 
 identification identify(const std::vector<std::pair<record, std::string>>& records, const identify_settings& s) {
   if (records.empty()) throw input_error("identify needs at least one record");
-  const std::vector<candidate_term> library = parse_library(s.library);
   std::vector<dwell> dwells;
   for (const auto& [r, name] : records) {
     for (auto& d : split_dwells(r, name)) {
@@ -57,6 +56,12 @@ identification identify(const std::vector<std::pair<record, std::string>>& recor
       dwells.push_back(std::move(d));
     }
   }
+  return identify(dwells, s);
+}
+
+identification identify(const std::vector<dwell>& dwells, const identify_settings& s) {
+  if (dwells.empty()) throw input_error("identify needs at least one dwell");
+  const std::vector<candidate_term> library = parse_library(s.library);
   const auto touches = [](const dwell& d) { return std::any_of(d.y.begin(), d.y.end(), [&](double y) { return y > d.clearance; }); };
 
   identification id;

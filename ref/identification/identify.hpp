@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "ref/identification/contact_forces.hpp"
+#include "ref/identification/dwells.hpp"
 #include "ref/identification/frols.hpp"
 #include "ref/identification/output_error.hpp"
 #include "ref/identification/validity.hpp"
@@ -80,6 +81,8 @@ struct identification {
 
 // Records with their names (for messages). Throws input_error on anything unusable.
 identification identify(const std::vector<std::pair<record, std::string>>& records, const identify_settings& s);
+// The same on dwells already split (each with its clearance), e.g. re-timed by a keyphasor.
+identification identify(const std::vector<dwell>& dwells, const identify_settings& s);
 
 nlohmann::ordered_json to_json(const identification& id, const identify_settings& s);
 std::string to_markdown(const identification& id);

@@ -32,7 +32,7 @@ const std::vector<effect_info>& effect_library() {
        {{&P::preload_x, "F_x", "N", true, 0.0, 2.0, -20.0, 20.0}, {&P::preload_y, "F_y", "N", true, 0.0, -3.0, -20.0, 20.0}}},
       {"misalignment_2x", "force F2 (cos(2wt + phi2), sin(2wt + phi2))",
        "A. Muszynska, Rotordynamics, 2005, Ch. 6 (misalignment: 2X)", false,
-       {{&P::misalignment_force, "F2", "N", true, 0.0, 5.0, 0.0, 50.0},
+       {{&P::misalignment_force, "F2", "N", true, 0.0, 0.5, 0.0, 50.0},
         {&P::misalignment_phase, "phi2", "rad", false, 0.0, 0.7, -kPi, kPi}}},
       {"shaft_bow", "force (k_x b cos(wt + phi_b), k_y b sin(wt + phi_b))",
        "J. C. Nicholas, E. J. Gunter, P. E. Allaire, Effect of residual shaft bow on unbalance response, J. Eng. Ind. 98 (1976)",

@@ -56,20 +56,14 @@ truth_samples run_dwell(const rig_request& req, double rpm, std::size_t count) {
 // quantised.
 void measure(const rig_request& req, const truth_samples& truth, std::size_t dwell, std::vector<double>& x, std::vector<double>& y,
              std::vector<double>& keyphasor) {
-  const effect_parameters& fx = req.effects;
-  const double ca = std::cos(fx.misorientation), sa = std::sin(fx.misorientation);
   std::mt19937_64 rng(req.probes.seed * 1000003ull + dwell);  // one stream per dwell: thread-independent
   std::normal_distribution<double> noise(0.0, 1.0);
-  const auto runout = [&](double psi) {
-    return fx.runout_1x * std::cos(psi + fx.runout_1x_phase) + fx.runout_2x * std::cos(2.0 * psi + fx.runout_2x_phase);
-  };
   const auto quantise = [&](double v) { return req.probes.quantisation > 0.0 ? std::round(v / req.probes.quantisation) * req.probes.quantisation : v; };
   const double two_pi = 2.0 * std::numbers::pi;
   for (std::size_t i = 0; i < truth.s.size(); ++i) {
     const auto& s = truth.s[i];
     const double psi = truth.angle[i];
-    const double xm = ca * s[idx::x] + sa * s[idx::y] + runout(psi);
-    const double ym = -sa * s[idx::x] + ca * s[idx::y] + runout(psi - 0.5 * std::numbers::pi);
+    const auto [xm, ym] = probe_reading(req.effects, s[idx::x], s[idx::y], psi);
     x.push_back(quantise(xm + req.probes.noise * noise(rng)));
     y.push_back(quantise(ym + req.probes.noise * noise(rng)));
     const double now = std::floor((psi + req.probes.keyphasor_angle) / two_pi);

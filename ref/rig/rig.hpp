@@ -31,7 +31,9 @@ struct rig_request {
   parameters params;                     // the truth rotor (the paper's by default)
   effect_parameters effects;             // the truth's effects (none by default)
   speed_fluctuation fluctuation;
-  std::vector<double> speeds_rpm{1450, 1500, 1550, 1600, 1650, 1700, 1750};  // one dwell each
+  // One dwell each: three below the rub (the loop fits the linear part there), six with it, all
+  // with orbits that repeat every revolution under the paper's law at 0.3 mm (1425-1475 rpm do not).
+  std::vector<double> speeds_rpm{1200, 1300, 1400, 1500, 1550, 1600, 1650, 1700, 1750};
   int settle_revs = 100;                 // from rest, per dwell
   int record_revs = 16;                  // per dwell
   probe_settings probes;

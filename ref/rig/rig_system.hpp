@@ -46,6 +46,17 @@ struct speed_fluctuation {
   }
 };
 
+// What the two probes read (x at 0, y at 90 deg) of a rotor at (x, y) with the shaft at angle psi:
+// the position in axes turned by the misorientation alpha, plus the shaft surface's runout
+// a1 cos(psi' + phi1) + a2 cos(2 psi' + phi2), psi' = psi minus the probe's angle.
+inline std::array<double, 2> probe_reading(const effect_parameters& fx, double x, double y, double psi) {
+  const double ca = std::cos(fx.misorientation), sa = std::sin(fx.misorientation);
+  const auto runout = [&](double a) {
+    return fx.runout_1x * std::cos(a + fx.runout_1x_phase) + fx.runout_2x * std::cos(2.0 * a + fx.runout_2x_phase);
+  };
+  return {ca * x + sa * y + runout(psi), -sa * x + ca * y + runout(psi - 0.5 * std::numbers::pi)};
+}
+
 template <compliant_law Law>
 class rig_system {
  public:
@@ -70,12 +81,18 @@ class rig_system {
     const double shaft = drive_.angle(omega_, t), speed = drive_.speed(omega_, t);
     const double a = shaft + p_.unbalance_phase;
     const double unbalance = p_.m * p_.e * speed * speed;
-    const double a2 = 2.0 * shaft + fx_.misalignment_phase;
-    const double ab = shaft + fx_.bow_phase;
-    const double fx = -fn * nx_ + ft * ny_ + unbalance * std::cos(a) + fx_.preload_x + fx_.misalignment_force * std::cos(a2) +
-                      p_.k_x * fx_.bow * std::cos(ab) - fx_.k_xy * s[idx::y];
-    const double fy = -fn * ny_ - ft * nx_ + unbalance * std::sin(a) + fx_.preload_y + fx_.misalignment_force * std::sin(a2) +
-                      p_.k_y * fx_.bow * std::sin(ab) - fx_.k_yx * s[idx::x];
+    double fx = -fn * nx_ + ft * ny_ + unbalance * std::cos(a) + fx_.preload_x - fx_.k_xy * s[idx::y];
+    double fy = -fn * ny_ - ft * nx_ + unbalance * std::sin(a) + fx_.preload_y - fx_.k_yx * s[idx::x];
+    if (fx_.misalignment_force != 0.0) {  // (trig only for the effects present: it dominates the cost)
+      const double a2 = 2.0 * shaft + fx_.misalignment_phase;
+      fx += fx_.misalignment_force * std::cos(a2);
+      fy += fx_.misalignment_force * std::sin(a2);
+    }
+    if (fx_.bow != 0.0) {
+      const double ab = shaft + fx_.bow_phase;
+      fx += p_.k_x * fx_.bow * std::cos(ab);
+      fy += p_.k_y * fx_.bow * std::sin(ab);
+    }
     ds[idx::x] = s[idx::vx];
     ds[idx::y] = s[idx::vy];
     ds[idx::vx] = (fx - p_.c_x * s[idx::vx] - p_.k_x * s[idx::x]) / p_.m;

@@ -1,0 +1,54 @@
+#include <iostream>
+#include <memory>
+
+#include "ref/atomic_output.hpp"
+#include "ref/cli/commands.hpp"
+#include "ref/errors.hpp"
+#include "ref/loop/loop.hpp"
+#include "ref/python_script.hpp"
+#include "ref/record.hpp"
+
+namespace rubref::cli {
+
+namespace {
+struct loop_state {
+  loop_settings settings;
+  std::vector<std::string> files;
+  std::string out;
+  bool figures = true;
+};
+}  // namespace
+
+void add_loop(CLI::App& app) {
+  auto st = std::make_shared<loop_state>();
+  auto& s = st->settings;
+  auto* sub = app.add_subcommand("loop", "fit the paper's model to records, trace the residual to library effects, report before/after (docs/loop.md)");
+  sub->add_option("records", st->files, "measurement records (docs/data-format.md), with a keyphasor column if the rig has one")
+      ->required()
+      ->check(CLI::ExistingFile);
+  sub->add_option("--out", st->out, "report folder (report.json, report.md, figures)")->required();
+  sub->add_option("--mass", s.mass, "rotor mass [kg]; default: the records' m_kg, else the paper's");
+  sub->add_option("--clearance", s.clearance, "clearance for records without clearance_m metadata [m]");
+  sub->add_option("--max-effects", s.max_effects, "trace rounds (effects added at most)")->capture_default_str()->check(CLI::Range(0, 11));
+  sub->add_option("--refit", s.refit_candidates, "effects refitted per round (best scores)")->capture_default_str()->check(CLI::Range(1, 11));
+  sub->add_flag("!--no-figures", st->figures, "write the report without drawing figures");
+  sub->callback([st] {
+    std::vector<std::pair<record, std::string>> records;
+    for (const auto& f : st->files) records.emplace_back(read_record(f), f);
+    loop_settings settings = st->settings;
+    settings.progress = [](const std::string& line) { std::cerr << line << std::endl; };
+    const loop_result r = run_loop(records, settings);
+    staged_directory dir(st->out);
+    dir.write("report.json", to_json(r).dump(2) + "\n");
+    dir.write("report.md", to_markdown(r));
+    dir.write("plot_data.json", plot_data(r).dump() + "\n");
+    if (st->figures && !r.plot_x.empty()) run_python_script(default_python(), script_path("plot_loop.py"), dir.path());
+    dir.commit();
+    std::cout << "error before " << r.error_before << ", after " << r.error_after << "; effects:";
+    for (const auto& e : r.effects) std::cout << " " << e.effect;
+    if (r.effects.empty()) std::cout << " none";
+    std::cout << (r.unexplained ? "; residual unexplained" : "; residual is noise") << "\nwrote " << st->out << "/report.json, report.md\n";
+  });
+}
+
+}  // namespace rubref::cli

@@ -1,0 +1,372 @@
+#include "ref/loop/fit_model.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <cmath>
+#include <numbers>
+
+#include "ref/errors.hpp"
+#include "ref/parallel.hpp"
+#include "ref/rig/rig_system.hpp"
+#include "variants/identified.hpp"
+
+namespace rubref {
+
+namespace {
+
+using rig_state = std::array<double, 6>;
+using model = rig_system<identified>;
+
+// Shooting converges when one revolution maps the state onto itself to these (m, m/s): far
+// below probe resolution and far below the orbit changes the fit's finite differences make
+// (>= 1e-9 m).
+constexpr double kShootPositionTol = 1e-12;
+constexpr double kShootVelocityTol = 1e-10;
+constexpr int kShootIterations = 16;
+constexpr int kChordIterations = 4;  // chord steps with an old Jacobian before it is recomputed
+// Revolutions integrated from a first guess taken from the data before shooting starts: damps
+// what the guess gets wrong of fast motions (contact ringing) so that Newton starts close.
+constexpr int kFirstSettleRevs = 10;
+// Revolutions the model runs from the data's state when it has no stable periodic orbit there.
+constexpr int kFallbackSettleRevs = 30;
+
+integration_options fit_integration() {
+  integration_options opt;
+  opt.stepper.rtol = 1e-10;  // ~1e-13 m on a 0.3 mm orbit: below every difference the fit takes
+  opt.stepper.atol = 1e-14;
+  // A revolution of the paper's model takes ~10^3 steps; a fit's trial law that needs 10^5 per
+  // revolution is far off the data and is treated as a failed point rather than integrated.
+  opt.max_steps = 100000;
+  return opt;
+}
+
+struct state_recorder {
+  std::vector<rig_state>* out;
+  template <class System>
+  void on_sample(double, const rig_state& s, const System&) {
+    out->push_back(s);
+  }
+  void on_event(const basic_contact_event<rig_state>&) {}
+};
+
+rig_state flow(const model& sys, const rig_state& s, double period, const integration_options& opt, const sample_grid& grid,
+               std::vector<rig_state>* samples) {
+  if (samples) {
+    samples->clear();
+    state_recorder rec{samples};
+    return integrate_hybrid(sys, start_state(sys, s, 0.0), period, opt, grid, rec).s;
+  }
+  null_observer none;
+  return integrate_hybrid(sys, start_state(sys, s, 0.0), period, opt, sample_grid{}, none).s;
+}
+
+// A first guess of the state at t = 0 from the data: harmonics 0..H of the dwell's shaft phase,
+// fitted by least squares to x and y, give the position and velocity there.
+rig_state guess_from_data(const dwell& d, const effect_parameters& fx) {
+  constexpr int kHarmonics = 8;
+  const double w = d.omega();
+  Eigen::MatrixXd A(static_cast<Eigen::Index>(d.size()), 2 * kHarmonics + 1);
+  Eigen::VectorXd bx(A.rows()), by(A.rows());
+  for (std::size_t i = 0; i < d.size(); ++i) {
+    const auto r = static_cast<Eigen::Index>(i);
+    A(r, 0) = 1.0;
+    for (int h = 1; h <= kHarmonics; ++h) {
+      A(r, 2 * h - 1) = std::cos(h * w * d.t[i]);
+      A(r, 2 * h) = std::sin(h * w * d.t[i]);
+    }
+    bx[r] = d.x[i];
+    by[r] = d.y[i];
+  }
+  const auto qr = A.colPivHouseholderQr();
+  const Eigen::VectorXd cx = qr.solve(bx), cy = qr.solve(by);
+  double x = cx[0], y = cy[0], vx = 0.0, vy = 0.0;
+  for (int h = 1; h <= kHarmonics; ++h) {
+    x += cx[2 * h - 1];
+    y += cy[2 * h - 1];
+    vx += h * w * cx[2 * h];
+    vy += h * w * cy[2 * h];
+  }
+  // Undo the probes' turn (runout is small against the orbit and left in).
+  const double ca = std::cos(fx.misorientation), sa = std::sin(fx.misorientation);
+  return {ca * x - sa * y, sa * x + ca * y, ca * vx - sa * vy, sa * vx + ca * vy, 0.0, 0.0};
+}
+
+}  // namespace
+
+std::vector<fit_coordinate> paper_coordinates(const model_point&) {
+  // Positive physical quantities are searched as log(value): a trial step can never make a
+  // stiffness, damping or the unbalance negative (a negative k3 lets the rotor run through the
+  // stator, where the law's forces explode). The scale is 1: u = log(value).
+  const auto positive = [](std::string name, double parameters::*m) {
+    return fit_coordinate{std::move(name), 1.0, [m](const model_point& q) { return std::log(std::max(q.p.*m, 1e-300)); },
+                          [m](model_point& q, double u) { q.p.*m = std::exp(u); }};
+  };
+  return {positive("c_x", &parameters::c_x),
+          positive("c_y", &parameters::c_y),
+          positive("k_x", &parameters::k_x),
+          positive("k_y", &parameters::k_y),
+          positive("e", &parameters::e),
+          {"unbalance_phase", 1.0, [](const model_point& q) { return q.p.unbalance_phase; },
+           [](model_point& q, double v) { q.p.unbalance_phase = v; }},
+          positive("k1", &parameters::k1),
+          positive("k3", &parameters::k3),
+          positive("c2", &parameters::c2),
+          positive("mu", &parameters::mu)};
+}
+
+std::vector<fit_coordinate> effect_coordinates(const effect_info& e) {
+  using P = effect_parameters;
+  const auto plain = [&](std::string_view key, double P::*m, double scale) {
+    return fit_coordinate{std::string(e.name) + "." + std::string(key), scale, [m](const model_point& q) { return q.fx.*m; },
+                          [m](model_point& q, double v) { q.fx.*m = v; }};
+  };
+  // An amplitude a >= 0 at angle phi as (a cos phi, a sin phi): smooth through a = 0.
+  const auto pair = [&](std::string_view key, double P::*amp, double P::*phase, double scale) {
+    return std::vector<fit_coordinate>{
+        {std::string(e.name) + "." + std::string(key) + "_cos", scale,
+         [=](const model_point& q) { return q.fx.*amp * std::cos(q.fx.*phase); },
+         [=](model_point& q, double v) {
+           const double s = q.fx.*amp * std::sin(q.fx.*phase);
+           q.fx.*amp = std::hypot(v, s);
+           q.fx.*phase = std::atan2(s, v);
+         }},
+        {std::string(e.name) + "." + std::string(key) + "_sin", scale,
+         [=](const model_point& q) { return q.fx.*amp * std::sin(q.fx.*phase); },
+         [=](model_point& q, double v) {
+           const double c = q.fx.*amp * std::cos(q.fx.*phase);
+           q.fx.*amp = std::hypot(c, v);
+           q.fx.*phase = std::atan2(v, c);
+         }}};
+  };
+  // Scales are the library's moderate levels' orders of magnitude: they only condition the search.
+  const std::string_view n = e.name;
+  if (n == "hertz_contact") return {plain("k_h", &P::hertz_k, 1e8)};
+  if (n == "hunt_crossley_damping") return {plain("lambda", &P::hc_lambda, 1e9)};
+  if (n == "contact_angle") return {plain("theta", &P::contact_angle, 0.1)};
+  if (n == "preload") return {plain("F_x", &P::preload_x, 1.0), plain("F_y", &P::preload_y, 1.0)};
+  if (n == "misalignment_2x") return pair("F2", &P::misalignment_force, &P::misalignment_phase, 1.0);
+  if (n == "shaft_bow") return pair("b", &P::bow, &P::bow_phase, 1e-5);
+  if (n == "probe_runout") {
+    auto a = pair("a1", &P::runout_1x, &P::runout_1x_phase, 1e-6);
+    auto b = pair("a2", &P::runout_2x, &P::runout_2x_phase, 1e-6);
+    a.insert(a.end(), b.begin(), b.end());
+    return a;
+  }
+  if (n == "probe_misorientation") return {plain("alpha", &P::misorientation, 0.01)};
+  if (n == "stator_compliance")  // compliance 1 / k_s: 0 is the rigid stator, and the fit is smooth there
+    return {{"stator_compliance.1/k_s", 1e-7, [](const model_point& q) { return q.fx.stator_k > 0.0 ? 1.0 / q.fx.stator_k : 0.0; },
+             [](model_point& q, double v) { q.fx.stator_k = v > 0.0 ? 1.0 / v : 0.0; }}};
+  if (n == "velocity_dependent_friction")  // the excess mu_s - mu >= 0 (mu_s <= mu is off)
+    return {{"velocity_dependent_friction.mu_s-mu", 0.1,
+             [](const model_point& q) { return q.fx.mu_static > q.p.mu ? q.fx.mu_static - q.p.mu : 0.0; },
+             [](model_point& q, double v) { q.fx.mu_static = v > 0.0 ? q.p.mu + v : 0.0; }}};
+  if (n == "cross_coupling") return {plain("k_xy", &P::k_xy, 1e3), plain("k_yx", &P::k_yx, 1e3)};
+  throw input_error("the loop has no coordinates for effect '" + std::string(n) + "'");
+}
+
+orbit_predictor::orbit_predictor(const std::vector<loop_dwell>& dwells, double noise)
+    : dwells_(dwells), noise_(noise), caches_(dwells.size()) {
+  for (const auto& d : dwells_) {
+    offsets_.push_back(orbit_rows_);
+    orbit_rows_ += 2 * d.data.size();
+  }
+  rows_ = orbit_rows_;
+  for (const auto& d : dwells_)
+    if (std::isfinite(d.timing_sigma)) ++rows_;
+}
+
+bool orbit_predictor::predict(std::size_t k, const model_point& m) {
+  const dwell& d = dwells_[k].data;
+  cache& c = caches_[k];
+  parameters p = m.p;
+  p.delta = d.clearance;
+  const double w = d.omega(), period = 2.0 * std::numbers::pi / w;
+  const model sys(p, m.fx, w);
+
+  // Sample phases in [0, T) for this shift, sorted for one pass over the revolution.
+  const double shift = m.shift.empty() ? 0.0 : m.shift[k];
+  std::vector<std::pair<double, std::size_t>> ph(d.size());
+  for (std::size_t i = 0; i < d.size(); ++i) {
+    const double tau = d.t[i] + shift;
+    double f = tau - period * std::floor(tau / period);
+    if (f >= period) f = 0.0;
+    ph[i] = {f, i};
+  }
+  std::sort(ph.begin(), ph.end());
+  c.phase.resize(ph.size());
+  c.order.resize(ph.size());
+  for (std::size_t i = 0; i < ph.size(); ++i) std::tie(c.phase[i], c.order[i]) = ph[i];
+  const sample_grid grid = sample_grid::at(c.phase);
+
+  const int n = m.fx.stator_k > 0.0 ? 6 : 4;  // the stator's states take part only when it moves
+  // A warm start can reach another periodic orbit of the same parameters than the data's (an
+  // unstable one, or another branch past a fold). The orbit is accepted only if its monodromy
+  // is stable; otherwise once more from the data.
+  c.last_ok = false;
+  const bool warm = c.started;
+  const auto t_start = std::chrono::steady_clock::now();
+  struct timer {
+    std::chrono::steady_clock::time_point t0;
+    double rpm;
+    const char* path = "shot";
+    ~timer() {
+      const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+      if (ms > 200 && std::getenv("RUBREF_LOOP_DEBUG")) std::fprintf(stderr, "slow dwell %g rpm: %.0f ms (%s)\n", rpm, ms, path);
+    }
+  } timing{t_start, d.rpm};
+  shot result = shoot(k, m, sys, period, grid, n);
+  if (result != shot::converged && warm) {  // from the data instead (the anchor stays)
+    c.started = false;
+    c.inverse_jacobian.resize(0, 0);
+    result = shoot(k, m, sys, period, grid, n);
+    c.started = true;
+  }
+  if (result == shot::converged) return true;
+  c.inverse_jacobian.resize(0, 0);
+  timing.path = result == shot::unstable ? "unstable, fallback" : "failed, fallback";
+  // No stable periodic orbit near the data (these parameters give a subharmonic, chaotic or far
+  // orbit): compare the motion the model settles into from the data's state instead, so that the
+  // fit still sees how far off it is and which way to go.
+  try {
+    const integration_options opt = fit_integration();
+    integration_options settle = opt;
+    settle.max_steps *= kFallbackSettleRevs;
+    const rig_state settled = flow(sys, guess_from_data(d, m.fx), kFallbackSettleRevs * period, settle, sample_grid{}, nullptr);
+    std::vector<rig_state> sorted;
+    flow(sys, settled, period, opt, grid, &sorted);
+    if (sorted.size() != d.size()) return false;
+    c.states.resize(d.size());
+    for (std::size_t i = 0; i < sorted.size(); ++i) c.states[c.order[i]] = sorted[i];
+    return true;
+  } catch (const numerical_error&) {
+    return false;
+  }
+}
+
+orbit_predictor::shot orbit_predictor::shoot(std::size_t k, const model_point& m, const rig_system<identified>& sys, double period,
+                                             const sample_grid& grid, int n) {
+  const dwell& d = dwells_[k].data;
+  cache& c = caches_[k];
+  const integration_options opt = fit_integration();
+  const auto scale = [](int i) { return (i == 0 || i == 1 || i == 4) ? 1.0 : 1e2; };  // velocities ~1e2 x positions
+  try {
+    rig_state guess = c.started ? c.start : guess_from_data(d, m.fx);
+    if (!c.started) {
+      integration_options settle = opt;
+      settle.max_steps *= kFirstSettleRevs;
+      guess = flow(sys, guess, kFirstSettleRevs * period, settle, sample_grid{}, nullptr);
+    }
+    if (c.inverse_jacobian.rows() != n) c.inverse_jacobian.resize(0, 0);
+    std::vector<rig_state> sorted;
+    int chord = 0;
+    for (int it = 0; it < kShootIterations; ++it) {
+      const rig_state end = flow(sys, guess, period, opt, grid, &sorted);
+      Eigen::VectorXd f(n);
+      bool converged = true;
+      for (int i = 0; i < n; ++i) {
+        f[i] = end[i] - guess[i];
+        converged = converged && std::abs(f[i]) <= (scale(i) == 1.0 ? kShootPositionTol : kShootVelocityTol);
+      }
+      if (converged) {
+        if (!c.stable) return shot::unstable;
+        c.last = guess;
+        c.last_ok = true;
+        c.states.resize(d.size());
+        for (std::size_t i = 0; i < sorted.size() && i < d.size(); ++i) c.states[c.order[i]] = sorted[i];
+        return sorted.size() == d.size() ? shot::converged : shot::failed;
+      }
+      if (c.inverse_jacobian.size() == 0 || chord >= kChordIterations) {
+        Eigen::MatrixXd J(n, n);
+        for (int j = 0; j < n; ++j) {
+          rig_state s = guess;
+          const double h = 1e-9 * scale(j);  // m or m/s: 1e-5 of the orbit, far above integration error
+          s[j] += h;
+          const rig_state e = flow(sys, s, period, opt, sample_grid{}, nullptr);
+          for (int i = 0; i < n; ++i) J(i, j) = (e[i] - end[i]) / h - (i == j ? 1.0 : 0.0);
+        }
+        c.inverse_jacobian = J.fullPivLu().inverse();
+        const Eigen::MatrixXd monodromy = J + Eigen::MatrixXd::Identity(n, n);
+        c.stable = monodromy.eigenvalues().cwiseAbs().maxCoeff() < 1.0;
+        chord = 0;
+      }
+      const Eigen::VectorXd step = -c.inverse_jacobian * f;
+      for (int i = 0; i < n; ++i) guess[i] += step[i];
+      ++chord;
+      if (!is_finite(guess)) return shot::failed;
+    }
+  } catch (const numerical_error&) {
+  }
+  return shot::failed;
+}
+
+void orbit_predictor::reset() {
+  for (auto& c : caches_) c = cache{};
+}
+
+void orbit_predictor::anchor(const model_point& m) {
+  reset();
+  residuals(m);
+  for (auto& c : caches_) {
+    c.started = c.last_ok;
+    c.start = c.last;
+  }
+}
+
+Eigen::VectorXd orbit_predictor::residuals(const model_point& m) {
+  Eigen::VectorXd r(static_cast<Eigen::Index>(rows_));
+  parallel_for(dwells_.size(), 0, [&](std::size_t k) {
+    const dwell& d = dwells_[k].data;
+    const auto at = static_cast<Eigen::Index>(offsets_[k]);
+    if (!predict(k, m)) {
+      r.segment(at, static_cast<Eigen::Index>(2 * d.size())).setConstant(kFailed);
+      return;
+    }
+    const double w = d.omega(), shift = m.shift.empty() ? 0.0 : m.shift[k];
+    for (std::size_t i = 0; i < d.size(); ++i) {
+      const auto& s = caches_[k].states[i];
+      const auto [xm, ym] = probe_reading(m.fx, s[idx::x], s[idx::y], w * (d.t[i] + shift));
+      r[at + static_cast<Eigen::Index>(2 * i)] = xm - d.x[i];
+      r[at + static_cast<Eigen::Index>(2 * i + 1)] = ym - d.y[i];
+    }
+  });
+  if (std::getenv("RUBREF_LOOP_DEBUG")) {
+    int failed = 0;
+    for (std::size_t k = 0; k < dwells_.size(); ++k) failed += r[static_cast<Eigen::Index>(offsets_[k])] == kFailed;
+    static const auto t0 = std::chrono::steady_clock::now();
+    std::fprintf(stderr, "%.2f s eval: %d failed, |r| %.6g, k1 %.4g k3 %.4g c2 %.4g mu %.4g\n", std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), failed, r.head(static_cast<Eigen::Index>(orbit_rows_)).norm(), m.p.k1, m.p.k3, m.p.c2, m.p.mu);
+  }
+  Eigen::Index row = static_cast<Eigen::Index>(orbit_rows_);
+  for (std::size_t k = 0; k < dwells_.size(); ++k)
+    if (std::isfinite(dwells_[k].timing_sigma)) r[row++] = noise_ * (m.shift.empty() ? 0.0 : m.shift[k]) / dwells_[k].timing_sigma;
+  return r;
+}
+
+Eigen::MatrixXd orbit_predictor::shift_columns(const model_point& m) {
+  // d(reading)/d(shift) = d(reading)/dt: the turned velocity plus the runout's rate. Uses the
+  // states of the last residuals() call at m.
+  Eigen::MatrixXd J = Eigen::MatrixXd::Zero(static_cast<Eigen::Index>(rows_), static_cast<Eigen::Index>(dwells_.size()));
+  const double ca = std::cos(m.fx.misorientation), sa = std::sin(m.fx.misorientation);
+  const auto runout_rate = [&](double a, double w) {
+    return -w * (m.fx.runout_1x * std::sin(a + m.fx.runout_1x_phase) + 2.0 * m.fx.runout_2x * std::sin(2.0 * a + m.fx.runout_2x_phase));
+  };
+  Eigen::Index row = static_cast<Eigen::Index>(orbit_rows_);
+  for (std::size_t k = 0; k < dwells_.size(); ++k) {
+    const dwell& d = dwells_[k].data;
+    const auto col = static_cast<Eigen::Index>(k);
+    const double w = d.omega(), shift = m.shift.empty() ? 0.0 : m.shift[k];
+    if (caches_[k].states.size() == d.size())
+      for (std::size_t i = 0; i < d.size(); ++i) {
+        const auto& s = caches_[k].states[i];
+        const double psi = w * (d.t[i] + shift);
+        const auto at = static_cast<Eigen::Index>(offsets_[k] + 2 * i);
+        J(at, col) = ca * s[idx::vx] + sa * s[idx::vy] + runout_rate(psi, w);
+        J(at + 1, col) = -sa * s[idx::vx] + ca * s[idx::vy] + runout_rate(psi - 0.5 * std::numbers::pi, w);
+      }
+    if (std::isfinite(dwells_[k].timing_sigma)) J(row++, col) = noise_ / dwells_[k].timing_sigma;
+  }
+  return J;
+}
+
+}  // namespace rubref

@@ -1,0 +1,816 @@
+#include "ref/loop/loop.hpp"
+
+#include <Eigen/Dense>
+#include <unsupported/Eigen/LevenbergMarquardt>
+#include <algorithm>
+#include <cmath>
+#include <complex>
+#include <cstdio>
+#include <cstdlib>
+#include <limits>
+#include <numbers>
+#include <sstream>
+
+#include "ref/errors.hpp"
+#include "ref/identification/identify.hpp"
+#include "ref/rig/rig_system.hpp"
+
+namespace rubref {
+
+namespace {
+std::string str(double v) {
+  std::ostringstream o;
+  o.precision(4);
+  o << v;
+  return o.str();
+}
+
+}  // namespace
+
+// Probe noise from the data: 4th differences remove the orbit (its 4th difference at 10 kHz is
+// ~1e-10 m) and leave noise with variance 70 sigma^2; the median absolute value ignores impacts.
+double estimate_noise(const std::vector<loop_dwell>& dwells) {
+  std::vector<double> a;
+  for (const auto& ld : dwells)
+    for (const auto* v : {&ld.data.x, &ld.data.y})
+      for (std::size_t i = 4; i < v->size(); ++i)
+        a.push_back(std::abs((*v)[i] - 4 * (*v)[i - 1] + 6 * (*v)[i - 2] - 4 * (*v)[i - 3] + (*v)[i - 4]));
+  if (a.empty()) return 0.0;
+  std::nth_element(a.begin(), a.begin() + static_cast<std::ptrdiff_t>(a.size() / 2), a.end());
+  return 1.4826 * a[a.size() / 2] / std::sqrt(70.0);
+}
+
+// Re-bases a dwell's times on its keyphasor: the notch passes between the sample before a pulse
+// and the pulse, so every pulse brackets the passage time to one sample; revolutions apart, the
+// brackets of all pulses intersect in a much narrower one.
+void align_by_keyphasor(loop_dwell& ld, std::vector<std::string>& notes) {
+  dwell& d = ld.data;
+  if (d.keyphasor.empty()) return;
+  const double period = 60.0 / d.rpm;
+  std::vector<std::size_t> pulses;
+  for (std::size_t i = 1; i < d.size(); ++i)
+    if (d.keyphasor[i] > 0.5 && !(d.keyphasor[i - 1] > 0.5)) pulses.push_back(i);
+  if (pulses.empty()) {
+    notes.push_back(d.source + ": no keyphasor pulse; times taken as recorded");
+    return;
+  }
+  const double first = d.t[pulses.front()];
+  double lo = -std::numeric_limits<double>::infinity(), hi = std::numeric_limits<double>::infinity(), mean = 0.0;
+  for (const std::size_t i : pulses) {
+    const double revs = std::round((d.t[i] - first) / period);
+    const double t = d.t[i] - revs * period;
+    lo = std::max(lo, t - d.dt);
+    hi = std::min(hi, t);
+    mean += t / static_cast<double>(pulses.size());
+  }
+  double t0 = 0.5 * (lo + hi), width = hi - lo;
+  if (!(hi > lo)) {  // the brackets disagree: the speed is not what the record states
+    notes.push_back(d.source + ": keyphasor pulses are not one revolution of " + str(d.rpm) + " rpm apart");
+    t0 = mean - 0.5 * d.dt;
+    width = d.dt;
+  }
+  for (double& t : d.t) t -= t0;
+  ld.timing_sigma = width / std::sqrt(12.0);  // uniform within the bracket
+}
+
+// The linear part from the dwells without contact, by harmonic balance on their 1X components
+// (steady response of Eq. 1 without contact): with X, Y the 1X phasors of x and y and
+// E = e exp(i phase),
+//   (k_x - m w^2 + i c_x w) X = m w^2 E,   (k_y - m w^2 + i c_y w) Y = -i m w^2 E,
+// linear in (k_x, c_x, k_y, c_y, Re E, Im E). The 1X phasor averages every revolution, so noise
+// barely enters; it needs two speeds or more.
+parameters fit_linear_harmonic(const std::vector<loop_dwell>& dwells, double mass) {
+  std::vector<const loop_dwell*> free;
+  for (const auto& d : dwells)
+    if (!d.contact) free.push_back(&d);
+  std::vector<double> speeds;
+  for (const auto* d : free) speeds.push_back(d->data.rpm);
+  std::sort(speeds.begin(), speeds.end());
+  if (std::unique(speeds.begin(), speeds.end()) - speeds.begin() < 2)
+    throw input_error("the loop fits the linear part on dwells without contact and needs them at two speeds or more (found " +
+                      std::to_string(speeds.end() - speeds.begin() > 0 ? std::unique(speeds.begin(), speeds.end()) - speeds.begin() : 0) + ")");
+  Eigen::MatrixXd A = Eigen::MatrixXd::Zero(4 * static_cast<Eigen::Index>(free.size()), 6);
+  Eigen::VectorXd b(A.rows());
+  Eigen::Index row = 0;
+  for (const auto* ld : free) {
+    const dwell& d = ld->data;
+    const double w = d.omega(), mw2 = mass * w * w;
+    std::complex<double> X, Y;
+    double mx = 0.0, my = 0.0;
+    for (std::size_t i = 0; i < d.size(); ++i) mx += d.x[i] / d.size(), my += d.y[i] / d.size();
+    for (std::size_t i = 0; i < d.size(); ++i) {
+      const auto e = std::polar(2.0 / static_cast<double>(d.size()), -w * d.t[i]);
+      X += (d.x[i] - mx) * e;
+      Y += (d.y[i] - my) * e;
+    }
+    const std::complex<double> I(0.0, 1.0);
+    // x: k_x X + c_x i w X - mw2 E = mw2 X ; y: k_y Y + c_y i w Y + i mw2 E = mw2 Y
+    const std::complex<double> ax[6] = {X, I * w * X, 0.0, 0.0, -mw2, -mw2 * I};
+    const std::complex<double> ay[6] = {0.0, 0.0, Y, I * w * Y, I * mw2, I * mw2 * I};
+    for (int j = 0; j < 6; ++j) {
+      A(row, j) = ax[j].real();
+      A(row + 1, j) = ax[j].imag();
+      A(row + 2, j) = ay[j].real();
+      A(row + 3, j) = ay[j].imag();
+    }
+    b[row] = (mw2 * X).real();
+    b[row + 1] = (mw2 * X).imag();
+    b[row + 2] = (mw2 * Y).real();
+    b[row + 3] = (mw2 * Y).imag();
+    row += 4;
+  }
+  const Eigen::VectorXd v = A.colPivHouseholderQr().solve(b);
+  parameters p;
+  p.m = mass;
+  p.k_x = v[0];
+  p.c_x = v[1];
+  p.k_y = v[2];
+  p.c_y = v[3];
+  p.e = std::hypot(v[4], v[5]);
+  p.unbalance_phase = std::atan2(v[5], v[4]);
+  return p;
+}
+
+// Contact shows in the orbit even where it is not at the top (contact_angle): impacts put
+// orders |k| >= 3 into the orbit, which no effect without contact does (unbalance, bow and
+// preload are orders 0 and 1, misalignment and runout order 2, and misorientation keeps orders).
+// RMS per probe of what orders -2..2 leave of one averaged revolution.
+double high_order_content(const dwell& cycle) {
+  const std::size_t n = cycle.size();
+  const double w = cycle.omega();
+  std::vector<std::complex<double>> z(n);
+  for (std::size_t i = 0; i < n; ++i) z[i] = {cycle.x[i], cycle.y[i]};
+  std::vector<std::complex<double>> rest = z;
+  for (int k = -2; k <= 2; ++k) {
+    std::complex<double> c;
+    for (std::size_t i = 0; i < n; ++i) c += z[i] * std::polar(1.0 / static_cast<double>(n), -k * w * cycle.t[i]);
+    for (std::size_t i = 0; i < n; ++i) rest[i] -= c * std::polar(1.0, k * w * cycle.t[i]);
+  }
+  double sq = 0.0;
+  for (const auto& v : rest) sq += std::norm(v);
+  return std::sqrt(sq / (2.0 * static_cast<double>(n)));
+}
+
+namespace {
+
+using json = nlohmann::ordered_json;
+
+// Two-sided 0.1 % point of the standard normal: the validity checks' false-alarm rate.
+constexpr double kZ = 3.29;
+// The noise estimate (MAD of 4th differences, ~1e5 samples) is good to about 1 %; a residual
+// more than 5 % above it carries 10 % more energy than noise does.
+constexpr double kNoiseRatioLimit = 1.05;
+// Relative finite-difference step of the fit's Jacobian, in scaled coordinates: orbit changes of
+// ~1e-9..1e-7 m, far above the 1e-13 m integration error and small enough to stay linear.
+constexpr double kStep = 1e-3;
+// A candidate is refitted only if its linearised score reaches this share of the best one's:
+// a far weaker linear signal rarely overtakes after the refit, and each refit costs a fit.
+constexpr double kRefitScoreShare = 0.1;
+// Orders |k| >= 3 above this many times the averaged noise (sigma / sqrt(revolutions)) mean
+// contact: noise alone stays below ~1.5x, the lightest contact the loop meets is ~100x.
+constexpr double kContactDistortion = 5.0;
+
+// ---- fitting --------------------------------------------------------------------------------
+
+struct fit_problem {
+  orbit_predictor* predictor;
+  std::vector<fit_coordinate> coords;  // model coordinates (shifts follow them in u)
+  std::vector<std::size_t> shifted;    // dwells whose shift is fitted
+  model_point base;
+  std::vector<double> shift_scale;     // s, per fitted dwell
+
+  Eigen::Index size() const { return static_cast<Eigen::Index>(coords.size() + shifted.size()); }
+  model_point at(const Eigen::VectorXd& u) const {
+    model_point m = base;
+    for (std::size_t j = 0; j < coords.size(); ++j) coords[j].set(m, u[static_cast<Eigen::Index>(j)] * coords[j].scale);
+    for (std::size_t j = 0; j < shifted.size(); ++j)
+      m.shift[shifted[j]] = u[static_cast<Eigen::Index>(coords.size() + j)] * shift_scale[j];
+    return m;
+  }
+  Eigen::VectorXd of(const model_point& m) const {
+    Eigen::VectorXd u(size());
+    for (std::size_t j = 0; j < coords.size(); ++j) u[static_cast<Eigen::Index>(j)] = coords[j].get(m) / coords[j].scale;
+    for (std::size_t j = 0; j < shifted.size(); ++j) u[static_cast<Eigen::Index>(coords.size() + j)] = m.shift[shifted[j]] / shift_scale[j];
+    return u;
+  }
+  // The Jacobian in u: model coordinates by forward differences, shifts analytically.
+  Eigen::MatrixXd jacobian(const Eigen::VectorXd& u, const Eigen::VectorXd& r0) const {
+    Eigen::MatrixXd J(r0.size(), size());
+    for (std::size_t j = 0; j < coords.size(); ++j) {
+      Eigen::VectorXd v = u;
+      v[static_cast<Eigen::Index>(j)] += kStep;
+      J.col(static_cast<Eigen::Index>(j)) = (predictor->residuals(at(v)) - r0) / kStep;
+    }
+    if (!shifted.empty()) {
+      const model_point m = at(u);
+      predictor->residuals(m);  // the states at u for the analytic columns
+      const Eigen::MatrixXd S = predictor->shift_columns(m);
+      for (std::size_t j = 0; j < shifted.size(); ++j)
+        J.col(static_cast<Eigen::Index>(coords.size() + j)) = S.col(static_cast<Eigen::Index>(shifted[j])) * shift_scale[j];
+    }
+    return J;
+  }
+};
+
+struct lm_functor : Eigen::DenseFunctor<double> {
+  const fit_problem* problem;
+  lm_functor(const fit_problem& p, int values) : Eigen::DenseFunctor<double>(static_cast<int>(p.size()), values), problem(&p) {}
+  int operator()(const InputType& u, ValueType& f) const {
+    f = problem->predictor->residuals(problem->at(u));
+    return 0;
+  }
+  int df(const InputType& u, JacobianType& J) const {
+    const Eigen::VectorXd r0 = problem->predictor->residuals(problem->at(u));
+    J = problem->jacobian(u, r0);
+    return 0;
+  }
+};
+
+// Levenberg-Marquardt (Eigen's MINPACK port) from the problem's base point.
+model_point fit(const fit_problem& problem, const Eigen::VectorXd& start, int max_evaluations) {
+  problem.predictor->anchor(problem.at(start));
+  Eigen::VectorXd u = start;
+  lm_functor f(problem, static_cast<int>(problem.predictor->rows()));
+  Eigen::LevenbergMarquardt<lm_functor> lm(f);
+  lm.setMaxfev(max_evaluations);
+  lm.setXtol(1e-12);
+  lm.setFtol(1e-12);
+  const auto status = lm.minimize(u);
+  if (std::getenv("RUBREF_LOOP_DEBUG"))
+    std::fprintf(stderr, "LM: status %d, iterations %ld, evaluations %ld, jacobians %ld, |r| %.6g\n", static_cast<int>(status),
+                 static_cast<long>(lm.iterations()), static_cast<long>(lm.nfev()), static_cast<long>(lm.njev()), lm.fvec().norm());
+  return problem.at(u);
+}
+
+fit_problem make_problem(orbit_predictor& predictor, const std::vector<loop_dwell>& dwells, const model_point& base,
+                         std::vector<fit_coordinate> coords) {
+  fit_problem p{&predictor, std::move(coords), {}, base, {}};
+  for (std::size_t k = 0; k < dwells.size(); ++k)
+    if (std::isfinite(dwells[k].timing_sigma)) {
+      p.shifted.push_back(k);
+      p.shift_scale.push_back(std::max(dwells[k].timing_sigma, 1e-9));
+    }
+  return p;
+}
+
+// ---- residual analysis ------------------------------------------------------------------------
+
+struct error_totals {
+  double nrmse_contact = 0.0;
+  std::vector<double> rms, nrmse;  // per dwell
+};
+
+error_totals errors_of(const std::vector<loop_dwell>& dwells, const orbit_predictor& pr, const Eigen::VectorXd& r) {
+  error_totals out;
+  double res_c = 0.0, sig_c = 0.0;
+  for (std::size_t k = 0; k < dwells.size(); ++k) {
+    const dwell& d = dwells[k].data;
+    const auto at = static_cast<Eigen::Index>(pr.offset(k));
+    const auto n = static_cast<Eigen::Index>(2 * d.size());
+    const double res = r.segment(at, n).squaredNorm();
+    double mx = 0.0, my = 0.0;
+    for (std::size_t i = 0; i < d.size(); ++i) mx += d.x[i] / d.size(), my += d.y[i] / d.size();
+    double sig = 0.0;
+    for (std::size_t i = 0; i < d.size(); ++i) sig += std::pow(d.x[i] - mx, 2) + std::pow(d.y[i] - my, 2);
+    out.rms.push_back(std::sqrt(res / static_cast<double>(n)));
+    out.nrmse.push_back(std::sqrt(res / sig));
+    if (dwells[k].contact) res_c += res, sig_c += sig;
+  }
+  out.nrmse_contact = sig_c > 0.0 ? std::sqrt(res_c / sig_c) : 0.0;
+  return out;
+}
+
+// Shaft-order coefficients c_k = mean(z e^{-i k psi}) of the complex residual z = r_x + i r_y.
+std::vector<std::complex<double>> order_coefficients(const dwell& d, const Eigen::VectorXd& r, std::size_t at, double shift,
+                                                     int orders) {
+  std::vector<std::complex<double>> c(static_cast<std::size_t>(2 * orders + 1));
+  const double w = d.omega();
+  for (std::size_t i = 0; i < d.size(); ++i) {
+    const std::complex<double> z(r[static_cast<Eigen::Index>(at + 2 * i)], r[static_cast<Eigen::Index>(at + 2 * i + 1)]);
+    const double psi = w * (d.t[i] + shift);
+    for (int k = -orders; k <= orders; ++k) c[static_cast<std::size_t>(k + orders)] += z * std::polar(1.0, -k * psi);
+  }
+  for (auto& v : c) v /= static_cast<double>(d.size());
+  return c;
+}
+
+validity_report validity(const std::vector<loop_dwell>& dwells, const orbit_predictor& pr, const model_point& m,
+                         const Eigen::VectorXd& r, double noise, const loop_settings& s) {
+  validity_report v;
+  v.noise = noise;
+  const auto N = static_cast<double>(pr.orbit_rows());
+  v.rms = std::sqrt(r.head(static_cast<Eigen::Index>(pr.orbit_rows())).squaredNorm() / N);
+  v.noise_level = {"residual RMS / noise", noise > 0.0 ? v.rms / noise : std::numeric_limits<double>::infinity(), kNoiseRatioLimit, false};
+  v.noise_level.pass = v.noise_level.value <= v.noise_level.limit;
+
+  // Synchronous part: under noise alone n |c_k|^2 / sigma^2 ~ chi^2(2) for every order and dwell.
+  double chi2 = 0.0, dof = 0.0, q = 0.0, qdof = 0.0;
+  for (std::size_t k = 0; k < dwells.size(); ++k) {
+    const dwell& d = dwells[k].data;
+    const auto c = order_coefficients(d, r, pr.offset(k), m.shift[k], s.orders);
+    double dchi = 0.0;
+    for (const auto& ck : c) dchi += static_cast<double>(d.size()) * std::norm(ck) / (noise * noise);
+    chi2 += dchi;
+    if (std::getenv("RUBREF_LOOP_DEBUG")) {
+      std::fprintf(stderr, "dwell %g rpm: chi2/dof %.3f; |c_k| um:", d.rpm, dchi / (2.0 * c.size()));
+      for (int kk = -3; kk <= 3; ++kk) std::fprintf(stderr, " %.4f", std::abs(c[static_cast<std::size_t>(kk + s.orders)]) * 1e6);
+      std::fprintf(stderr, "\n");
+    }
+    dof += 2.0 * static_cast<double>(c.size());
+    // Whiteness: Box-Pierce on each probe's residual in time order.
+    for (int ch = 0; ch < 2; ++ch) {
+      std::vector<double> e(d.size());
+      double mean = 0.0;
+      for (std::size_t i = 0; i < d.size(); ++i) mean += (e[i] = r[static_cast<Eigen::Index>(pr.offset(k) + 2 * i + ch)]) / d.size();
+      double c0 = 0.0;
+      for (auto& x : e) c0 += (x -= mean) * x;
+      for (int lag = 1; lag <= s.whiteness_lags; ++lag) {
+        double cl = 0.0;
+        for (std::size_t i = static_cast<std::size_t>(lag); i < e.size(); ++i) cl += e[i] * e[i - static_cast<std::size_t>(lag)];
+        q += static_cast<double>(e.size()) * std::pow(cl / c0, 2);
+      }
+      qdof += s.whiteness_lags;
+    }
+  }
+  v.synchronous = {"synchronous chi^2 / dof (orders -" + std::to_string(s.orders) + ".." + std::to_string(s.orders) + ")", chi2 / dof,
+                   1.0 + kZ * std::sqrt(2.0 / dof) + 2.0 * (kNoiseRatioLimit - 1.0), false};
+  v.synchronous.pass = v.synchronous.value <= v.synchronous.limit;
+  v.whiteness = {"Box-Pierce Q / dof (lags 1.." + std::to_string(s.whiteness_lags) + ")", q / qdof, 1.0 + kZ * std::sqrt(2.0 / qdof), false};
+  v.whiteness.pass = v.whiteness.value <= v.whiteness.limit;
+
+  // Dependence on the state: correlation of the residual along the contact normal (y) and across
+  // it (x) with the model's penetration, its rate in contact, x, and the shaft angle.
+  std::vector<std::vector<double>> series(5);
+  std::vector<double> ey, ex;
+  for (std::size_t k = 0; k < dwells.size(); ++k) {
+    const dwell& d = dwells[k].data;
+    const auto& st = pr.states(k);
+    if (st.size() != d.size()) continue;
+    for (std::size_t i = 0; i < d.size(); ++i) {
+      const double z = st[i][idx::y] - d.clearance, psi = d.omega() * (d.t[i] + m.shift[k]);
+      series[0].push_back(std::max(z, 0.0));
+      series[1].push_back(z > 0.0 ? st[i][idx::vy] : 0.0);
+      series[2].push_back(st[i][idx::x]);
+      series[3].push_back(std::cos(psi));
+      series[4].push_back(std::sin(psi));
+      ex.push_back(r[static_cast<Eigen::Index>(pr.offset(k) + 2 * i)]);
+      ey.push_back(r[static_cast<Eigen::Index>(pr.offset(k) + 2 * i + 1)]);
+    }
+  }
+  const auto corr = [](const std::vector<double>& a, const std::vector<double>& b) {
+    const double n = static_cast<double>(a.size());
+    double ma = 0, mb = 0;
+    for (std::size_t i = 0; i < a.size(); ++i) ma += a[i] / n, mb += b[i] / n;
+    double sab = 0, saa = 0, sbb = 0;
+    for (std::size_t i = 0; i < a.size(); ++i) sab += (a[i] - ma) * (b[i] - mb), saa += (a[i] - ma) * (a[i] - ma), sbb += (b[i] - mb) * (b[i] - mb);
+    return saa > 0.0 && sbb > 0.0 ? sab / std::sqrt(saa * sbb) : 0.0;
+  };
+  const char* names[] = {"z+", "z_dot in contact", "x", "cos(shaft angle)", "sin(shaft angle)"};
+  const double band = ex.empty() ? 0.0 : kZ / std::sqrt(static_cast<double>(ex.size()));
+  for (int j = 0; j < 5; ++j)
+    for (int ch = 0; ch < 2; ++ch) {
+      const double c = series[static_cast<std::size_t>(j)].empty() ? 0.0 : corr(series[static_cast<std::size_t>(j)], ch ? ey : ex);
+      v.state.push_back({std::string(ch ? "e_y" : "e_x") + " vs " + names[j], c, band, std::abs(c) <= band});
+    }
+  v.pass = v.noise_level.pass && v.synchronous.pass && v.whiteness.pass &&
+           std::all_of(v.state.begin(), v.state.end(), [](const correlation_check& c) { return c.pass; });
+  return v;
+}
+
+// ERR of the columns S (after removing what J already spans) on the residual r.
+double err_score(const Eigen::MatrixXd& J, const Eigen::MatrixXd& S, const Eigen::VectorXd& r) {
+  const Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qj(J);
+  Eigen::MatrixXd Q = qj.householderQ() * Eigen::MatrixXd::Identity(J.rows(), qj.rank());
+  const Eigen::VectorXd rp = r - Q * (Q.transpose() * r);
+  const Eigen::MatrixXd Sp = S - Q * (Q.transpose() * S);
+  Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qs(Sp);
+  qs.setThreshold(1e-10);
+  if (qs.rank() == 0 || rp.squaredNorm() == 0.0) return 0.0;
+  const Eigen::MatrixXd Qs = qs.householderQ() * Eigen::MatrixXd::Identity(Sp.rows(), qs.rank());
+  return (Qs.transpose() * rp).squaredNorm() / rp.squaredNorm();
+}
+
+double bic(double rss, double n, std::size_t k) { return n * std::log(rss / n) + static_cast<double>(k) * std::log(n); }
+
+std::vector<std::pair<std::string, double>> effect_params(const effect_info& e, const effect_parameters& fx, std::vector<std::string>* held) {
+  std::vector<std::pair<std::string, double>> out;
+  const auto coords = effect_coordinates(e);
+  for (const auto& q : e.parameters) {
+    out.emplace_back(std::string(q.key), fx.*q.member);
+    if (!q.is_switch && held) {
+      // A shape parameter is fitted only through an amplitude-phase pair; others are held.
+      bool fitted = false;
+      for (const auto& c : coords) fitted = fitted || (c.name.find("_cos") != std::string::npos && q.key.starts_with("phi"));
+      if (!fitted) held->push_back(std::string(q.key));
+    }
+  }
+  return out;
+}
+
+}  // namespace
+
+loop_result run_loop(const std::vector<std::pair<record, std::string>>& records, const loop_settings& s) {
+  if (records.empty()) throw input_error("loop needs at least one record");
+  loop_result out;
+  // Dwells, their clearance and mass, timing by keyphasor.
+  double mass = s.mass;
+  out.mass_source = mass > 0.0 ? "given" : "";
+  for (const auto& [r, name] : records) {
+    for (auto& d : split_dwells(r, name)) {
+      if (!(d.clearance > 0.0)) d.clearance = s.clearance;
+      if (!(d.clearance > 0.0)) throw input_error(name + ": no clearance_m metadata; give --clearance");
+      loop_dwell ld{std::move(d), name};
+      align_by_keyphasor(ld, out.notes);
+      out.dwells.push_back(std::move(ld));
+    }
+    if (!(mass > 0.0) && r.find("m_kg")) {
+      mass = r.number("m_kg");
+      if (!(mass > 0.0 && std::isfinite(mass))) throw input_error(name + ": m_kg must be a finite mass > 0");
+      out.mass_source = "m_kg of " + name;
+    }
+  }
+  if (!(mass > 0.0)) {
+    mass = parameters{}.m;
+    out.mass_source = "the paper's (no m_kg metadata)";
+  }
+  out.noise = estimate_noise(out.dwells);
+  const double noise = std::max(out.noise, 1e-12);
+  // Only synchronous dwells can be fitted: the loop's models repeat every revolution. A dwell
+  // whose revolutions differ from their mean by more than kSpreadLimit x the noise (noise alone
+  // gives about 1x) holds subharmonic, quasi-periodic or chaotic motion, or a drifting speed.
+  constexpr double kSpreadLimit = 2.0;
+  std::vector<loop_dwell> kept;
+  for (auto& ld : out.dwells) {
+    const averaged_dwell a = synchronous_average(ld.data);
+    ld.contact = std::any_of(a.cycle.y.begin(), a.cycle.y.end(), [&](double y) { return y > ld.data.clearance; }) ||
+                 high_order_content(a.cycle) > kContactDistortion * noise / std::sqrt(static_cast<double>(a.revolutions));
+    if (a.spread > kSpreadLimit * noise) {
+      out.excluded.push_back({ld.record, ld.data.rpm, ld.contact, a.spread});
+      out.notes.push_back(ld.data.source + ": not synchronous (revolutions differ by " + str(a.spread * 1e6) + " um RMS, noise " +
+                          str(noise * 1e6) + " um); left out of the fit");
+    } else {
+      kept.push_back(std::move(ld));
+    }
+  }
+  out.dwells = std::move(kept);
+  if (std::none_of(out.dwells.begin(), out.dwells.end(), [](const loop_dwell& d) { return d.contact; })) {
+    if (out.excluded.empty()) throw input_error("no dwell reaches its clearance: there is no contact for the loop to fit");
+    out.unexplained = true;  // contact only where the motion does not repeat: nothing synchronous to fit
+    out.error_before = out.error_after = std::numeric_limits<double>::quiet_NaN();
+    out.notes.push_back("no synchronous dwell with contact: the loop cannot fit these records");
+    return out;
+  }
+
+  // Step 1a: the paper's pipeline (docs/identification.md) on the re-timed dwells: the linear
+  // part without contact (here by harmonic balance), then the identified law's terms by FROLS on
+  // the contact forces. (Its NLopt output-error stage is left to step 1b, which refines every
+  // coordinate on every dwell at once.)
+  std::vector<dwell> plain;
+  for (const auto& ld : out.dwells) plain.push_back(ld.data);
+  identify_settings is;
+  is.mass = mass;
+  is.linear = fit_linear_harmonic(out.dwells, mass);
+  is.average_revolutions = true;
+  is.library = "z1,z3,zd2";  // Eq. 5's terms: the loop's base model is the identified law
+  is.frols.rho = 0.0;
+  is.frols.err_threshold = 0.0;
+  is.bootstrap = 0;
+  model_point start;
+  start.p.m = mass;
+  start.shift.assign(out.dwells.size(), 0.0);
+  {
+    const parameters& lin = *is.linear;
+    start.p.c_x = lin.c_x;
+    start.p.c_y = lin.c_y;
+    start.p.k_x = lin.k_x;
+    start.p.k_y = lin.k_y;
+    start.p.e = lin.e;
+    start.p.unbalance_phase = lin.unbalance_phase;
+  }
+  try {
+    const identification id = identify(plain, is);
+    // The law's start: FROLS's coefficients where positive (else the paper's Table 2 value: the
+    // fit searches logarithms), mu from the friction ratio (Fig. 5).
+    for (const auto& t : id.estimates) {
+      if (t.name == "z1" && t.value > 0.0) start.p.k1 = t.value;
+      if (t.name == "z3" && t.value > 0.0) start.p.k3 = t.value;
+      if (t.name == "zd2" && t.value > 0.0) start.p.c2 = t.value;
+    }
+    if (std::isfinite(id.mu_mean) && id.mu_mean > 0.0 && id.mu_mean < 2.0) start.p.mu = id.mu_mean;
+  } catch (const input_error& e) {
+    out.notes.push_back(std::string("FROLS start not available (") + e.what() + "); the law starts from the paper's Table 2");
+  }
+  out.initial = start;
+
+  // Step 1b: every coordinate of the paper's model together, on the orbits of all dwells.
+  s.progress("      every coordinate together (Levenberg-Marquardt) ...");
+  orbit_predictor predictor(out.dwells, noise);
+  const double N = static_cast<double>(predictor.orbit_rows());
+  std::vector<fit_coordinate> coords = paper_coordinates(start);
+  {
+    const fit_problem problem = make_problem(predictor, out.dwells, start, coords);
+    out.before = fit(problem, problem.of(start), s.max_fit_evaluations);
+  }
+  model_point current = out.before;
+  predictor.anchor(current);
+  if (std::getenv("RUBREF_LOOP_DEBUG")) {
+    model_point truth;
+    truth.shift.assign(out.dwells.size(), 0.0);
+    const Eigen::VectorXd rt = predictor.residuals(truth);
+    std::fprintf(stderr, "paper's parameters, no shift: |r| %.8g; fitted |r| %.8g\n", rt.norm(), predictor.residuals(current).norm());
+    for (std::size_t k = 0; k < out.dwells.size(); ++k)
+      std::fprintf(stderr, "  %g rpm: sigma %.3g s, shift %.3g s, rms at truth %.4g um\n", out.dwells[k].data.rpm, out.dwells[k].timing_sigma,
+                   current.shift[k], rt.segment(predictor.offset(k), 2 * out.dwells[k].data.size()).norm() / std::sqrt(2.0 * out.dwells[k].data.size()) * 1e6);
+  }
+  Eigen::VectorXd r = predictor.residuals(current);
+  const Eigen::VectorXd r_before = r;
+  const std::vector<std::vector<std::array<double, 6>>> states_before = [&] {
+    std::vector<std::vector<std::array<double, 6>>> v;
+    for (std::size_t k = 0; k < out.dwells.size(); ++k) v.push_back(predictor.states(k));
+    return v;
+  }();
+  out.validity_before = validity(out.dwells, predictor, current, r, noise, s);
+  out.error_before = errors_of(out.dwells, predictor, r).nrmse_contact;
+  {
+    const auto& v = out.validity_before;
+    s.progress("      before: NRMSE " + str(out.error_before) + ", residual " + str(v.rms * 1e6) + " um against noise " + str(v.noise * 1e6) +
+               " um; synchronous " + str(v.synchronous.value) + " (limit " + str(v.synchronous.limit) + "), whiteness " +
+               str(v.whiteness.value) + " (limit " + str(v.whiteness.limit) + ")");
+  }
+
+  // Step 3: trace.
+  std::vector<const effect_info*> remaining;
+  for (const auto& e : effect_library()) remaining.push_back(&e);
+  bool valid = out.validity_before.pass;
+  for (int round = 0; round < s.max_effects && !valid && !remaining.empty(); ++round) {
+    s.progress("[2/3] trace round " + std::to_string(round + 1) + ": scoring " + std::to_string(remaining.size()) + " effects ...");
+    predictor.anchor(current);
+    const fit_problem base = make_problem(predictor, out.dwells, current, coords);
+    const Eigen::VectorXd u0 = base.of(current);
+    const Eigen::VectorXd r0 = predictor.residuals(current);
+    const Eigen::MatrixXd J = base.jacobian(u0, r0);
+    const double rss0 = r0.squaredNorm(), excess = std::max(rss0 - N * noise * noise, 0.0);
+    std::vector<effect_candidate> cands;
+    for (const auto* e : remaining) {
+      const auto ec = effect_coordinates(*e);
+      Eigen::MatrixXd S(r0.size(), static_cast<Eigen::Index>(ec.size()));
+      for (std::size_t j = 0; j < ec.size(); ++j) {
+        model_point m = current;
+        ec[j].set(m, kStep * ec[j].scale);
+        S.col(static_cast<Eigen::Index>(j)) = (predictor.residuals(m) - r0) / kStep;
+      }
+      cands.push_back({std::string(e->name), err_score(J, S, r0)});
+    }
+    std::stable_sort(cands.begin(), cands.end(), [](const auto& a, const auto& b) { return a.score > b.score; });
+    s.progress("      refitting " + cands[0].name + ", " + cands[1].name + ", ...");
+    int best = -1;
+    model_point best_point;
+    Eigen::VectorXd best_r;
+    for (int c = 0; c < std::min<int>(s.refit_candidates, static_cast<int>(cands.size())); ++c) {
+      auto& cand = cands[static_cast<std::size_t>(c)];
+      if (cand.score < kRefitScoreShare * cands.front().score) break;
+      auto with = coords;
+      const auto ec = effect_coordinates(find_effect(cand.name));
+      with.insert(with.end(), ec.begin(), ec.end());
+      const fit_problem problem = make_problem(predictor, out.dwells, current, with);
+      const model_point fitted = fit(problem, problem.of(current), s.max_fit_evaluations);
+      predictor.anchor(fitted);  // judged on its own orbits
+      const Eigen::VectorXd rf = predictor.residuals(fitted);
+      cand.refitted = true;
+      cand.bic_drop = bic(rss0, N, with.size() - ec.size()) - bic(rf.squaredNorm(), N, with.size());
+      cand.excess_share = excess > 0.0 ? (rss0 - rf.squaredNorm()) / excess : 0.0;
+      cand.error_after = errors_of(out.dwells, predictor, rf).nrmse_contact;
+      if (cand.bic_drop > s.min_bic_drop && cand.excess_share >= s.min_excess_share &&
+          (best < 0 || cand.bic_drop > cands[static_cast<std::size_t>(best)].bic_drop)) {
+        best = c;
+        best_point = fitted;
+        best_r = rf;
+      }
+    }
+    if (best < 0) {
+      out.last_round = cands;
+      break;
+    }
+    const auto& chosen = cands[static_cast<std::size_t>(best)];
+    const effect_info& e = find_effect(chosen.name);
+    loop_step step;
+    step.effect = chosen.name;
+    step.params = effect_params(e, best_point.fx, &step.held);
+    step.error_after_adding = chosen.error_after;
+    step.bic_drop = chosen.bic_drop;
+    step.excess_share = chosen.excess_share;
+    step.candidates = cands;
+    out.effects.push_back(std::move(step));
+    const auto ec = effect_coordinates(e);
+    coords.insert(coords.end(), ec.begin(), ec.end());
+    remaining.erase(std::find(remaining.begin(), remaining.end(), &e));
+    current = best_point;
+    predictor.anchor(current);
+    r = predictor.residuals(current);
+    valid = validity(out.dwells, predictor, current, r, noise, s).pass;
+  }
+  out.after = current;
+  predictor.anchor(current);
+  r = predictor.residuals(current);
+  out.validity_after = validity(out.dwells, predictor, current, r, noise, s);
+  out.unexplained = !out.validity_after.pass;
+  const error_totals eb = errors_of(out.dwells, predictor, r_before), ea = errors_of(out.dwells, predictor, r);
+  out.error_after = ea.nrmse_contact;
+  for (std::size_t k = 0; k < out.dwells.size(); ++k) {
+    const auto& ld = out.dwells[k];
+    out.errors.push_back({ld.record, ld.data.rpm, ld.contact, ld.data.size(), eb.rms[k], ea.rms[k], eb.nrmse[k], ea.nrmse[k]});
+  }
+
+  // Spectrum by order, RMS over contact dwells, and the plot dwell (largest error before).
+  out.spectrum.orders.clear();
+  for (int k = -s.orders; k <= s.orders; ++k) out.spectrum.orders.push_back(k);
+  out.spectrum.before.assign(out.spectrum.orders.size(), 0.0);
+  out.spectrum.after.assign(out.spectrum.orders.size(), 0.0);
+  double contact_dwells = 0.0, worst = -1.0;
+  for (std::size_t k = 0; k < out.dwells.size(); ++k) {
+    if (!out.dwells[k].contact) continue;
+    contact_dwells += 1.0;
+    const auto cb = order_coefficients(out.dwells[k].data, r_before, predictor.offset(k), out.before.shift[k], s.orders);
+    const auto ca = order_coefficients(out.dwells[k].data, r, predictor.offset(k), out.after.shift[k], s.orders);
+    for (std::size_t j = 0; j < cb.size(); ++j) out.spectrum.before[j] += std::norm(cb[j]), out.spectrum.after[j] += std::norm(ca[j]);
+    if (eb.rms[k] > worst) worst = eb.rms[k], out.plot_dwell = k;
+  }
+  for (auto* v : {&out.spectrum.before, &out.spectrum.after})
+    for (double& x : *v) x = std::sqrt(x / std::max(contact_dwells, 1.0));
+  {
+    const std::size_t k = out.plot_dwell;
+    const dwell& d = out.dwells[k].data;
+    const double period = 60.0 / d.rpm;
+    for (std::size_t i = 0; i < d.size(); ++i) {
+      const double tau = d.t[i] + out.after.shift[k];
+      out.plot_phase.push_back(360.0 * (tau / period - std::floor(tau / period)));
+      out.plot_x.push_back(d.x[i]);
+      out.plot_y.push_back(d.y[i]);
+      const auto at = static_cast<Eigen::Index>(predictor.offset(k) + 2 * i);
+      out.plot_x_before.push_back(d.x[i] + r_before[at]);
+      out.plot_y_before.push_back(d.y[i] + r_before[at + 1]);
+      out.plot_x_after.push_back(d.x[i] + r[at]);
+      out.plot_y_after.push_back(d.y[i] + r[at + 1]);
+    }
+  }
+  (void)states_before;
+  return out;
+}
+
+namespace {
+
+json point_json(const model_point& m) {
+  json j;
+  const parameters& p = m.p;
+  j["m_kg"] = p.m;
+  j["c_x_kg_s"] = p.c_x;
+  j["c_y_kg_s"] = p.c_y;
+  j["k_x_N_m"] = p.k_x;
+  j["k_y_N_m"] = p.k_y;
+  j["e_m"] = p.e;
+  j["unbalance_phase_rad"] = p.unbalance_phase;
+  j["k1_N_m"] = p.k1;
+  j["k3_N_m3"] = p.k3;
+  j["c2_kg_m"] = p.c2;
+  j["mu"] = p.mu;
+  return j;
+}
+
+json check_json(const correlation_check& c) { return {{"name", c.name}, {"value", c.value}, {"limit", c.limit}, {"pass", c.pass}}; }
+
+json validity_json(const validity_report& v) {
+  json j{{"noise_m", v.noise}, {"residual_rms_m", v.rms}, {"pass", v.pass}};
+  j["checks"] = json::array({check_json(v.noise_level), check_json(v.synchronous), check_json(v.whiteness)});
+  for (const auto& c : v.state) j["checks"].push_back(check_json(c));
+  return j;
+}
+
+json candidates_json(const std::vector<effect_candidate>& cs) {
+  json a = json::array();
+  for (const auto& c : cs) {
+    json j{{"name", c.name}, {"score", c.score}, {"refitted", c.refitted}};
+    if (c.refitted) {
+      j["bic_drop"] = c.bic_drop;
+      j["excess_share"] = c.excess_share;
+      j["error_after"] = c.error_after;
+    }
+    a.push_back(j);
+  }
+  return a;
+}
+
+std::string fmt(double v, int digits = 4) {
+  std::ostringstream o;
+  o.precision(digits);
+  o << v;
+  return o.str();
+}
+
+}  // namespace
+
+json to_json(const loop_result& r) {
+  json j;
+  j["error_before"] = r.error_before;
+  j["error_after"] = r.error_after;
+  j["error_definition"] = "orbit NRMSE over the dwells with contact: sqrt(sum |model - measured|^2 / sum |measured - dwell mean|^2)";
+  j["effects"] = json::array();
+  for (const auto& e : r.effects) {
+    json params;
+    for (const auto& [k, v] : e.params) params[k] = v;
+    j["effects"].push_back({{"name", e.effect},
+                            {"params", params},
+                            {"held", e.held},
+                            {"error_after_adding", e.error_after_adding},
+                            {"bic_drop", e.bic_drop},
+                            {"excess_share", e.excess_share},
+                            {"candidates", candidates_json(e.candidates)}});
+  }
+  j["unexplained"] = r.unexplained;
+  if (!r.last_round.empty()) j["rejected_round"] = candidates_json(r.last_round);
+  j["excluded"] = json::array();
+  for (const auto& e : r.excluded)
+    j["excluded"].push_back({{"record", e.record}, {"rpm", e.rpm}, {"contact", e.contact}, {"revolution_spread_m", e.spread}});
+  j["noise_m"] = r.noise;
+  j["mass_source"] = r.mass_source;
+  j["model_staged"] = point_json(r.initial);
+  j["model_before"] = point_json(r.before);
+  j["model_after"] = point_json(r.after);
+  j["validity_before"] = validity_json(r.validity_before);
+  j["validity_after"] = validity_json(r.validity_after);
+  j["records"] = json::array();
+  for (const auto& e : r.errors)
+    j["records"].push_back({{"record", e.record},
+                            {"rpm", e.rpm},
+                            {"contact", e.contact},
+                            {"samples", e.samples},
+                            {"rms_before_m", e.rms_before},
+                            {"rms_after_m", e.rms_after},
+                            {"error_before", e.nrmse_before},
+                            {"error_after", e.nrmse_after}});
+  j["residual_spectrum"] = {{"orders", r.spectrum.orders}, {"before_m", r.spectrum.before}, {"after_m", r.spectrum.after}};
+  j["notes"] = r.notes;
+  return j;
+}
+
+std::string to_markdown(const loop_result& r) {
+  std::ostringstream o;
+  o << "# rubref loop report\n\n";
+  o << "| | before | after |\n|---|---|---|\n";
+  o << "| orbit NRMSE (contact dwells) | " << fmt(r.error_before) << " | " << fmt(r.error_after) << " |\n";
+  o << "| residual RMS | " << fmt(r.validity_before.rms * 1e6) << " um | " << fmt(r.validity_after.rms * 1e6) << " um |\n";
+  o << "| residual consistent with noise (" << fmt(r.noise * 1e6) << " um) | " << (r.validity_before.pass ? "yes" : "no") << " | "
+    << (r.validity_after.pass ? "yes" : "no") << " |\n\n";
+  o << "Effects added, in order:";
+  if (r.effects.empty()) o << " none.";
+  o << "\n\n";
+  if (!r.effects.empty()) {
+    o << "| # | effect | parameters | error after adding | BIC drop | share of excess removed |\n|---|---|---|---|---|---|\n";
+    int i = 1;
+    for (const auto& e : r.effects) {
+      std::string ps;
+      for (const auto& [k, v] : e.params) ps += (ps.empty() ? "" : ", ") + k + " = " + fmt(v);
+      if (!e.held.empty()) {
+        std::string h;
+        for (const auto& k : e.held) h += (h.empty() ? "" : ", ") + k;
+        ps += " (held: " + h + ")";
+      }
+      o << "| " << i++ << " | " << e.effect << " | " << ps << " | " << fmt(e.error_after_adding) << " | " << fmt(e.bic_drop, 6) << " | "
+        << fmt(e.excess_share, 3) << " |\n";
+    }
+    o << "\n";
+  }
+  o << (r.unexplained ? "**Unexplained:** the final residual is not noise, and no effect of the library passes the significance rule.\n\n"
+                      : "The final residual is consistent with probe noise.\n\n");
+  if (!r.plot_x.empty()) o << "![orbit](orbit.png)\n\n![residual spectrum](residual_spectrum.png)\n\n![residual](residual.png)\n\n";
+  o << "## Validity checks (after)\n\n| check | value | limit | pass |\n|---|---|---|---|\n";
+  for (const auto* c : {&r.validity_after.noise_level, &r.validity_after.synchronous, &r.validity_after.whiteness})
+    o << "| " << c->name << " | " << fmt(c->value) << " | " << fmt(c->limit) << " | " << (c->pass ? "yes" : "no") << " |\n";
+  for (const auto& c : r.validity_after.state)
+    o << "| corr " << c.name << " | " << fmt(c.value) << " | " << fmt(c.limit) << " | " << (c.pass ? "yes" : "no") << " |\n";
+  o << "\n## Per dwell\n\n| record | rpm | contact | samples | NRMSE before | NRMSE after | RMS before [um] | RMS after [um] |\n"
+       "|---|---|---|---|---|---|---|---|\n";
+  for (const auto& e : r.errors)
+    o << "| " << e.record << " | " << e.rpm << " | " << (e.contact ? "yes" : "no") << " | " << e.samples << " | " << fmt(e.nrmse_before) << " | "
+      << fmt(e.nrmse_after) << " | " << fmt(e.rms_before * 1e6) << " | " << fmt(e.rms_after * 1e6) << " |\n";
+  for (const auto& n : r.notes) o << "\nNote: " << n << "\n";
+  return o.str();
+}
+
+json plot_data(const loop_result& r) {
+  if (r.plot_x.empty()) return json::object();
+  const auto& d = r.dwells[r.plot_dwell];
+  return {{"title", d.record + ", " + fmt(d.data.rpm) + " rpm"},
+          {"clearance_m", d.data.clearance},
+          {"phase_deg", r.plot_phase},
+          {"x_m", r.plot_x},
+          {"y_m", r.plot_y},
+          {"x_before_m", r.plot_x_before},
+          {"y_before_m", r.plot_y_before},
+          {"x_after_m", r.plot_x_after},
+          {"y_after_m", r.plot_y_after},
+          {"orders", r.spectrum.orders},
+          {"spectrum_before_m", r.spectrum.before},
+          {"spectrum_after_m", r.spectrum.after}};
+}
+
+}  // namespace rubref
