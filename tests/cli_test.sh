@@ -92,5 +92,15 @@ expect_error "library term 'w2'" identify "$work/id_sw/record_up.csv" --linear "
 grep -v '^# clearance_m' "$work/id_sw/record_up.csv" >"$work/no_clearance.csv"
 expect_error "no clearance_m" identify "$work/no_clearance.csv" --linear "$work/paper.json" --out "$work/id2"
 
+# rig and loop: bad effects and records named; a record without rub is not a loop's input.
+expect_error "unknown effect 'gravity'" rig --effect gravity --out "$work/o.csv"
+expect_error "k_h = -1" rig --effect hertz_contact:k_h=-1 --out "$work/o.csv"
+"$rubref" rig --clearance 1 --speeds 1200,1300 --revs 4 --settle-revs 20 --out "$work/free.csv" >/dev/null || fail "rig failed"
+grep -q '^# clearance_m: 1$' "$work/free.csv" || fail "rig record lacks its clearance"
+grep -q 'effects' "$work/free.csv" && fail "rig record names its effects"
+expect_error "no dwell reaches its clearance" loop "$work/free.csv" --out "$work/loop"
+expect_error "short.csv" loop "$work/short.csv" --clearance 3e-4 --out "$work/loop"
+[ ! -e "$work/loop" ] || fail "loop left a report behind"
+
 [ "$failures" -eq 0 ] && echo "cli_test: all passed"
 exit "$failures"

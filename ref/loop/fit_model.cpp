@@ -1,9 +1,6 @@
 #include "ref/loop/fit_model.hpp"
 
 #include <algorithm>
-#include <chrono>
-#include <cstdio>
-#include <cstdlib>
 #include <cmath>
 #include <numbers>
 
@@ -29,7 +26,7 @@ constexpr int kChordIterations = 4;  // chord steps with an old Jacobian before 
 // Revolutions integrated from a first guess taken from the data before shooting starts: damps
 // what the guess gets wrong of fast motions (contact ringing) so that Newton starts close.
 constexpr int kFirstSettleRevs = 10;
-// Revolutions the model runs from the data's state when it has no stable periodic orbit there.
+// Revolutions the model runs from the data's state when Newton finds no periodic orbit there.
 constexpr int kFallbackSettleRevs = 30;
 
 integration_options fit_integration() {
@@ -122,21 +119,23 @@ std::vector<fit_coordinate> effect_coordinates(const effect_info& e) {
     return fit_coordinate{std::string(e.name) + "." + std::string(key), scale, [m](const model_point& q) { return q.fx.*m; },
                           [m](model_point& q, double v) { q.fx.*m = v; }};
   };
-  // An amplitude a >= 0 at angle phi as (a cos phi, a sin phi): smooth through a = 0.
+  // An amplitude a >= 0 at angle phi as (a cos phi, a sin phi): smooth through a = 0. Going
+  // through (a, phi) leaves ~1e-17 of a component set to zero; below 1e-12 of the scale it is 0.
+  const auto flush = [](double a, double scale) { return a < 1e-12 * scale ? 0.0 : a; };
   const auto pair = [&](std::string_view key, double P::*amp, double P::*phase, double scale) {
     return std::vector<fit_coordinate>{
         {std::string(e.name) + "." + std::string(key) + "_cos", scale,
          [=](const model_point& q) { return q.fx.*amp * std::cos(q.fx.*phase); },
          [=](model_point& q, double v) {
            const double s = q.fx.*amp * std::sin(q.fx.*phase);
-           q.fx.*amp = std::hypot(v, s);
+           q.fx.*amp = flush(std::hypot(v, s), scale);
            q.fx.*phase = std::atan2(s, v);
          }},
         {std::string(e.name) + "." + std::string(key) + "_sin", scale,
          [=](const model_point& q) { return q.fx.*amp * std::sin(q.fx.*phase); },
          [=](model_point& q, double v) {
            const double c = q.fx.*amp * std::cos(q.fx.*phase);
-           q.fx.*amp = std::hypot(c, v);
+           q.fx.*amp = flush(std::hypot(c, v), scale);
            q.fx.*phase = std::atan2(v, c);
          }}};
   };
@@ -201,21 +200,11 @@ bool orbit_predictor::predict(std::size_t k, const model_point& m) {
   const sample_grid grid = sample_grid::at(c.phase);
 
   const int n = m.fx.stator_k > 0.0 ? 6 : 4;  // the stator's states take part only when it moves
-  // A warm start can reach another periodic orbit of the same parameters than the data's (an
-  // unstable one, or another branch past a fold). The orbit is accepted only if its monodromy
-  // is stable; otherwise once more from the data.
+  // Newton from the anchor (the fit's start point's orbit), else from the data. The periodic
+  // orbit is taken even where it is unstable: it stays a smooth function of the parameters, and
+  // its distance from the data's (stable) orbit is what the fit must see to come back.
   c.last_ok = false;
   const bool warm = c.started;
-  const auto t_start = std::chrono::steady_clock::now();
-  struct timer {
-    std::chrono::steady_clock::time_point t0;
-    double rpm;
-    const char* path = "shot";
-    ~timer() {
-      const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-      if (ms > 200 && std::getenv("RUBREF_LOOP_DEBUG")) std::fprintf(stderr, "slow dwell %g rpm: %.0f ms (%s)\n", rpm, ms, path);
-    }
-  } timing{t_start, d.rpm};
   shot result = shoot(k, m, sys, period, grid, n);
   if (result != shot::converged && warm) {  // from the data instead (the anchor stays)
     c.started = false;
@@ -225,8 +214,7 @@ bool orbit_predictor::predict(std::size_t k, const model_point& m) {
   }
   if (result == shot::converged) return true;
   c.inverse_jacobian.resize(0, 0);
-  timing.path = result == shot::unstable ? "unstable, fallback" : "failed, fallback";
-  // No stable periodic orbit near the data (these parameters give a subharmonic, chaotic or far
+  // No periodic orbit near the data (these parameters give a subharmonic, chaotic or far
   // orbit): compare the motion the model settles into from the data's state instead, so that the
   // fit still sees how far off it is and which way to go.
   try {
@@ -270,7 +258,6 @@ orbit_predictor::shot orbit_predictor::shoot(std::size_t k, const model_point& m
         converged = converged && std::abs(f[i]) <= (scale(i) == 1.0 ? kShootPositionTol : kShootVelocityTol);
       }
       if (converged) {
-        if (!c.stable) return shot::unstable;
         c.last = guess;
         c.last_ok = true;
         c.states.resize(d.size());
@@ -287,8 +274,6 @@ orbit_predictor::shot orbit_predictor::shoot(std::size_t k, const model_point& m
           for (int i = 0; i < n; ++i) J(i, j) = (e[i] - end[i]) / h - (i == j ? 1.0 : 0.0);
         }
         c.inverse_jacobian = J.fullPivLu().inverse();
-        const Eigen::MatrixXd monodromy = J + Eigen::MatrixXd::Identity(n, n);
-        c.stable = monodromy.eigenvalues().cwiseAbs().maxCoeff() < 1.0;
         chord = 0;
       }
       const Eigen::VectorXd step = -c.inverse_jacobian * f;
@@ -331,12 +316,6 @@ Eigen::VectorXd orbit_predictor::residuals(const model_point& m) {
       r[at + static_cast<Eigen::Index>(2 * i + 1)] = ym - d.y[i];
     }
   });
-  if (std::getenv("RUBREF_LOOP_DEBUG")) {
-    int failed = 0;
-    for (std::size_t k = 0; k < dwells_.size(); ++k) failed += r[static_cast<Eigen::Index>(offsets_[k])] == kFailed;
-    static const auto t0 = std::chrono::steady_clock::now();
-    std::fprintf(stderr, "%.2f s eval: %d failed, |r| %.6g, k1 %.4g k3 %.4g c2 %.4g mu %.4g\n", std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), failed, r.head(static_cast<Eigen::Index>(orbit_rows_)).norm(), m.p.k1, m.p.k3, m.p.c2, m.p.mu);
-  }
   Eigen::Index row = static_cast<Eigen::Index>(orbit_rows_);
   for (std::size_t k = 0; k < dwells_.size(); ++k)
     if (std::isfinite(dwells_[k].timing_sigma)) r[row++] = noise_ * (m.shift.empty() ? 0.0 : m.shift[k]) / dwells_[k].timing_sigma;

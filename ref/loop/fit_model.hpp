@@ -90,7 +90,6 @@ class orbit_predictor {
     bool started = false;
     std::array<double, 6> start{};      // the anchor: a periodic orbit's state at t = 0
     Eigen::MatrixXd inverse_jacobian;   // of the shooting map, reused while it converges (chord Newton)
-    bool stable = true;                 // the monodromy matrix behind it has all |eigenvalues| < 1
     std::vector<double> phase;          // sorted sample phases (s in [0, T)) for the current shift
     std::vector<std::size_t> order;     // sample index of each sorted phase
     std::vector<std::array<double, 6>> states;  // model state at each sample (sample order)
@@ -98,7 +97,7 @@ class orbit_predictor {
     bool last_ok = false;
   };
   bool predict(std::size_t k, const model_point& m);  // false: the integrator failed
-  enum class shot { converged, unstable, failed };
+  enum class shot { converged, failed };
   shot shoot(std::size_t k, const model_point& m, const rig_system<identified>& sys, double period, const sample_grid& grid, int n);
 
   const std::vector<loop_dwell>& dwells_;

@@ -5,8 +5,6 @@
 #include <algorithm>
 #include <cmath>
 #include <complex>
-#include <cstdio>
-#include <cstdlib>
 #include <limits>
 #include <numbers>
 #include <sstream>
@@ -56,11 +54,14 @@ void align_by_keyphasor(loop_dwell& ld, std::vector<std::string>& notes) {
   }
   const double first = d.t[pulses.front()];
   double lo = -std::numeric_limits<double>::infinity(), hi = std::numeric_limits<double>::infinity(), mean = 0.0;
+  // Closed brackets, widened by a hair: with a sample rate that is a whole multiple of the speed
+  // the notch can pass exactly at a sample, and rounding puts that pulse on either side of it.
+  const double hair = 1e-6 * d.dt;
   for (const std::size_t i : pulses) {
     const double revs = std::round((d.t[i] - first) / period);
     const double t = d.t[i] - revs * period;
-    lo = std::max(lo, t - d.dt);
-    hi = std::min(hi, t);
+    lo = std::max(lo, t - d.dt - hair);
+    hi = std::min(hi, t + hair);
     mean += t / static_cast<double>(pulses.size());
   }
   double t0 = 0.5 * (lo + hi), width = hi - lo;
@@ -235,10 +236,7 @@ model_point fit(const fit_problem& problem, const Eigen::VectorXd& start, int ma
   lm.setMaxfev(max_evaluations);
   lm.setXtol(1e-12);
   lm.setFtol(1e-12);
-  const auto status = lm.minimize(u);
-  if (std::getenv("RUBREF_LOOP_DEBUG"))
-    std::fprintf(stderr, "LM: status %d, iterations %ld, evaluations %ld, jacobians %ld, |r| %.6g\n", static_cast<int>(status),
-                 static_cast<long>(lm.iterations()), static_cast<long>(lm.nfev()), static_cast<long>(lm.njev()), lm.fvec().norm());
+  lm.minimize(u);
   return problem.at(u);
 }
 
@@ -311,11 +309,6 @@ validity_report validity(const std::vector<loop_dwell>& dwells, const orbit_pred
     double dchi = 0.0;
     for (const auto& ck : c) dchi += static_cast<double>(d.size()) * std::norm(ck) / (noise * noise);
     chi2 += dchi;
-    if (std::getenv("RUBREF_LOOP_DEBUG")) {
-      std::fprintf(stderr, "dwell %g rpm: chi2/dof %.3f; |c_k| um:", d.rpm, dchi / (2.0 * c.size()));
-      for (int kk = -3; kk <= 3; ++kk) std::fprintf(stderr, " %.4f", std::abs(c[static_cast<std::size_t>(kk + s.orders)]) * 1e6);
-      std::fprintf(stderr, "\n");
-    }
     dof += 2.0 * static_cast<double>(c.size());
     // Whiteness: Box-Pierce on each probe's residual in time order.
     for (int ch = 0; ch < 2; ++ch) {
@@ -513,22 +506,9 @@ loop_result run_loop(const std::vector<std::pair<record, std::string>>& records,
   }
   model_point current = out.before;
   predictor.anchor(current);
-  if (std::getenv("RUBREF_LOOP_DEBUG")) {
-    model_point truth;
-    truth.shift.assign(out.dwells.size(), 0.0);
-    const Eigen::VectorXd rt = predictor.residuals(truth);
-    std::fprintf(stderr, "paper's parameters, no shift: |r| %.8g; fitted |r| %.8g\n", rt.norm(), predictor.residuals(current).norm());
-    for (std::size_t k = 0; k < out.dwells.size(); ++k)
-      std::fprintf(stderr, "  %g rpm: sigma %.3g s, shift %.3g s, rms at truth %.4g um\n", out.dwells[k].data.rpm, out.dwells[k].timing_sigma,
-                   current.shift[k], rt.segment(predictor.offset(k), 2 * out.dwells[k].data.size()).norm() / std::sqrt(2.0 * out.dwells[k].data.size()) * 1e6);
-  }
   Eigen::VectorXd r = predictor.residuals(current);
   const Eigen::VectorXd r_before = r;
-  const std::vector<std::vector<std::array<double, 6>>> states_before = [&] {
-    std::vector<std::vector<std::array<double, 6>>> v;
-    for (std::size_t k = 0; k < out.dwells.size(); ++k) v.push_back(predictor.states(k));
-    return v;
-  }();
+
   out.validity_before = validity(out.dwells, predictor, current, r, noise, s);
   out.error_before = errors_of(out.dwells, predictor, r).nrmse_contact;
   {
@@ -551,6 +531,7 @@ loop_result run_loop(const std::vector<std::pair<record, std::string>>& records,
     const Eigen::MatrixXd J = base.jacobian(u0, r0);
     const double rss0 = r0.squaredNorm(), excess = std::max(rss0 - N * noise * noise, 0.0);
     std::vector<effect_candidate> cands;
+    std::vector<Eigen::VectorXd> gauss_newton;  // by candidate, in `remaining` order
     for (const auto* e : remaining) {
       const auto ec = effect_coordinates(*e);
       Eigen::MatrixXd S(r0.size(), static_cast<Eigen::Index>(ec.size()));
@@ -560,8 +541,22 @@ loop_result run_loop(const std::vector<std::pair<record, std::string>>& records,
         S.col(static_cast<Eigen::Index>(j)) = (predictor.residuals(m) - r0) / kStep;
       }
       cands.push_back({std::string(e->name), err_score(J, S, r0)});
+      // The Gauss-Newton step with the effect's columns: where its refit starts.
+      Eigen::MatrixXd JS(J.rows(), J.cols() + S.cols());
+      JS << J, S;
+      const Eigen::VectorXd step = -JS.colPivHouseholderQr().solve(r0);
+      gauss_newton.push_back(step);
     }
-    std::stable_sort(cands.begin(), cands.end(), [](const auto& a, const auto& b) { return a.score > b.score; });
+    std::vector<std::size_t> rank(cands.size());
+    for (std::size_t i = 0; i < rank.size(); ++i) rank[i] = i;
+    std::stable_sort(rank.begin(), rank.end(), [&](std::size_t a, std::size_t b) { return cands[a].score > cands[b].score; });
+    {
+      std::vector<effect_candidate> sorted;
+      std::vector<Eigen::VectorXd> steps;
+      for (const std::size_t i : rank) sorted.push_back(cands[i]), steps.push_back(gauss_newton[i]);
+      cands = std::move(sorted);
+      gauss_newton = std::move(steps);
+    }
     s.progress("      refitting " + cands[0].name + ", " + cands[1].name + ", ...");
     int best = -1;
     model_point best_point;
@@ -573,7 +568,17 @@ loop_result run_loop(const std::vector<std::pair<record, std::string>>& records,
       const auto ec = effect_coordinates(find_effect(cand.name));
       with.insert(with.end(), ec.begin(), ec.end());
       const fit_problem problem = make_problem(predictor, out.dwells, current, with);
-      const model_point fitted = fit(problem, problem.of(current), s.max_fit_evaluations);
+      // Start from the Gauss-Newton point if it is better than the current one (the effect at 0).
+      Eigen::VectorXd start = problem.of(current);
+      Eigen::VectorXd gn = start;
+      const Eigen::VectorXd& step = gauss_newton[static_cast<std::size_t>(c)];
+      const auto nb = static_cast<Eigen::Index>(coords.size());
+      gn.head(nb) += step.head(nb);
+      gn.segment(nb, static_cast<Eigen::Index>(ec.size())) = step.tail(static_cast<Eigen::Index>(ec.size()));
+      gn.tail(start.size() - nb - static_cast<Eigen::Index>(ec.size())) += step.segment(nb, start.size() - nb - static_cast<Eigen::Index>(ec.size()));
+      predictor.anchor(current);
+      if (predictor.residuals(problem.at(gn)).squaredNorm() < rss0) start = gn;
+      const model_point fitted = fit(problem, start, s.max_fit_evaluations);
       predictor.anchor(fitted);  // judged on its own orbits
       const Eigen::VectorXd rf = predictor.residuals(fitted);
       cand.refitted = true;
@@ -610,6 +615,10 @@ loop_result run_loop(const std::vector<std::pair<record, std::string>>& records,
     valid = validity(out.dwells, predictor, current, r, noise, s).pass;
   }
   out.after = current;
+  for (auto& step : out.effects) {  // the final estimates (later effects refine earlier ones)
+    step.held.clear();
+    step.params = effect_params(find_effect(step.effect), current.fx, &step.held);
+  }
   predictor.anchor(current);
   r = predictor.residuals(current);
   out.validity_after = validity(out.dwells, predictor, current, r, noise, s);
@@ -653,7 +662,6 @@ loop_result run_loop(const std::vector<std::pair<record, std::string>>& records,
       out.plot_y_after.push_back(d.y[i] + r[at + 1]);
     }
   }
-  (void)states_before;
   return out;
 }
 

@@ -32,7 +32,7 @@ struct loop_settings {
   double min_excess_share = 1.0 / 3.0;
   int orders = 20;               // shaft orders of the residual spectrum and the synchronous test
   int whiteness_lags = 20;
-  int max_fit_evaluations = 40;  // per Levenberg-Marquardt fit
+  int max_fit_evaluations = 60;  // per Levenberg-Marquardt fit
   std::function<void(const std::string&)> progress = [](const std::string&) {};
 };
 

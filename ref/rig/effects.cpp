@@ -2,6 +2,7 @@
 
 #include <charconv>
 #include <cmath>
+#include <sstream>
 
 #include "ref/errors.hpp"
 
@@ -9,6 +10,12 @@ namespace rubref {
 
 namespace {
 using P = effect_parameters;
+
+std::string shortest(double v) {
+  std::ostringstream o;
+  o << v;
+  return o.str();
+}
 constexpr double kPi = 3.14159265358979323846;
 }  // namespace
 
@@ -51,12 +58,12 @@ const std::vector<effect_info>& effect_library() {
        "H. F. Black, Interaction of a whirling rotor with a vibrating stator across a clearance annulus, J. Mech. Eng. Sci. 10 (1968)",
        false,
        {{&P::stator_k, "k_s", "N/m", true, 0.0, 4e6, 1e5, 1e9},
-        {&P::stator_c, "c_s", "N s/m", false, 0.0, 100.0, 0.0, 1e3},
+        {&P::stator_c, "c_s", "N s/m", false, 100.0, 100.0, 0.0, 1e3},
         {&P::stator_m, "m_s", "kg", false, 1.0, 1.0, 0.1, 5.0}}},
       {"velocity_dependent_friction", "mu(v) = mu + (mu_s - mu) exp(-v / v_c), v = R|w| - tangential rotor speed",
        "Stribeck-type falling friction; B. Armstrong-Helouvry et al., Automatica 30 (1994)", false,
        {{&P::mu_static, "mu_s", "-", true, 0.0, 0.6, 0.0, 2.0},
-        {&P::slip_decay_speed, "v_c", "m/s", false, 0.1, 0.5, 0.01, 10.0},
+        {&P::slip_decay_speed, "v_c", "m/s", false, 0.5, 0.5, 0.01, 10.0},
         {&P::shaft_radius, "R", "m", false, 5e-3, 5e-3, 1e-3, 0.1}}},
       {"cross_coupling", "stiffness k_xy (x: -k_xy y), k_yx (y: -k_yx x)",
        "J. M. Vance, Rotordynamics of Turbomachinery, 1988, Ch. 6 (cross-coupled stiffness)", false,
@@ -113,7 +120,7 @@ void apply_effect(effect_parameters& p, std::string_view text) {
       throw input_error("effect '" + std::string(e.name) + "': " + std::string(key) + " is not a finite number: '" + std::string(value) + "'");
     if (!(q->is_switch && v == q->off) && (v < q->lo || v > q->hi))
       throw input_error("effect '" + std::string(e.name) + "': " + std::string(key) + " = " + std::string(value) + " " + std::string(q->unit) +
-                        " is outside [" + std::to_string(q->lo) + ", " + std::to_string(q->hi) + "]");
+                        " is outside [" + shortest(q->lo) + ", " + shortest(q->hi) + "]");
     p.*q->member = v;
   }
 }

@@ -11,7 +11,9 @@
 
 namespace rubref {
 
-// Every effect's parameters in one value type (a model carries all, most of them off).
+// Every effect's parameters in one value type (a model carries all, most of them off). Shape
+// parameters (exponents, masses, dampers, decay speeds) default to the library's typical values,
+// which is where the loop holds them.
 struct effect_parameters {
   // hertz_contact: extra normal force k_h z^1.5 (Hertz point contact).
   double hertz_k = 0.0;  // N/m^1.5
@@ -38,13 +40,13 @@ struct effect_parameters {
   double misorientation = 0.0;  // rad
   // stator_compliance: the protrusion on its own spring and damper (mass m_s) along the normal.
   double stator_k = 0.0;     // N/m; 0: rigid stator
-  double stator_c = 0.0;     // N s/m
+  double stator_c = 100.0;   // N s/m
   double stator_m = 1.0;     // kg (a housing segment; a light stator under the identified law's
                              // c2 z_dot^2, which pushes apart at exit too, is driven unstable)
   // velocity_dependent_friction: mu(v) = mu + (mu_s - mu) exp(-v / v_c) at the sliding speed
   // v = R |w| - sgn(w) (tangential rotor velocity); mu_s <= mu: off.
   double mu_static = 0.0;          // -
-  double slip_decay_speed = 0.1;   // m/s
+  double slip_decay_speed = 0.5;   // m/s
   double shaft_radius = 5e-3;      // m (the RK-4 kit's 10 mm shaft)
   // cross_coupling: stiffness k_xy (x force -k_xy y) and k_yx (y force -k_yx x).
   double k_xy = 0.0, k_yx = 0.0;  // N/m

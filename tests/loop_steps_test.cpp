@@ -1,0 +1,145 @@
+// The loop's building blocks (ref/loop/) on virtual-rig records whose truth is known: noise
+// estimate, keyphasor timing, the linear part by harmonic balance, contact's fingerprint, the
+// fit's coordinates, and the model's orbits at the truth.
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <numbers>
+
+#include "ref/errors.hpp"
+#include "ref/loop/fit_model.hpp"
+#include "ref/loop/loop.hpp"
+#include "ref/rig/rig.hpp"
+
+namespace rubref::testing {
+namespace {
+
+// Dwells of a rig record, timed by their keyphasor as the loop does.
+std::vector<loop_dwell> rig_dwells(const rig_request& req) {
+  const rig_output o = run_rig(req);
+  std::vector<loop_dwell> out;
+  std::vector<std::string> notes;
+  for (auto& d : split_dwells(o.measurement, "rig")) {
+    loop_dwell ld{std::move(d), "rig"};
+    align_by_keyphasor(ld, notes);
+    out.push_back(std::move(ld));
+  }
+  EXPECT_TRUE(notes.empty());
+  return out;
+}
+
+rig_request below_the_rub() {
+  rig_request req;
+  req.params.delta = 1.0;  // m: never reached
+  req.speeds_rpm = {1200, 1300, 1400, 1700};
+  req.record_revs = 16;
+  return req;
+}
+
+// sigma from the median absolute 4th difference: ~1e5 samples give it to ~1 %.
+TEST(loop_steps, noise_is_estimated_from_the_data) {
+  rig_request req = below_the_rub();
+  req.probes.quantisation = 0.0;
+  constexpr double kNoiseTol = 0.03;
+  for (const double sigma : {0.2e-6, 1e-6}) {
+    req.probes.noise = sigma;
+    EXPECT_NEAR(estimate_noise(rig_dwells(req)), sigma, kNoiseTol * sigma) << sigma;
+  }
+}
+
+// After alignment, t = 0 is a notch passage to within the bracket the pulses leave: the shaft
+// angle w t at every pulse is within [-w sigma sqrt(12), w dt] of a whole turn.
+TEST(loop_steps, keyphasor_alignment_finds_the_notch) {
+  rig_request req = below_the_rub();
+  req.probes.keyphasor_angle = 0.7;  // the notch 0.7 rad before the unbalance
+  for (const auto& ld : rig_dwells(req)) {
+    const double w = ld.data.omega();
+    ASSERT_TRUE(std::isfinite(ld.timing_sigma));
+    EXPECT_LE(ld.timing_sigma, 1.001 * ld.data.dt / std::sqrt(12.0));  // at most one sample wide (plus the hair)
+    for (std::size_t i = 1; i < ld.data.size(); ++i)
+      if (ld.data.keyphasor[i] > 0.5) {
+        const double past = std::remainder(w * ld.data.t[i], 2.0 * std::numbers::pi);
+        EXPECT_GT(past, -1e-9);
+        EXPECT_LT(past, w * ld.data.dt + 1e-9);
+      }
+  }
+}
+
+// Without contact the 1X phasors give c, k, e and the unbalance angle by linear least squares;
+// with 0.5 um noise over 16 revolutions the 1X phasor is good to ~0.01 um of ~100 um. The angle
+// is the keyphasor's: good to half a sample, w dt / 2 = 9e-3 rad at 1700 rpm and 10 kHz.
+TEST(loop_steps, harmonic_balance_recovers_the_linear_part) {
+  rig_request req = below_the_rub();
+  req.probes.keyphasor_angle = 0.0;  // the unbalance angle from the notch is then the truth's
+  auto dwells = rig_dwells(req);
+  const parameters p = fit_linear_harmonic(dwells, req.params.m);
+  const parameters& t = req.params;
+  constexpr double kStiffnessTol = 1e-3, kDampingTol = 3e-2, kUnbalanceTol = 1e-2, kAngleTol = 9e-3;
+  EXPECT_NEAR(p.k_x, t.k_x, kStiffnessTol * t.k_x);
+  EXPECT_NEAR(p.k_y, t.k_y, kStiffnessTol * t.k_y);
+  EXPECT_NEAR(p.c_x, t.c_x, kDampingTol * t.c_x);
+  EXPECT_NEAR(p.c_y, t.c_y, kDampingTol * t.c_y);
+  EXPECT_NEAR(p.e, t.e, kUnbalanceTol * t.e);
+  EXPECT_NEAR(p.unbalance_phase, t.unbalance_phase, kAngleTol);
+  // One speed is not enough: named.
+  dwells.resize(1);
+  EXPECT_THROW(fit_linear_harmonic(dwells, req.params.m), input_error);
+}
+
+// Contact puts orders >= 3 into the orbit; the linear orbit has none beyond the noise.
+TEST(loop_steps, contact_shows_as_high_orders) {
+  rig_request req;
+  req.speeds_rpm = {1400, 1600};
+  for (const auto& ld : rig_dwells(req)) {
+    const averaged_dwell a = synchronous_average(ld.data);
+    const double floor = req.probes.noise / std::sqrt(static_cast<double>(a.revolutions));
+    if (ld.data.rpm == 1400)
+      EXPECT_LT(high_order_content(a.cycle), 2.0 * floor);
+    else
+      EXPECT_GT(high_order_content(a.cycle), 10.0 * floor);  // measured: 47x; the loop's threshold is 5x
+  }
+}
+
+// Every effect's coordinates: off at 0, on when set, and set/get round trip.
+TEST(loop_steps, effect_coordinates_switch_their_effect) {
+  for (const auto& e : effect_library()) {
+    const auto coords = effect_coordinates(e);
+    ASSERT_FALSE(coords.empty()) << e.name;
+    model_point m;
+    EXPECT_FALSE(has_effect(m.fx, e)) << e.name;
+    for (const auto& c : coords) {
+      model_point q = m;
+      c.set(q, 0.37 * c.scale);
+      EXPECT_TRUE(has_effect(q.fx, e)) << c.name;
+      EXPECT_NEAR(c.get(q), 0.37 * c.scale, 1e-12 * c.scale) << c.name;
+      c.set(q, 0.0);
+      EXPECT_FALSE(has_effect(q.fx, e)) << c.name;
+    }
+  }
+}
+
+// At the truth (timing shifts fitted aside) the model's periodic orbits leave only the probe
+// noise: the residual RMS is the noise to within its sampling spread.
+TEST(loop_steps, the_truths_orbits_leave_the_noise) {
+  rig_request req;
+  req.speeds_rpm = {1300, 1600, 1700};
+  req.probes.quantisation = 0.0;
+  auto dwells = rig_dwells(req);
+  for (auto& d : dwells) {  // the rig's own time origin: a whole number of turns before the dwell
+    const double t0 = d.data.t.front();
+    for (double& t : d.data.t) t -= t0;
+    d.timing_sigma = std::numeric_limits<double>::infinity();
+    d.data.clearance = req.params.delta;
+  }
+  orbit_predictor predictor(dwells, req.probes.noise);
+  model_point truth;
+  truth.shift.assign(dwells.size(), 0.0);
+  const Eigen::VectorXd r = predictor.residuals(truth);
+  const double rms = std::sqrt(r.squaredNorm() / static_cast<double>(r.size()));
+  constexpr double kRmsTol = 0.02;  // ~3e4 samples: the sample RMS of white noise is good to ~0.5 %
+  EXPECT_NEAR(rms, req.probes.noise, kRmsTol * req.probes.noise);
+}
+
+}  // namespace
+}  // namespace rubref::testing

@@ -1,0 +1,106 @@
+// The loop end to end (docs/loop.md) on virtual-rig records with an effect nobody declares: the
+// rig's truth is the paper's model plus the effect at the library's moderate level, with its
+// default probes (0.5 um noise, 61 nm quantisation, 10 kHz, keyphasor 0.7 rad off the
+// unbalance). Each scenario is one ctest entry (label `loop`, tests/CMakeLists.txt).
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <map>
+
+#include "ref/loop/loop.hpp"
+#include "ref/rig/rig.hpp"
+
+namespace rubref::testing {
+namespace {
+
+// "Well below": the error after the trace is at most this share of the error before (docs/loop.md
+// lists the measured ratios, 0.02-0.3).
+constexpr double kErrorRatio = 0.5;
+
+struct run {
+  rig_request req;
+  loop_result result;
+};
+
+run loop_on_rig(const std::vector<std::string>& effects, speed_fluctuation fluctuation = {}) {
+  run out;
+  out.req.probes.keyphasor_angle = 0.7;  // the loop does not know where the notch is
+  out.req.fluctuation = fluctuation;
+  for (const auto& e : effects) apply_effect(out.req.effects, e);
+  const rig_output o = run_rig(out.req);
+  out.result = run_loop({{o.measurement, "rig.csv"}}, loop_settings{});
+  return out;
+}
+
+// The effect found first, with its switch parameters within `rel_tol` of the truth.
+void expect_found_first(const std::string& name, double rel_tol) {
+  const run r = loop_on_rig({name});
+  ASSERT_FALSE(r.result.effects.empty()) << name << " not found";
+  const loop_step& first = r.result.effects.front();
+  EXPECT_EQ(first.effect, name);
+  if (first.effect != name) return;
+  const effect_info& e = find_effect(name);
+  std::map<std::string, double> est(first.params.begin(), first.params.end());
+  for (const auto& q : e.parameters) {
+    if (!q.is_switch) continue;
+    const double truth = r.req.effects.*q.member;
+    EXPECT_NEAR(est.at(std::string(q.key)), truth, rel_tol * std::abs(truth)) << name << "." << q.key;
+  }
+  EXPECT_LT(r.result.error_after, kErrorRatio * r.result.error_before) << name;
+  // The measured line docs/loop.md quotes.
+  std::printf("MEASURED %s: error %.4g -> %.4g (ratio %.3g), unexplained %d, effects", name.c_str(), r.result.error_before,
+              r.result.error_after, r.result.error_after / r.result.error_before, r.result.unexplained);
+  for (const auto& s : r.result.effects) std::printf(" %s", s.effect.c_str());
+  for (const auto& q : e.parameters)
+    if (q.is_switch) std::printf("; %s = %.5g (truth %.5g)", std::string(q.key).c_str(), est.at(std::string(q.key)), r.req.effects.*q.member);
+  std::printf("\n");
+}
+
+// Paper model and noise only: nothing added, the residual is the noise.
+TEST(loop_scenarios, no_effect_adds_nothing) {
+  const run r = loop_on_rig({});
+  EXPECT_TRUE(r.result.effects.empty());
+  EXPECT_FALSE(r.result.unexplained);
+  EXPECT_EQ(r.result.error_after, r.result.error_before);
+  EXPECT_LE(r.result.validity_after.noise_level.value, r.result.validity_after.noise_level.limit);
+}
+
+// Parameter tolerances: measured estimate errors (docs/loop.md) times ~3, rounded up.
+TEST(loop_scenarios, preload) { expect_found_first("preload", 0.01); }
+TEST(loop_scenarios, shaft_bow) { expect_found_first("shaft_bow", 0.02); }
+TEST(loop_scenarios, probe_runout) { expect_found_first("probe_runout", 0.05); }
+TEST(loop_scenarios, hunt_crossley_damping) { expect_found_first("hunt_crossley_damping", 0.3); }
+TEST(loop_scenarios, velocity_dependent_friction) { expect_found_first("velocity_dependent_friction", 0.3); }
+TEST(loop_scenarios, cross_coupling) { expect_found_first("cross_coupling", 0.1); }
+TEST(loop_scenarios, misalignment_2x) { expect_found_first("misalignment_2x", 0.1); }
+TEST(loop_scenarios, probe_misorientation) { expect_found_first("probe_misorientation", 0.1); }
+// Not found yet (docs/loop.md, "Limits, measured"): kept runnable with
+// --gtest_also_run_disabled_tests, and not registered with ctest, until the loop finds them.
+// hertz_contact: the paper's law with free k1, k3, c2 absorbs it to the noise level.
+// stator_compliance: probe_runout is named first (the linear score at a rigid stator is weak).
+// contact_angle: the paper's model fits so badly without it that no linear score points to it.
+TEST(loop_scenarios, DISABLED_stator_compliance) { expect_found_first("stator_compliance", 0.3); }
+TEST(loop_scenarios, DISABLED_contact_angle) { expect_found_first("contact_angle", 0.1); }
+TEST(loop_scenarios, DISABLED_hertz_contact) { expect_found_first("hertz_contact", 0.3); }
+
+// Two at once: both named.
+TEST(loop_scenarios, two_effects_are_both_found) {
+  const run r = loop_on_rig({"preload", "shaft_bow"});
+  std::vector<std::string> names;
+  for (const auto& e : r.result.effects) names.push_back(e.effect);
+  EXPECT_NE(std::find(names.begin(), names.end(), "preload"), names.end());
+  EXPECT_NE(std::find(names.begin(), names.end(), "shaft_bow"), names.end());
+  EXPECT_LT(r.result.error_after, kErrorRatio * r.result.error_before);
+}
+
+// A drive that does not hold its speed (1 % at 3 Hz) is not in the library: the loop must say
+// it cannot explain the residual.
+TEST(loop_scenarios, an_effect_outside_the_library_is_unexplained) {
+  const run r = loop_on_rig({}, speed_fluctuation{0.01, 3.0});
+  EXPECT_TRUE(r.result.unexplained);
+}
+
+}  // namespace
+}  // namespace rubref::testing
