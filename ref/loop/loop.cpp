@@ -316,7 +316,10 @@ validity_report validity(const std::vector<loop_dwell>& dwells, const orbit_pred
       double mean = 0.0;
       for (std::size_t i = 0; i < d.size(); ++i) mean += (e[i] = r[static_cast<Eigen::Index>(pr.offset(k) + 2 * i + ch)]) / d.size();
       double c0 = 0.0;
-      for (auto& x : e) c0 += (x -= mean) * x;
+      for (auto& x : e) {
+        x -= mean;
+        c0 += x * x;
+      }
       for (int lag = 1; lag <= s.whiteness_lags; ++lag) {
         double cl = 0.0;
         for (std::size_t i = static_cast<std::size_t>(lag); i < e.size(); ++i) cl += e[i] * e[i - static_cast<std::size_t>(lag)];
@@ -557,10 +560,9 @@ loop_result run_loop(const std::vector<std::pair<record, std::string>>& records,
       cands = std::move(sorted);
       gauss_newton = std::move(steps);
     }
-    s.progress("      refitting " + cands[0].name + ", " + cands[1].name + ", ...");
+    s.progress("      best scores: " + cands[0].name + (cands.size() > 1 ? ", " + cands[1].name : std::string()) + "; refitting ...");
     int best = -1;
     model_point best_point;
-    Eigen::VectorXd best_r;
     for (int c = 0; c < std::min<int>(s.refit_candidates, static_cast<int>(cands.size())); ++c) {
       auto& cand = cands[static_cast<std::size_t>(c)];
       if (cand.score < kRefitScoreShare * cands.front().score) break;
@@ -589,7 +591,6 @@ loop_result run_loop(const std::vector<std::pair<record, std::string>>& records,
           (best < 0 || cand.bic_drop > cands[static_cast<std::size_t>(best)].bic_drop)) {
         best = c;
         best_point = fitted;
-        best_r = rf;
       }
     }
     if (best < 0) {
