@@ -20,4 +20,9 @@ class numerical_error : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+// Throws input_error(what) unless ok: the one-line check every validator is made of.
+inline void require(bool ok, const std::string& what) {
+  if (!ok) throw input_error(what);
+}
+
 }  // namespace rubref

@@ -2,25 +2,16 @@
 
 #include <cmath>
 #include <numbers>
-#include <sstream>
 
 #include "ref/errors.hpp"
+#include "ref/record.hpp"
 #include "variants/all_variants.hpp"
 
 namespace rubref {
 
 namespace {
 
-void require(bool ok, const std::string& what) {
-  if (!ok) throw input_error(what);
-}
-
-std::string str(double v) {
-  std::ostringstream out;
-  out.precision(17);
-  out << v;
-  return out.str();
-}
+std::string str(double v) { return format_number(v); }  // shortest text that reads back exactly
 
 struct recorder {
   double t_record;

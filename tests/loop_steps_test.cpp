@@ -75,6 +75,8 @@ TEST(loop_steps, harmonic_balance_recovers_the_linear_part) {
   auto dwells = rig_dwells(req);
   const parameters p = fit_linear_harmonic(dwells, req.params.m);
   const parameters& t = req.params;
+  // k sets the phasors' size (good to ~1e-4 of it); c shows only through the 1/Q part of the
+  // response (~1e-2 of it near resonance, so its error is ~100x larger); e scales every phasor.
   constexpr double kStiffnessTol = 1e-3, kDampingTol = 3e-2, kUnbalanceTol = 1e-2, kAngleTol = 9e-3;
   EXPECT_NEAR(p.k_x, t.k_x, kStiffnessTol * t.k_x);
   EXPECT_NEAR(p.k_y, t.k_y, kStiffnessTol * t.k_y);

@@ -11,6 +11,7 @@
 
 #include "ref/errors.hpp"
 #include "ref/identification/identify.hpp"
+#include "ref/parameter_io.hpp"
 #include "ref/rig/rig_system.hpp"
 
 namespace rubref {
@@ -473,6 +474,7 @@ loop_result run_loop(const std::vector<std::pair<record, std::string>>& records,
   is.bootstrap = 0;
   model_point start;
   start.p.m = mass;
+  start.p.delta = out.dwells.front().data.clearance;  // for the report; every dwell uses its own
   start.shift.assign(out.dwells.size(), 0.0);
   {
     const parameters& lin = *is.linear;
@@ -668,23 +670,6 @@ loop_result run_loop(const std::vector<std::pair<record, std::string>>& records,
 
 namespace {
 
-json point_json(const model_point& m) {
-  json j;
-  const parameters& p = m.p;
-  j["m_kg"] = p.m;
-  j["c_x_kg_s"] = p.c_x;
-  j["c_y_kg_s"] = p.c_y;
-  j["k_x_N_m"] = p.k_x;
-  j["k_y_N_m"] = p.k_y;
-  j["e_m"] = p.e;
-  j["unbalance_phase_rad"] = p.unbalance_phase;
-  j["k1_N_m"] = p.k1;
-  j["k3_N_m3"] = p.k3;
-  j["c2_kg_m"] = p.c2;
-  j["mu"] = p.mu;
-  return j;
-}
-
 json check_json(const correlation_check& c) { return {{"name", c.name}, {"value", c.value}, {"limit", c.limit}, {"pass", c.pass}}; }
 
 json validity_json(const validity_report& v) {
@@ -741,9 +726,9 @@ json to_json(const loop_result& r) {
     j["excluded"].push_back({{"record", e.record}, {"rpm", e.rpm}, {"contact", e.contact}, {"revolution_spread_m", e.spread}});
   j["noise_m"] = r.noise;
   j["mass_source"] = r.mass_source;
-  j["model_staged"] = point_json(r.initial);
-  j["model_before"] = point_json(r.before);
-  j["model_after"] = point_json(r.after);
+  j["model_staged"] = to_json(r.initial.p);
+  j["model_before"] = to_json(r.before.p);
+  j["model_after"] = to_json(r.after.p);
   j["validity_before"] = validity_json(r.validity_before);
   j["validity_after"] = validity_json(r.validity_after);
   j["records"] = json::array();

@@ -2,20 +2,14 @@
 
 #include <charconv>
 #include <cmath>
-#include <sstream>
 
 #include "ref/errors.hpp"
+#include "ref/record.hpp"
 
 namespace rubref {
 
 namespace {
 using P = effect_parameters;
-
-std::string shortest(double v) {
-  std::ostringstream o;
-  o << v;
-  return o.str();
-}
 constexpr double kPi = 3.14159265358979323846;
 }  // namespace
 
@@ -120,7 +114,7 @@ void apply_effect(effect_parameters& p, std::string_view text) {
       throw input_error("effect '" + std::string(e.name) + "': " + std::string(key) + " is not a finite number: '" + std::string(value) + "'");
     if (!(q->is_switch && v == q->off) && (v < q->lo || v > q->hi))
       throw input_error("effect '" + std::string(e.name) + "': " + std::string(key) + " = " + std::string(value) + " " + std::string(q->unit) +
-                        " is outside [" + shortest(q->lo) + ", " + shortest(q->hi) + "]");
+                        " is outside [" + format_number(q->lo) + ", " + format_number(q->hi) + "]");
     p.*q->member = v;
   }
 }

@@ -3,9 +3,9 @@
 #include <cmath>
 #include <numbers>
 #include <random>
-#include <sstream>
 
 #include "ref/errors.hpp"
+#include "ref/record.hpp"
 #include "ref/parallel.hpp"
 #include "ref/parameter_io.hpp"
 #include "ref/simulate.hpp"
@@ -16,16 +16,7 @@ namespace rubref {
 
 namespace {
 
-void require(bool ok, const std::string& what) {
-  if (!ok) throw input_error(what);
-}
-
-std::string str(double v) {
-  std::ostringstream out;
-  out.precision(17);
-  out << v;
-  return out.str();
-}
+std::string str(double v) { return format_number(v); }  // shortest text that reads back exactly
 
 struct truth_samples {
   std::vector<std::array<double, 6>> s;
