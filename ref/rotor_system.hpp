@@ -11,6 +11,9 @@
 // Eq. 2. A negative w is the mirror image, clockwise rotation, and the friction turns with it.
 // phi is the unbalance angle at t = 0 (the paper's Eq. 1 has phi = 0).
 
+#include <cmath>
+#include <numbers>
+
 #include "ref/contact_law.hpp"
 #include "ref/parameters.hpp"
 #include "ref/state.hpp"
@@ -48,34 +51,47 @@ class rotor_system {
         phase_(phase) {}
 
   void operator()(const state_type& s, state_type& ds, double t) const {
-    const double cos_wt = std::cos(forcing_angle(t));
-    const double sin_wt = std::sin(forcing_angle(t));
-    const double fn = normal_force(s, t);
-    double fx = 0.0;
-    if constexpr (compliant_law<Law>) fx = friction_sign_ * mu_ * fn;
+    (*this)(s, ds, phasor_of(forcing_angle(t)));
+  }
+
+  // The same with the unbalance direction given: a stepper that advances it by rotation from
+  // stage to stage (rk4, ref/steppers.hpp) evaluates no trig in its hot path.
+  void operator()(const state_type& s, state_type& ds, forcing_phasor f) const {
+    double fx = 0.0, fn = 0.0;
+    if constexpr (compliant_law<Law>) {
+      fn = contact_force(s);
+      fx = friction_sign_ * mu_ * fn;
+    }
     ds[idx::x] = s[idx::vx];
-    ds[idx::vx] = (fx - c_x_ * s[idx::vx] - k_x_ * s[idx::x]) * inv_m_ + unbalance_acc_ * cos_wt;
+    ds[idx::vx] = (fx - c_x_ * s[idx::vx] - k_x_ * s[idx::x]) * inv_m_ + unbalance_acc_ * f.cos;
     if (phase_ == contact_phase::stuck) {
       // Unilateral constraint y = delta: the stator carries whatever pushes the rotor up.
       ds[idx::y] = 0.0;
       ds[idx::vy] = 0.0;
     } else {
       ds[idx::y] = s[idx::vy];
-      ds[idx::vy] = (-fn - c_y_ * s[idx::vy] - k_y_ * s[idx::y]) * inv_m_ + unbalance_acc_ * sin_wt;
+      ds[idx::vy] = (-fn - c_y_ * s[idx::vy] - k_y_ * s[idx::y]) * inv_m_ + unbalance_acc_ * f.sin;
     }
   }
 
   // f_N in N at (s, t) under the current phase; the stator reaction while stuck.
   double normal_force(const state_type& s, double t) const noexcept {
     if constexpr (compliant_law<Law>) {
-      const double z = penetration(s);
-      if (phase_ == contact_phase::contact || (phase_ == contact_phase::by_penetration && z > 0.0))
-        return law_.normal_force(z, s[idx::vy]);
-      return 0.0;
+      return contact_force(s);
     } else {
       if (phase_ == contact_phase::stuck) return free_vertical_acceleration(s, t) / inv_m_;
       return 0.0;
     }
+  }
+
+  // The compliant law's f_N in N under the current phase (Eq. 2: zero out of contact).
+  double contact_force(const state_type& s) const noexcept
+    requires compliant_law<Law>
+  {
+    const double z = penetration(s);
+    if (phase_ == contact_phase::contact || (phase_ == contact_phase::by_penetration && z > 0.0))
+      return law_.normal_force(z, s[idx::vy]);
+    return 0.0;
   }
 
   // z = y - delta in m; positive inside the stator (Eq. 2). Its rate is y'.
@@ -84,11 +100,11 @@ class rotor_system {
 
   // y'' the rotor would have with no contact force (m/s^2): decides sticking and release.
   double free_vertical_acceleration(const state_type& s, double t) const noexcept {
-    return (-c_y_ * s[idx::vy] - k_y_ * s[idx::y]) * inv_m_ + unbalance_acc_ * std::sin(forcing_angle(t));
+    return (-c_y_ * s[idx::vy] - k_y_ * s[idx::y]) * inv_m_ + unbalance_acc_ * phasor_of(forcing_angle(t)).sin;
   }
   // Its time derivative along a stuck trajectory (y = delta, y' = 0): only the forcing varies.
   double free_vertical_jerk_stuck(double t) const noexcept {
-    return unbalance_acc_ * omega_ * std::cos(forcing_angle(t));
+    return unbalance_acc_ * omega_ * phasor_of(forcing_angle(t)).cos;
   }
 
   // Angle of the unbalance force at t, rad: w t + phi.

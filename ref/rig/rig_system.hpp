@@ -81,8 +81,9 @@ class rig_system {
     const double shaft = drive_.angle(omega_, t), speed = drive_.speed(omega_, t);
     const double a = shaft + p_.unbalance_phase;
     const double unbalance = p_.m * p_.e * speed * speed;
-    double fx = -fn * nx_ + ft * ny_ + unbalance * std::cos(a) + fx_.preload_x - fx_.k_xy * s[idx::y];
-    double fy = -fn * ny_ - ft * nx_ + unbalance * std::sin(a) + fx_.preload_y - fx_.k_yx * s[idx::x];
+    const forcing_phasor f = phasor_of(a);  // as rotor_system: without effects, the same bits
+    double fx = -fn * nx_ + ft * ny_ + unbalance * f.cos + fx_.preload_x - fx_.k_xy * s[idx::y];
+    double fy = -fn * ny_ - ft * nx_ + unbalance * f.sin + fx_.preload_y - fx_.k_yx * s[idx::x];
     if (fx_.misalignment_force != 0.0) {  // (trig only for the effects present: it dominates the cost)
       const double a2 = 2.0 * shaft + fx_.misalignment_phase;
       fx += fx_.misalignment_force * std::cos(a2);
