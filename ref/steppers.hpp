@@ -44,6 +44,7 @@ concept dense_stepper = requires(S st, const S cst, const System& sys, const sta
   { st.do_step(sys) } -> std::convertible_to<std::pair<double, double>>;
   cst.calc_state(t, out);
   { cst.current_state() } -> std::convertible_to<const state_of<System>&>;
+  { cst.current_time() } -> std::convertible_to<double>;
   { cst.current_time_step() } -> std::convertible_to<double>;
 };
 

@@ -158,19 +158,13 @@ std::vector<fit_coordinate> effect_coordinates(const effect_info& e) {
     return a;
   }
   if (n == "probe_misorientation") return {plain("alpha", &P::misorientation, 0.01)};
-  if (n == "stator_compliance") {  // compliance 1 / k_s: 0 is the rigid stator, and the fit is smooth there
-    fit_coordinate compliance{"stator_compliance.1/k_s", 1e-7,
-                              [](const model_point& q) { return q.fx.stator_k > 0.0 ? 1.0 / q.fx.stator_k : 0.0; },
-                              [](model_point& q, double v) { q.fx.stator_k = v > 0.0 ? 1.0 / v : 0.0; }};
-    // The stator's spring is in series with the contact's k1: what a fit without it found is
-    // their series stiffness (the quasi-static orbit pins it), so a trial moves a share s of
-    // that compliance into the stator and keeps the sum: 1/k_s = s/k1, 1/k1' = (1 - s)/k1.
-    compliance.trials = fit_coordinate::trial_grid{{0.05, 0.15, 0.3, 0.5, 0.7, 0.9}, [](model_point& q, double s) {
-                                                     q.fx.stator_k = s > 0.0 ? q.p.k1 / s : 0.0;
-                                                     q.p.k1 /= 1.0 - s;
-                                                   }};
-    return {compliance};
-  }
+  if (n == "stator_compliance")  // compliance 1 / k_s: 0 is the rigid stator, and the fit is smooth there
+    // (No trial grid: a profile that moved a share of k1's compliance into the stator, k1 raised
+    // to keep their series stiffness, found no stator on stator records (the fitted law blows up
+    // with a light stator) and on a Hunt-Crossley record once out-scored the right effect;
+    // docs/loop.md, "Limits".)
+    return {{"stator_compliance.1/k_s", 1e-7, [](const model_point& q) { return q.fx.stator_k > 0.0 ? 1.0 / q.fx.stator_k : 0.0; },
+             [](model_point& q, double v) { q.fx.stator_k = v > 0.0 ? 1.0 / v : 0.0; }}};
   if (n == "velocity_dependent_friction")  // the excess mu_s - mu >= 0 (mu_s <= mu is off)
     return {{"velocity_dependent_friction.mu_s-mu", 0.1,
              [](const model_point& q) { return q.fx.mu_static > q.p.mu ? q.fx.mu_static - q.p.mu : 0.0; },

@@ -48,7 +48,7 @@ struct fit_coordinate {
   std::function<double(const model_point&)> get;
   std::function<void(model_point&, double)> set;
   // When the effect enters the orbit so nonlinearly that its linearisation where it is off
-  // misleads (a compliant stator, the contact's angle), the trace also tries it at these values
+  // misleads (the contact's angle), the trace also tries it at these values
   // of a trial variable (0: off). `apply` sets the model there; it may also move base
   // coordinates so that the trial keeps what the data already pin.
   struct trial_grid {

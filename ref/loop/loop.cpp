@@ -647,8 +647,8 @@ loop_result run_loop(const std::vector<std::pair<record, std::string>>& records,
       // Starts: the effect off (the current point), its Gauss-Newton point, and for an effect
       // with a trial grid its profile's best value: as it is, base corrected (the linear
       // correction may overshoot far from the current point), and on the staged model (a base
-      // fit without the effect may have gone where no law fits, e.g. a rigid contact). A trial effect's refit starts from
-      // its profile, not from off: its profile already says off is not where it fits.
+      // fit without the effect may have gone where no law fits, e.g. a rigid contact). A trial
+      // effect's refit does not start from off: its profile already says off is not where it fits.
       const auto& trial = trial_start[static_cast<std::size_t>(c)];
       std::vector<Eigen::VectorXd> starts{gn};
       if (trial) {
