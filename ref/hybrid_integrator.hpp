@@ -199,8 +199,11 @@ basic_hybrid_state<state_of<System>> hybrid_loop(const System& base, Stepper& st
   const auto state_at = [&](double t) -> state_type {
     // The step's end is the stepper's own result: exact, and no interpolation to pay for (the
     // checks below ask for it at every step; dense output was ~1/5 of a dopri5 run).
-    if (t == st.current_time()) return st.current_state();
-    st.calc_state(t, tmp);
+    if (t == st.current_time()) {
+      tmp = st.current_state();  // (callers also read tmp)
+    } else {
+      st.calc_state(t, tmp);
+    }
     return tmp;
   };
   const auto h_at = [&](double t) { return exit_value(sys, state_at(t), t); };

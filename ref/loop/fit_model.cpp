@@ -143,11 +143,7 @@ std::vector<fit_coordinate> effect_coordinates(const effect_info& e) {
   const std::string_view n = e.name;
   if (n == "hertz_contact") return {plain("k_h", &P::hertz_k, 1e8)};
   if (n == "hunt_crossley_damping") return {plain("lambda", &P::hc_lambda, 1e9)};
-  if (n == "contact_angle") {  // the normal's angle moves every contact force: tried across its bounds
-    auto theta = plain("theta", &P::contact_angle, 0.1);
-    theta.trials = fit_coordinate::trial_grid{{-0.75, -0.5, -0.25, 0.25, 0.5, 0.75}, theta.set};
-    return {theta};
-  }
+  if (n == "contact_angle") return {plain("theta", &P::contact_angle, 0.1)};
   if (n == "preload") return {plain("F_x", &P::preload_x, 1.0), plain("F_y", &P::preload_y, 1.0)};
   if (n == "misalignment_2x") return pair("F2", &P::misalignment_force, &P::misalignment_phase, 1.0);
   if (n == "shaft_bow") return pair("b", &P::bow, &P::bow_phase, 1e-5);
@@ -159,10 +155,6 @@ std::vector<fit_coordinate> effect_coordinates(const effect_info& e) {
   }
   if (n == "probe_misorientation") return {plain("alpha", &P::misorientation, 0.01)};
   if (n == "stator_compliance")  // compliance 1 / k_s: 0 is the rigid stator, and the fit is smooth there
-    // (No trial grid: a profile that moved a share of k1's compliance into the stator, k1 raised
-    // to keep their series stiffness, found no stator on stator records (the fitted law blows up
-    // with a light stator) and on a Hunt-Crossley record once out-scored the right effect;
-    // docs/loop.md, "Limits".)
     return {{"stator_compliance.1/k_s", 1e-7, [](const model_point& q) { return q.fx.stator_k > 0.0 ? 1.0 / q.fx.stator_k : 0.0; },
              [](model_point& q, double v) { q.fx.stator_k = v > 0.0 ? 1.0 / v : 0.0; }}};
   if (n == "velocity_dependent_friction")  // the excess mu_s - mu >= 0 (mu_s <= mu is off)
