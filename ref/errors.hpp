@@ -7,10 +7,18 @@
 
 namespace rubref {
 
+// A message is one line whatever the input quoted in it holds: control characters (a newline
+// or carriage return inside a value, a terminal escape) become '?'.
+inline std::string one_line(std::string s) {
+  for (char& c : s)
+    if (static_cast<unsigned char>(c) < 0x20 || c == 0x7f) c = '?';
+  return s;
+}
+
 // Bad parameters, options, or a malformed file. Raised before any integration starts.
 class input_error : public std::runtime_error {
  public:
-  using std::runtime_error::runtime_error;
+  explicit input_error(const std::string& what) : std::runtime_error(one_line(what)) {}
 };
 
 // The integration could not produce a trustworthy answer (step-size underflow, non-finite

@@ -227,23 +227,38 @@ golden_case read_golden_case(const record& r, const std::string& source) {
     if (!v) throw input_error(source + ": not a golden case (no '" + std::string(key) + "' metadata)");
     return *v;
   };
+  // A record read from a file names its file and line itself; a record made in memory does not.
+  const std::string prefix = r.source.empty() ? source + ": " : std::string();
   const auto number = [&](std::string_view key) {
     need(key);
     try {
       return r.number(key);
     } catch (const input_error& e) {
-      throw input_error(source + ": " + e.what());
+      throw input_error(prefix + e.what());
     }
+  };
+  // Counts (revolutions, samples): whole numbers in [0, 1e8], checked before the conversion to
+  // int (a double out of int's range converts with undefined behaviour).
+  const auto count = [&](std::string_view key) {
+    const double v = number(key);
+    if (!(v >= 0.0 && v <= 1e8 && v == std::floor(v)))
+      throw input_error((r.where(key).empty() ? source + ": " : r.where(key)) + "metadata '" + std::string(key) +
+                        "' must be a whole number in [0, 1e8] (got " + *r.find(key) + ")");
+    return static_cast<int>(v);
   };
   golden_case g;
   g.name = source;
   g.request.variant = need("variant");
-  visit_variant(g.request.variant, []<class V>() {});
+  try {
+    visit_variant(g.request.variant, []<class V>() {});
+  } catch (const input_error& e) {
+    throw input_error((r.where("variant").empty() ? source + ": " : r.where("variant")) + e.what());
+  }
   g.request.params = read_parameters(r);
   g.request.rpm = number("speed_rpm");
-  g.request.settle_revs = static_cast<int>(number("settle_revs"));
-  g.request.record_revs = static_cast<int>(number("record_revs"));
-  g.request.samples_per_rev = static_cast<int>(number("samples_per_rev"));
+  g.request.settle_revs = count("settle_revs");
+  g.request.record_revs = count("record_revs");
+  g.request.samples_per_rev = count("samples_per_rev");
   const std::string& comparison = need("comparison");
   if (comparison == "orbit") {
     g.comparison = comparison_kind::orbit;
@@ -253,20 +268,24 @@ golden_case read_golden_case(const record& r, const std::string& source) {
   } else {
     throw input_error(source + ": comparison must be 'orbit' or 'statistics' (got '" + comparison + "')");
   }
-  g.period_revs = static_cast<int>(number("period_revs"));
+  g.period_revs = count("period_revs");
   for (const auto& info : statistic_table) {
     g.statistics.*info.member = number(info.key);
     g.statistics_tolerance.*info.member = number("tolerance_" + std::string(info.key));
   }
   try {
     validate(g.request);
+  } catch (const input_error& e) {
+    throw input_error(source + ": " + e.what());
+  }
+  try {
     g.t = r.column("t_s");
     g.x = r.column("x_m");
     g.y = r.column("y_m");
     g.vx = r.column("vx_m_s");
     g.vy = r.column("vy_m_s");
   } catch (const input_error& e) {
-    throw input_error(source + ": " + e.what());
+    throw input_error(prefix + e.what());
   }
   const std::size_t expected = static_cast<std::size_t>(g.request.record_revs) * static_cast<std::size_t>(g.request.samples_per_rev);
   if (g.t.size() != expected)

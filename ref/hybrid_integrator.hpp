@@ -108,9 +108,20 @@ struct sample_grid {
   double time(std::size_t k) const { return times.empty() ? t0 + static_cast<double>(k) * dt : times[k]; }
 };
 
+// A fixed step over a contact whose rate (rotor_system::contact_rate) times dt exceeds this
+// resolves it poorly: RK4's relative error per step grows as (rate dt)^5 / 120 (~3e-4 here) and
+// it goes unstable at 2.8. Such steps are counted and the commands warn (docs/robustness.md).
+inline constexpr double kCoarseContactStep = 0.5;
+
 struct integration_counts {
   std::size_t steps = 0;   // accepted steps
   std::size_t events = 0;  // located events
+  // Fixed-step runs (rk4) with a compliant law: the steps in contact with rate * dt above
+  // kCoarseContactStep, the first one's time, and the largest rate * dt met in contact.
+  std::size_t coarse_contact_steps = 0;
+  double first_coarse_contact_t = 0.0;  // s
+  double max_contact_rate_dt = 0.0;
+  double fixed_dt = 0.0;                // s, the rk4 step those were measured with
 };
 
 // An observer that wants nothing.
@@ -240,6 +251,15 @@ basic_hybrid_state<state_of<System>> hybrid_loop(const System& base, Stepper& st
     if (!(next_dt > 16.0 * std::numeric_limits<double>::epsilon() * std::max(1.0, std::abs(tb))))
       throw numerical_error("step size underflow (dt = " + std::to_string(next_dt) + " s) at " +
                             describe_state(tb, st.current_state()));
+
+    if constexpr (requires { sys.contact_rate(st.current_state()); }) {
+      if (!adaptive && sys.phase() == contact_phase::contact) {
+        const double rate_dt = sys.contact_rate(st.current_state()) * (tb - ta);
+        counts.max_contact_rate_dt = std::max(counts.max_contact_rate_dt, rate_dt);
+        counts.fixed_dt = tb - ta;
+        if (rate_dt > kCoarseContactStep && counts.coarse_contact_steps++ == 0) counts.first_coarse_contact_t = tb;
+      }
+    }
 
     const double t_hi = std::min(tb, t_end);
     const double h_lo = exit_value(sys, hs.s, ta), r_lo = exit_rate(sys, hs.s, ta);

@@ -85,6 +85,10 @@ nlohmann::ordered_json to_json(const orbit_summary& s, const orbit& o) {
   j["whirl"] = s.backward_whirl() ? "backward" : "forward";
   j["steps"] = o.counts.steps;
   j["events"] = o.counts.events;
+  if (o.request.integration.stepper.kind == stepper_kind::rk4) {  // the fixed step's contact resolution
+    j["max_contact_rate_dt"] = o.counts.max_contact_rate_dt;
+    j["coarse_contact_steps"] = o.counts.coarse_contact_steps;
+  }
   return j;
 }
 

@@ -39,18 +39,31 @@ const std::string* record::find(std::string_view key) const {
   return nullptr;
 }
 
+std::string record::where(std::string_view key) const {
+  if (source.empty()) return {};
+  for (std::size_t i = 0; i < metadata.size() && i < metadata_lines.size(); ++i)
+    if (metadata[i].first == key) return source + ":" + std::to_string(metadata_lines[i]) + ": ";
+  return source + ": ";
+}
+
+std::string record::where_row(std::size_t row) const {
+  if (source.empty()) return {};
+  if (first_data_line == 0) return source + ": ";
+  return source + ":" + std::to_string(first_data_line + row) + ": ";
+}
+
 double record::number(std::string_view key) const {
   const std::string* v = find(key);
-  if (!v) throw input_error("record has no metadata key '" + std::string(key) + "'");
+  if (!v) throw input_error(where(key) + "no metadata key '" + std::string(key) + "'");
   double out = 0.0;
-  if (!parse_double(*v, out)) throw input_error("metadata '" + std::string(key) + "' is not a number: '" + *v + "'");
+  if (!parse_double(*v, out)) throw input_error(where(key) + "metadata '" + std::string(key) + "' is not a number: '" + *v + "'");
   return out;
 }
 
 const std::vector<double>& record::column(std::string_view name) const {
   for (std::size_t c = 0; c < columns.size(); ++c)
     if (columns[c] == name) return data[c];
-  throw input_error("record has no column '" + std::string(name) + "'");
+  throw input_error(where({}) + "no column '" + std::string(name) + "'");
 }
 
 void record::set(std::string key, std::string value) {
@@ -113,8 +126,9 @@ std::string to_csv(const record& r, number_format format) {
 
 record parse_record(std::string_view text, std::string_view source) {
   record r;
+  r.source = std::string(source);
   std::size_t line_no = 0;
-  std::size_t first_data_line = 0;
+  std::size_t& first_data_line = r.first_data_line;
   bool header_seen = false;
   std::size_t pos = 0;
   while (pos < text.size()) {
@@ -138,6 +152,7 @@ record parse_record(std::string_view text, std::string_view source) {
         if (key == "format" && value != kRecordFormat)
           fail(source, line_no, "unsupported format '" + value + "' (this reader knows '" + std::string(kRecordFormat) + "')");
         r.metadata.emplace_back(std::move(key), std::move(value));
+        r.metadata_lines.push_back(line_no);
         continue;
       }
       // The column header.

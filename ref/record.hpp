@@ -23,11 +23,20 @@ struct record {
   std::vector<std::pair<std::string, std::string>> metadata;  // in file order
   std::vector<std::string> columns;
   std::vector<std::vector<double>> data;  // data[c][row]
+  // Where it was read from, for messages (parse_record fills them; empty/0 for a made record).
+  std::string source;
+  std::vector<std::size_t> metadata_lines;  // file line of each metadata entry
+  std::size_t first_data_line = 0;          // file line of row 0
+
+  // "<source>:<line>: " for metadata key `key` (or "<source>: " without a line; "" unread).
+  std::string where(std::string_view key) const;
+  // "<source>:<line>: " for data row `row`.
+  std::string where_row(std::size_t row) const;
 
   std::size_t rows() const { return data.empty() ? 0 : data.front().size(); }
   const std::string* find(std::string_view key) const;
-  double number(std::string_view key) const;                      // input_error if absent/bad
-  const std::vector<double>& column(std::string_view name) const;  // input_error if absent
+  double number(std::string_view key) const;                      // input_error if absent/bad, naming file and line
+  const std::vector<double>& column(std::string_view name) const;  // input_error if absent, naming the file
   void set(std::string key, std::string value);
   void set(std::string key, double value);
   void add_column(std::string name, std::vector<double> values);

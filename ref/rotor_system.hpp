@@ -94,6 +94,20 @@ class rotor_system {
     return 0.0;
   }
 
+  // The contact's fastest rate at s, 1/s: max(sqrt(k/m), c/m) with k = df_N/dz and c = df_N/dz'
+  // (central differences of the law), the scale of the rotor's eigenvalues on the stator's
+  // spring and damper. A fixed step dt resolves it only while rate * dt is well below RK4's
+  // stability limit 2.8 (the hybrid integrator counts the steps that are not).
+  double contact_rate(const state_type& s) const noexcept
+    requires compliant_law<Law>
+  {
+    const double z = penetration(s), v = s[idx::vy];
+    const double hz = 1e-6 * std::max(std::abs(z), 1e-9), hv = 1e-6 * std::max(std::abs(v), 1e-6);
+    const double k = (law_.normal_force(z + hz, v) - law_.normal_force(z - hz, v)) / (2.0 * hz);
+    const double c = (law_.normal_force(z, v + hv) - law_.normal_force(z, v - hv)) / (2.0 * hv);
+    return std::max(std::sqrt(std::max(k, 0.0) * inv_m_), std::abs(c) * inv_m_);
+  }
+
   // z = y - delta in m; positive inside the stator (Eq. 2). Its rate is y'.
   double penetration(const state_type& s) const noexcept { return s[idx::y] - delta_; }
   double penetration_rate(const state_type& s) const noexcept { return s[idx::vy]; }

@@ -1,7 +1,9 @@
 #include "ref/simulate.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
+#include <sstream>
 
 #include "ref/errors.hpp"
 #include "ref/record.hpp"
@@ -69,6 +71,25 @@ orbit simulate(const run_request& req) {
     out.end = integrate_hybrid(model, start_state(model, req.initial_state, 0.0), t_end, req.integration, grid, obs, &out.counts);
     return out;
   });
+}
+
+std::string coarse_contact_warning(const integration_counts& c) {
+  if (c.coarse_contact_steps == 0) return {};
+  std::ostringstream out;
+  out.precision(4);
+  out << "warning: " << c.coarse_contact_steps << " fixed rk4 steps (dt = " << c.fixed_dt << " s) crossed a contact at rate * dt up to "
+      << c.max_contact_rate_dt << " (> " << kCoarseContactStep << "), first at t = " << c.first_coarse_contact_t
+      << " s: the contact is under-resolved and the orbit may be wrong; use a smaller --dt or an adaptive stepper";
+  return out.str();
+}
+
+void accumulate(integration_counts& total, const integration_counts& c) {
+  if (c.coarse_contact_steps > 0 && total.coarse_contact_steps == 0) total.first_coarse_contact_t = c.first_coarse_contact_t;
+  total.steps += c.steps;
+  total.events += c.events;
+  total.coarse_contact_steps += c.coarse_contact_steps;
+  total.max_contact_rate_dt = std::max(total.max_contact_rate_dt, c.max_contact_rate_dt);
+  total.fixed_dt = std::max(total.fixed_dt, c.fixed_dt);
 }
 
 }  // namespace rubref

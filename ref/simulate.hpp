@@ -44,4 +44,10 @@ void validate(const run_request& req);
 // Validates, then integrates. Throws input_error or numerical_error, never returns a partial orbit.
 orbit simulate(const run_request& req);
 
+// A fixed-step run that crossed contacts too coarsely (integration_counts::coarse_contact_steps):
+// a one-line warning with the count, the first time and the largest rate * dt; "" otherwise.
+std::string coarse_contact_warning(const integration_counts& c);
+// Adds another run's counts (steps, events, coarse contact steps) to `total`.
+void accumulate(integration_counts& total, const integration_counts& c);
+
 }  // namespace rubref

@@ -11,7 +11,19 @@
 // for them calc_state re-takes one step of the same method from ta to t, which is the method's own
 // continuous extension: the event found is where the discrete solution crosses, at full order.
 
+// odeint's steppers hold stage buffers that a default-constructed stepper leaves unset, and
+// controlled_runge_kutta copies such a stepper in its constructor: GCC 12 reports the copy of
+// the not-yet-written buffers as (maybe-)uninitialized at odeint's own lines. They are written
+// before they are read, so those two warnings are silenced for odeint's headers only.
+#if defined(__GNUC__) && !defined(__clang__)
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wuninitialized"
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+#endif
 #include <boost/numeric/odeint.hpp>
+#if defined(__GNUC__) && !defined(__clang__)
+#pragma GCC diagnostic pop
+#endif
 #include <cmath>
 #include <concepts>
 #include <limits>
@@ -163,10 +175,12 @@ class rk4_dense {
 };
 
 // Adaptive Runge-Kutta-Fehlberg 7(8) (odeint controlled_runge_kutta<runge_kutta_fehlberg78>).
-// GCC 12 flags odeint's copy of the stepper's not-yet-written stage buffers as maybe-uninitialized;
-// they are written before they are read, so the warning is silenced for this class only.
+// (GCC 12's uninitialized warnings on its stage buffers: see the odeint include above.)
+#if defined(__GNUC__) && !defined(__clang__)
 #pragma GCC diagnostic push
 #pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+#pragma GCC diagnostic ignored "-Wuninitialized"
+#endif
 template <class System>
 class rkf78_dense {
   using state_type = state_of<System>;
@@ -219,7 +233,9 @@ class rkf78_dense {
   state_type cur_{}, prev_{};
   double t_ = 0.0, t_prev_ = 0.0, dt_ = 0.0;
 };
+#if defined(__GNUC__) && !defined(__clang__)
 #pragma GCC diagnostic pop
+#endif
 
 struct stepper_settings {
   stepper_kind kind = stepper_kind::dopri5;

@@ -62,8 +62,7 @@ sweep_branch run_branch(const sweep_settings& s, sweep_direction d) {
     req.rpm = speeds[i];
     req.settle_revs = i == 0 ? s.first_settle_revs : s.settle_revs;
     orbit o = simulate(req);
-    branch.counts.steps += o.counts.steps;
-    branch.counts.events += o.counts.events;
+    accumulate(branch.counts, o.counts);
     sweep_point pt{speeds[i], summarize(o), {}};
     if (s.keep_orbits) pt.samples = std::move(o.samples);
     branch.points.push_back(std::move(pt));

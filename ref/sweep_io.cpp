@@ -144,6 +144,7 @@ nlohmann::ordered_json sweep_summary_json(const sweep_settings& s, const std::ve
     jb["speeds"] = b.points.size();
     jb["steps"] = b.counts.steps;
     jb["events"] = b.counts.events;
+    if (b.counts.coarse_contact_steps > 0) jb["coarse_contact_steps"] = b.counts.coarse_contact_steps;
     for (const auto& [lo, hi] : backward_whirl_ranges(b)) jb["backward_whirl_rpm"].push_back({lo, hi});
     if (!jb.contains("backward_whirl_rpm")) jb["backward_whirl_rpm"] = nlohmann::json::array();
     j["branches"].push_back(jb);

@@ -22,9 +22,7 @@ std::string num(double v, int digits = 4) {
   return out.str();
 }
 
-struct candidate_data {
-  std::vector<double> t, x, y;
-};
+}  // namespace
 
 candidate_data read_candidate(const golden_case& g, const record& c, const std::string& name) {
   candidate_data d;
@@ -34,11 +32,13 @@ candidate_data read_candidate(const golden_case& g, const record& c, const std::
   const auto& speed = c.column("speed_rpm");
   for (std::size_t i = 0; i < speed.size(); ++i)
     if (std::abs(speed[i] - g.request.rpm) > 1e-9 * g.request.rpm)
-      throw input_error(name + ": speed_rpm is " + num(speed[i], 17) + " at t = " + num(d.t[i], 17) + " s, the case runs at " +
+      throw input_error((c.source.empty() ? name + ": " : c.where_row(i)) + "speed_rpm is " + num(speed[i], 17) + " at t = " + num(d.t[i], 17) + " s, the case runs at " +
                         num(g.request.rpm, 17) + " rpm");
   if (d.t.size() < 4) throw input_error(name + ": " + std::to_string(d.t.size()) + " samples; at least 4 are needed");
   return d;
 }
+
+namespace {
 
 // Keeps the states at the requested output times.
 struct state_keeper {

@@ -55,6 +55,13 @@ struct validation_result {
   bool pass = false;
 };
 
+// The candidate's samples, checked against the case (its speed, at least 4 samples): the reader
+// behind validate_candidate, input_error naming the candidate otherwise.
+struct candidate_data {
+  std::vector<double> t, x, y;
+};
+candidate_data read_candidate(const golden_case& g, const record& candidate, const std::string& candidate_name);
+
 // Compares `candidate` (named `candidate_name`) with the golden case `g`. input_error when the
 // candidate cannot be compared at all (another speed, too short, before t = 0).
 validation_result validate_candidate(const golden_case& g, const record& candidate, const std::string& candidate_name);

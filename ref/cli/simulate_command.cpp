@@ -50,6 +50,7 @@ void add_simulate(CLI::App& app) {
     files.stage(summary, to_json(s, o).dump(2) + "\n");
     files.commit();
     std::cout << "wrote " << st->out << " (" << o.samples.size() << " samples) and " << summary << "\n";
+    if (const std::string w = coarse_contact_warning(o.counts); !w.empty()) std::cerr << w << "\n";
   });
 }
 

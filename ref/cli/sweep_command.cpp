@@ -68,6 +68,9 @@ void add_sweep(CLI::App& app) {
     dir.write("summary.json", sweep_summary_json(s, branches).dump(2) + "\n");
     dir.commit();
     std::cout << "wrote " << dir.target().string() << "/{sweep.csv, waterfall_*.csv, summary.json}\n";
+    for (const auto& b : branches)
+      if (const std::string w = coarse_contact_warning(b.counts); !w.empty())
+        std::cerr << to_string(b.direction) << " branch: " << w << "\n";
   });
 }
 

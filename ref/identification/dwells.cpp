@@ -16,12 +16,19 @@ std::vector<dwell> split_dwells(const record& r, const std::string& source, std:
   const auto& y = r.column("y_m");
   const auto& rpm = r.column("speed_rpm");
   const bool has_keyphasor = std::find(r.columns.begin(), r.columns.end(), "keyphasor") != r.columns.end();
-  // Data row i sits on file line first_line + i; the reader checked the layout, so the line is
-  // only for messages and counts the metadata and header lines.
-  const std::size_t first_line = r.metadata.size() + 2;
-  const double clearance = r.find("clearance_m") ? r.number("clearance_m") : 0.0;
-  if (r.find("clearance_m") && !(clearance > 0.0 && std::isfinite(clearance)))
-    throw input_error(source + ": clearance_m must be a finite length > 0");
+  // Data row i sits on file line first_line + i (for messages; a record made in memory counts
+  // its metadata and header lines).
+  const std::size_t first_line = r.first_data_line > 0 ? r.first_data_line : r.metadata.size() + 2;
+  const std::string at_clearance = r.where("clearance_m").empty() ? source + ": " : r.where("clearance_m");
+  double clearance = 0.0;
+  if (r.find("clearance_m")) {
+    try {
+      clearance = r.number("clearance_m");
+    } catch (const input_error& e) {
+      throw input_error((r.source.empty() ? source + ": " : std::string()) + e.what());
+    }
+    if (!(clearance > 0.0 && std::isfinite(clearance))) throw input_error(at_clearance + "clearance_m must be a finite length > 0");
+  }
   std::vector<dwell> out;
   for (std::size_t i = 0; i < t.size();) {
     std::size_t j = i;
