@@ -134,6 +134,15 @@ struct null_observer {
 
 namespace detail {
 
+// A step or time in messages: 4 significant digits whatever its size (std::to_string prints a
+// 1e-20 s step as "0.000000").
+inline std::string seconds_text(double v) {
+  std::ostringstream out;
+  out.precision(4);
+  out << v;
+  return out.str();
+}
+
 template <std::size_t N>
 std::string describe_state(double t, const std::array<double, N>& s) {
   std::ostringstream out;
@@ -249,7 +258,7 @@ basic_hybrid_state<state_of<System>> hybrid_loop(const System& base, Stepper& st
       throw numerical_error("more than " + std::to_string(opt.max_steps) + " steps at " + describe_state(tb, st.current_state()));
     const double next_dt = st.current_time_step();
     if (!(next_dt > 16.0 * std::numeric_limits<double>::epsilon() * std::max(1.0, std::abs(tb))))
-      throw numerical_error("step size underflow (dt = " + std::to_string(next_dt) + " s) at " +
+      throw numerical_error("step size underflow (dt = " + seconds_text(next_dt) + " s) at " +
                             describe_state(tb, st.current_state()));
 
     if constexpr (requires { sys.contact_rate(st.current_state()); }) {
@@ -287,7 +296,7 @@ basic_hybrid_state<state_of<System>> hybrid_loop(const System& base, Stepper& st
         // whole episode inside one step: an adaptive step is accurate through it by its error
         // control, a fixed rk4 step has not resolved it and its result cannot be trusted.
         if (!adaptive && sys.phase() == contact_phase::contact)
-          throw numerical_error("the fixed rk4 step (dt = " + std::to_string(opt.stepper.dt) +
+          throw numerical_error("the fixed rk4 step (dt = " + seconds_text(opt.stepper.dt) +
                                 " s) does not resolve a contact episode: it began and ended within one step from " +
                                 describe_state(ta, hs.s) + "; use a smaller dt or an adaptive stepper");
         double t_in = ta, h_in = 0.0;

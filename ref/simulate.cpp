@@ -51,6 +51,25 @@ void validate(const run_request& req) {
   require(is_finite(req.initial_state), "initial state must be finite");
   const double revs = double(req.settle_revs) + double(req.record_revs);
   require(revs * req.samples_per_rev <= 1e8, "settle-revs + revs times samples-per-rev is over 1e8 samples");
+
+  // Numerically dangerous: the fastest rate of Eq. 1 (free or on the stator's spring) times the
+  // run's duration. Every explicit stepper needs rate * dt below ~1 to stay stable, so beyond
+  // kMaxRateTimesDuration the run could not finish (or finish right) in any reasonable time.
+  const parameters& p = req.params;
+  struct rate {
+    double value;
+    std::string what;
+  };
+  std::vector<rate> rates{{std::sqrt(p.k_x / p.m), "sqrt(k_x/m)"}, {std::sqrt(p.k_y / p.m), "sqrt(k_y/m)"},
+                          {p.c_x / p.m, "c_x/m"}, {p.c_y / p.m, "c_y/m"}};
+  visit_variant(req.variant, [&]<class Law>() {
+    if constexpr (compliant_law<Law>) rates.push_back({std::sqrt(p.k1 / p.m), "sqrt(k1/m)"});
+  });
+  const auto fastest = *std::max_element(rates.begin(), rates.end(), [](const rate& a, const rate& b) { return a.value < b.value; });
+  const double duration = revs * 60.0 / req.rpm;
+  require(fastest.value * duration <= kMaxRateTimesDuration,
+          "numerically dangerous parameters: " + fastest.what + " = " + str(fastest.value) + " 1/s over the run's " + str(duration) +
+              " s needs more than " + str(kMaxRateTimesDuration) + " stable steps (m_kg = " + str(p.m) + ")");
 }
 
 orbit simulate(const run_request& req) {

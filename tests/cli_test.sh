@@ -41,6 +41,17 @@ expect_error "unknown parameter 'kone'" simulate --params "$work/p.json" "${out[
 echo '{"k1_N_m": ' >"$work/broken.json"
 expect_error "broken.json" simulate --params "$work/broken.json" "${out[@]}"
 expect_error "does not exist" simulate --out "$work/no/such/dir/o.csv" --revs 1 --settle-revs 1
+# Numerically dangerous: a 1e-30 kg rotor (rate c/m ~ 1.5e31 1/s) is refused before integrating.
+expect_error "m_kg = 1e-30" simulate --m 1e-30 "${out[@]}"
+expect_error "numerically dangerous parameters: sqrt(k1/m)" simulate --k1 1e30 "${out[@]}"
+printf '{\n  "m_kg": 1.52,\n  "mu": "0.2"\n}\n' >"$work/pm.json"
+expect_error "pm.json:3: parameter 'mu' is not a number" simulate --params "$work/pm.json" "${out[@]}"
+# A coarse fixed step through contact runs, but warns with the time (stderr), exit 0.
+"$rubref" simulate --stepper rk4 --dt 3e-4 --revs 2 --settle-revs 20 --out "$work/coarse.csv" >/dev/null 2>"$work/stderr" \
+  || fail "coarse rk4 run failed"
+grep -q "^warning: .* crossed a contact at rate \* dt up to .* first at t = " "$work/stderr" || fail "no coarse-contact warning: $(cat "$work/stderr")"
+grep -q '"coarse_contact_steps"' "$work/coarse.summary.json" || fail "summary lacks coarse_contact_steps"
+rm -f "$work/coarse.csv" "$work/coarse.summary.json"
 
 # A failed run never replaces an existing result.
 echo keep >"$work/existing.csv"
@@ -75,6 +86,21 @@ expect_error "was not made by rubref" "${sw[@]}" --out "$work/mine"
 [ "$(cat "$work/mine/notes.txt")" = precious ] || fail "sweep touched a folder it did not make"
 rm -rf "$work/mine"
 expect_error "multiple of 6" "${sw[@]}" --revs 10 --out "$work/sw2"
+
+# An interrupted run (killed mid-sweep, no chance to clean up) leaves the earlier result whole.
+cp -r "$work/sw" "$work/sw_before"
+long_sweep=(sweep --from 1400 --to 1800 --step 1 --settle-revs 300)  # ~15 s: killed after 1 s
+"$rubref" "${long_sweep[@]}" --out "$work/sw" >/dev/null 2>&1 &
+sleep 1
+kill -KILL $! 2>/dev/null
+wait $! 2>/dev/null
+diff -r "$work/sw_before" "$work/sw" >/dev/null || fail "a killed sweep changed the existing output"
+"$rubref" "${long_sweep[@]}" --out "$work/sw_new" >/dev/null 2>&1 &
+sleep 1
+kill -KILL $! 2>/dev/null
+wait $! 2>/dev/null
+[ ! -e "$work/sw_new" ] || fail "a killed sweep left a partial output folder"
+rm -rf "$work"/sw.tmp-* "$work"/sw_new.tmp-* "$work"/sw_before  # a killed run cannot clean up its staging
 expect_error "--direction" "${sw[@]}" --direction sideways --out "$work/sw2"
 
 # identify: on a sweep's multi-dwell record, with the linear part given.

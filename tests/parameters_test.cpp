@@ -9,6 +9,7 @@
 
 #include "ref/errors.hpp"
 #include "ref/parameter_io.hpp"
+#include "ref/record.hpp"
 #include "ref/simulate.hpp"
 
 namespace rubref {
@@ -108,6 +109,47 @@ TEST(run_request, bad_settings_are_rejected_before_integration) {
     r.initial_state = {0.0, 1e-3, 0.0, 0.0};
   }, "inside the stator");
   EXPECT_THROW(parse_stepper("euler"), input_error);
+}
+
+// Numerically dangerous (kMaxRateTimesDuration): the fastest rate times the run's duration. The
+// paper's run is ~1.3e4 (sqrt(k1/m) = 1.6e3 1/s over 7.8 s); a 1e-30 kg rotor or a 1e30 N/m
+// contact are refused with the rate named; the contact stiffness does not count for the
+// restitution law, which has none.
+TEST(run_request, numerically_dangerous_rates_are_rejected_with_the_rate_named) {
+  const auto message = [](const run_request& req) -> std::string {
+    try {
+      validate(req);
+      return {};
+    } catch (const input_error& e) {
+      return e.what();
+    }
+  };
+  run_request req;
+  EXPECT_EQ(message(req), "");
+  req.params.k1 = 1e30;
+  EXPECT_NE(message(req).find("numerically dangerous parameters: sqrt(k1/m)"), std::string::npos) << message(req);
+  req.variant = "restitution";
+  EXPECT_EQ(message(req), "");
+  req = run_request{};
+  req.params.m = 1e-30;
+  EXPECT_NE(message(req).find("m_kg = 1e-30"), std::string::npos) << message(req);
+  // A stiff but legitimate contact (1e10 N/m on 1.52 kg: 8.1e4 1/s over 7.8 s) passes.
+  req = run_request{};
+  req.params.k1 = 1e10;
+  EXPECT_EQ(message(req), "");
+}
+
+// A record read from a file names the file and line in every metadata error.
+TEST(record, metadata_errors_name_the_file_and_line) {
+  const record r = parse_record("# format: rubref-record 1\n\n# m_kg: heavy\nt_s,x_m,y_m,speed_rpm\n0,0,0,1\n", "r.csv");
+  try {
+    r.number("m_kg");
+    FAIL();
+  } catch (const input_error& e) {
+    EXPECT_EQ(std::string(e.what()), "r.csv:3: metadata 'm_kg' is not a number: 'heavy'");
+  }
+  EXPECT_EQ(r.first_data_line, 5u);
+  EXPECT_EQ(r.where_row(0), "r.csv:5: ");
 }
 
 }  // namespace

@@ -90,8 +90,6 @@ TEST_P(record_errors, name_file_line_and_problem) {
   }
 }
 
-const char* const kHeader = "t_s,x_m,y_m,speed_rpm\n";
-
 INSTANTIATE_TEST_SUITE_P(
     record, record_errors,
     ::testing::Values(
