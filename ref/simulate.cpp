@@ -31,6 +31,23 @@ struct recorder {
 
 }  // namespace
 
+void require_safe_rates(const parameters& p, bool compliant, double duration) {
+  // The fastest rate of Eq. 1 (free, or on the stator's spring for a compliant law) times the
+  // run's duration. Every explicit stepper needs rate * dt below ~1 to stay stable, so beyond
+  // kMaxRateTimesDuration the run could not finish (or finish right) in any reasonable time.
+  struct rate {
+    double value;
+    std::string what;
+  };
+  std::vector<rate> rates{{std::sqrt(p.k_x / p.m), "sqrt(k_x/m)"}, {std::sqrt(p.k_y / p.m), "sqrt(k_y/m)"},
+                          {p.c_x / p.m, "c_x/m"}, {p.c_y / p.m, "c_y/m"}};
+  if (compliant) rates.push_back({std::sqrt(p.k1 / p.m), "sqrt(k1/m)"});
+  const auto fastest = *std::max_element(rates.begin(), rates.end(), [](const rate& a, const rate& b) { return a.value < b.value; });
+  require(fastest.value * duration <= kMaxRateTimesDuration,
+          "numerically dangerous parameters: " + fastest.what + " = " + str(fastest.value) + " 1/s over the run's " + str(duration) +
+              " s needs more than " + str(kMaxRateTimesDuration) + " stable steps (m_kg = " + str(p.m) + ")");
+}
+
 void validate(const run_request& req) {
   validate(req.params);
   visit_variant(req.variant, []<class V>() {});  // unknown variant -> input_error
@@ -52,24 +69,8 @@ void validate(const run_request& req) {
   const double revs = double(req.settle_revs) + double(req.record_revs);
   require(revs * req.samples_per_rev <= 1e8, "settle-revs + revs times samples-per-rev is over 1e8 samples");
 
-  // Numerically dangerous: the fastest rate of Eq. 1 (free or on the stator's spring) times the
-  // run's duration. Every explicit stepper needs rate * dt below ~1 to stay stable, so beyond
-  // kMaxRateTimesDuration the run could not finish (or finish right) in any reasonable time.
-  const parameters& p = req.params;
-  struct rate {
-    double value;
-    std::string what;
-  };
-  std::vector<rate> rates{{std::sqrt(p.k_x / p.m), "sqrt(k_x/m)"}, {std::sqrt(p.k_y / p.m), "sqrt(k_y/m)"},
-                          {p.c_x / p.m, "c_x/m"}, {p.c_y / p.m, "c_y/m"}};
-  visit_variant(req.variant, [&]<class Law>() {
-    if constexpr (compliant_law<Law>) rates.push_back({std::sqrt(p.k1 / p.m), "sqrt(k1/m)"});
-  });
-  const auto fastest = *std::max_element(rates.begin(), rates.end(), [](const rate& a, const rate& b) { return a.value < b.value; });
-  const double duration = revs * 60.0 / req.rpm;
-  require(fastest.value * duration <= kMaxRateTimesDuration,
-          "numerically dangerous parameters: " + fastest.what + " = " + str(fastest.value) + " 1/s over the run's " + str(duration) +
-              " s needs more than " + str(kMaxRateTimesDuration) + " stable steps (m_kg = " + str(p.m) + ")");
+  const bool compliant = visit_variant(req.variant, []<class Law>() { return compliant_law<Law>; });
+  require_safe_rates(req.params, compliant, revs * 60.0 / req.rpm);
 }
 
 orbit simulate(const run_request& req) {

@@ -42,6 +42,10 @@ inline constexpr double kMaxRateTimesDuration = 1e9;
 // Largest speed accepted; far above any rotor kit, it only keeps the period well resolved in t.
 inline constexpr double kMaxSpeedRpm = 1e6;
 
+// Throws input_error if the model's fastest rate times `duration_s` exceeds kMaxRateTimesDuration
+// (after validate(parameters): finite, positive values).
+void require_safe_rates(const parameters& p, bool compliant, double duration_s);
+
 // Throws input_error naming the first bad parameter or setting.
 void validate(const run_request& req);
 

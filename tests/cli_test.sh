@@ -44,6 +44,7 @@ expect_error "does not exist" simulate --out "$work/no/such/dir/o.csv" --revs 1 
 # Numerically dangerous: a 1e-30 kg rotor (rate c/m ~ 1.5e31 1/s) is refused before integrating.
 expect_error "m_kg = 1e-30" simulate --m 1e-30 "${out[@]}"
 expect_error "numerically dangerous parameters: sqrt(k1/m)" simulate --k1 1e30 "${out[@]}"
+expect_error "numerically dangerous parameters: sqrt(k1/m)" rig --k1 1e30 --out "$work/o.csv"
 printf '{\n  "m_kg": 1.52,\n  "mu": "0.2"\n}\n' >"$work/pm.json"
 expect_error "pm.json:3: parameter 'mu' is not a number" simulate --params "$work/pm.json" "${out[@]}"
 # A coarse fixed step through contact runs, but warns with the time (stderr), exit 0.

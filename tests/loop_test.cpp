@@ -75,18 +75,15 @@ TEST(loop_scenarios, hunt_crossley_damping) { expect_found_first("hunt_crossley_
 TEST(loop_scenarios, velocity_dependent_friction) { expect_found_first("velocity_dependent_friction", 0.3); }
 TEST(loop_scenarios, cross_coupling) { expect_found_first("cross_coupling", 0.1); }
 TEST(loop_scenarios, misalignment_2x) { expect_found_first("misalignment_2x", 0.1); }
-// probe_misorientation: named first with libm's forcing (docs/loop.md's row), hertz_contact after
-// the forcing's last bits changed (phasor_of): the before-fit lands in a local minimum (NRMSE 0.106)
-// and the first candidate whose refit escapes it wins. Not registered until the trace compares each
-// refit with the base refitted from the same start (docs/loop.md, "Limits").
-TEST(loop_scenarios, DISABLED_probe_misorientation) { expect_found_first("probe_misorientation", 0.1); }
+// probe_misorientation and contact_angle turn the orbit or the contact so far that a local fit
+// without them lands far from their basin: the trace profiles them on a trial grid (docs/loop.md).
+TEST(loop_scenarios, probe_misorientation) { expect_found_first("probe_misorientation", 0.1); }
+TEST(loop_scenarios, contact_angle) { expect_found_first("contact_angle", 0.1); }
 // Not found yet (docs/loop.md, "Limits, measured"): kept runnable with
 // --gtest_also_run_disabled_tests, and not registered with ctest, until the loop finds them.
 // hertz_contact: the paper's law with free k1, k3, c2 absorbs it to the noise level.
 // stator_compliance: probe_runout is named first (the linear score at a rigid stator is weak).
-// contact_angle: the paper's model fits so badly without it that no linear score points to it.
 TEST(loop_scenarios, DISABLED_stator_compliance) { expect_found_first("stator_compliance", 0.3); }
-TEST(loop_scenarios, DISABLED_contact_angle) { expect_found_first("contact_angle", 0.1); }
 TEST(loop_scenarios, DISABLED_hertz_contact) { expect_found_first("hertz_contact", 0.3); }
 
 // Two at once: both named.

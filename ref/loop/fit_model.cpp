@@ -143,7 +143,11 @@ std::vector<fit_coordinate> effect_coordinates(const effect_info& e) {
   const std::string_view n = e.name;
   if (n == "hertz_contact") return {plain("k_h", &P::hertz_k, 1e8)};
   if (n == "hunt_crossley_damping") return {plain("lambda", &P::hc_lambda, 1e9)};
-  if (n == "contact_angle") return {plain("theta", &P::contact_angle, 0.1)};
+  if (n == "contact_angle") {  // the normal's angle moves every contact force: tried across its bounds
+    auto theta = plain("theta", &P::contact_angle, 0.1);
+    theta.trials = fit_coordinate::trial_grid{{-0.75, -0.5, -0.25, 0.25, 0.5, 0.75}, theta.set};
+    return {theta};
+  }
   if (n == "preload") return {plain("F_x", &P::preload_x, 1.0), plain("F_y", &P::preload_y, 1.0)};
   if (n == "misalignment_2x") return pair("F2", &P::misalignment_force, &P::misalignment_phase, 1.0);
   if (n == "shaft_bow") return pair("b", &P::bow, &P::bow_phase, 1e-5);
@@ -153,7 +157,11 @@ std::vector<fit_coordinate> effect_coordinates(const effect_info& e) {
     a.insert(a.end(), b.begin(), b.end());
     return a;
   }
-  if (n == "probe_misorientation") return {plain("alpha", &P::misorientation, 0.01)};
+  if (n == "probe_misorientation") {  // turns the whole orbit: a local fit without it can sit far from alpha = 0's basin
+    auto alpha = plain("alpha", &P::misorientation, 0.01);
+    alpha.trials = fit_coordinate::trial_grid{{-0.3, -0.2, -0.1, -0.05, 0.05, 0.1, 0.2, 0.3}, alpha.set};
+    return {alpha};
+  }
   if (n == "stator_compliance")  // compliance 1 / k_s: 0 is the rigid stator, and the fit is smooth there
     return {{"stator_compliance.1/k_s", 1e-7, [](const model_point& q) { return q.fx.stator_k > 0.0 ? 1.0 / q.fx.stator_k : 0.0; },
              [](model_point& q, double v) { q.fx.stator_k = v > 0.0 ? 1.0 / v : 0.0; }}};

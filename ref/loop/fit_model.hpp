@@ -13,6 +13,7 @@
 #include <array>
 #include <functional>
 #include <limits>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -46,6 +47,15 @@ struct fit_coordinate {
   double scale;
   std::function<double(const model_point&)> get;
   std::function<void(model_point&, double)> set;
+  // When the effect enters the orbit so nonlinearly that its linearisation where it is off
+  // misleads (the contact's angle, the probes' orientation), the trace also tries it at these values
+  // of a trial variable (0: off). `apply` sets the model there; it may also move base
+  // coordinates so that the trial keeps what the data already pin.
+  struct trial_grid {
+    std::vector<double> values;
+    std::function<void(model_point&, double)> apply;
+  };
+  std::optional<trial_grid> trials = {};
 };
 
 // The paper's model's coordinates: the linear part (c_x, c_y, k_x, k_y, e, unbalance angle), the

@@ -7,6 +7,7 @@
 #include <complex>
 #include <limits>
 #include <numbers>
+#include <optional>
 #include <sstream>
 
 #include "ref/errors.hpp"
@@ -173,6 +174,9 @@ constexpr int kMaxBaseRestarts = 2;
 // Orders |k| >= 3 above this many times the averaged noise (sigma / sqrt(revolutions)) mean
 // contact: noise alone stays below ~1.5x, the lightest contact the loop meets is ~100x.
 constexpr double kContactDistortion = 5.0;
+// Golden-section steps of an effect's profile between two trial values: the bracket shrinks to
+// 0.618^10 < 1 % of its width, a start well inside the refit's reach.
+constexpr int kProfileIterations = 10;
 
 // ---- fitting --------------------------------------------------------------------------------
 
@@ -253,6 +257,14 @@ fit_problem make_problem(orbit_predictor& predictor, const std::vector<loop_dwel
     }
   return p;
 }
+
+// An effect at its profile's best value (the trace's trial grid): on the current point, with the
+// base coordinates' linear correction (u of the base problem), and on the staged model.
+struct trial_point {
+  model_point at;
+  Eigen::VectorXd corrected;
+  model_point staged;
+};
 
 // ---- residual analysis ------------------------------------------------------------------------
 
@@ -538,8 +550,14 @@ loop_result run_loop(const std::vector<std::pair<record, std::string>>& records,
     const Eigen::VectorXd r0 = predictor.residuals(current);
     const Eigen::MatrixXd J = base.jacobian(u0, r0);
     const double rss0 = r0.squaredNorm(), excess = std::max(rss0 - N * noise * noise, 0.0);
+    // The residual's part the base coordinates cannot remove (to first order).
+    const Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qj(J);
+    const Eigen::MatrixXd Qj = qj.householderQ() * Eigen::MatrixXd::Identity(J.rows(), qj.rank());
+    const auto project_out = [&](const Eigen::VectorXd& v) -> Eigen::VectorXd { return v - Qj * (Qj.transpose() * v); };
+    const double P0 = project_out(r0).squaredNorm();
     std::vector<effect_candidate> cands;
     std::vector<Eigen::VectorXd> gauss_newton;  // by candidate, in `remaining` order
+    std::vector<std::optional<trial_point>> trial_start;  // by candidate
     for (const auto* e : remaining) {
       const auto ec = effect_coordinates(*e);
       Eigen::MatrixXd S(r0.size(), static_cast<Eigen::Index>(ec.size()));
@@ -554,6 +572,49 @@ loop_result run_loop(const std::vector<std::pair<record, std::string>>& records,
       JS << J, S;
       const Eigen::VectorXd step = -JS.colPivHouseholderQr().solve(r0);
       gauss_newton.push_back(step);
+      // An effect with trial values (it enters nonlinearly) is also scored by its profile: the
+      // residual left, after the base coordinates' linear correction, with the effect at a value
+      // (the trials, then a golden-section search between the best one's neighbours). Its share
+      // of the base's residual is the linear score's analogue; the best value, base corrected, is
+      // the start of its refit.
+      trial_start.emplace_back();
+      for (std::size_t j = 0; j < ec.size(); ++j) {
+        if (!ec[j].trials) continue;
+        const auto& grid = *ec[j].trials;
+        const auto left = [&](double value) {
+          model_point m = current;
+          grid.apply(m, value);
+          return project_out(predictor.residuals(m)).squaredNorm();
+        };
+        std::vector<std::pair<double, double>> tried{{0.0, P0}};  // (value, residual left); 0 is off
+        for (const double value : grid.values) tried.emplace_back(value, left(value));
+        std::sort(tried.begin(), tried.end());
+        const auto best_at = static_cast<std::size_t>(
+            std::min_element(tried.begin(), tried.end(), [](const auto& a, const auto& b) { return a.second < b.second; }) - tried.begin());
+        double lo = tried[best_at == 0 ? 0 : best_at - 1].first, hi = tried[std::min(best_at + 1, tried.size() - 1)].first;
+        const bool geometric = lo > 0.0;  // magnitudes a decade apart: search their logarithm
+        const auto value_at = [&](double x) { return geometric ? std::exp(x) : x; };
+        double a = geometric ? std::log(lo) : lo, b = geometric ? std::log(hi) : hi;
+        double best_value = tried[best_at].first, best_left = tried[best_at].second;
+        constexpr double kGolden = 0.6180339887498949;
+        double x1 = b - kGolden * (b - a), x2 = a + kGolden * (b - a), f1 = left(value_at(x1)), f2 = left(value_at(x2));
+        for (int it = 0; it < kProfileIterations; ++it) {
+          if (f1 < f2) b = x2, x2 = x1, f2 = f1, x1 = b - kGolden * (b - a), f1 = left(value_at(x1));
+          else a = x1, x1 = x2, f1 = f2, x2 = a + kGolden * (b - a), f2 = left(value_at(x2));
+        }
+        for (const auto& [x, f] : {std::pair{x1, f1}, std::pair{x2, f2}})
+          if (f < best_left) best_value = value_at(x), best_left = f;
+        const double score = P0 > 0.0 ? 1.0 - best_left / P0 : 0.0;
+        if (score <= cands.back().score) continue;
+        cands.back().score = score;
+        model_point m = current;
+        grid.apply(m, best_value);
+        Eigen::VectorXd u = base.of(m) - J.colPivHouseholderQr().solve(predictor.residuals(m));  // effect there, base corrected
+        model_point staged = m;  // the same trial on the staged model (step 1a)
+        staged.p = out.initial.p;
+        grid.apply(staged, best_value);
+        trial_start.back() = trial_point{m, u, staged};
+      }
     }
     std::vector<std::size_t> rank(cands.size());
     for (std::size_t i = 0; i < rank.size(); ++i) rank[i] = i;
@@ -561,9 +622,11 @@ loop_result run_loop(const std::vector<std::pair<record, std::string>>& records,
     {
       std::vector<effect_candidate> sorted;
       std::vector<Eigen::VectorXd> steps;
-      for (const std::size_t i : rank) sorted.push_back(cands[i]), steps.push_back(gauss_newton[i]);
+      std::vector<std::optional<trial_point>> trials;
+      for (const std::size_t i : rank) sorted.push_back(cands[i]), steps.push_back(gauss_newton[i]), trials.push_back(trial_start[i]);
       cands = std::move(sorted);
       gauss_newton = std::move(steps);
+      trial_start = std::move(trials);
     }
     s.progress("      best scores: " + cands[0].name + (cands.size() > 1 ? ", " + cands[1].name : std::string()) + "; refitting ...");
     int best = -1;
@@ -585,7 +648,28 @@ loop_result run_loop(const std::vector<std::pair<record, std::string>>& records,
       gn.segment(nb, static_cast<Eigen::Index>(ec.size())) = step.tail(static_cast<Eigen::Index>(ec.size()));
       gn.tail(start.size() - nb - static_cast<Eigen::Index>(ec.size())) += step.segment(nb, start.size() - nb - static_cast<Eigen::Index>(ec.size()));
       predictor.anchor(current);
-      if (predictor.residuals(problem.at(gn)).squaredNorm() < rss0) start = gn;
+      // Starts: the effect off (the current point), its Gauss-Newton point, and for an effect
+      // with a trial grid its profile's best value: as it is, base corrected (the linear
+      // correction may overshoot far from the current point), and on the staged model (a base
+      // fit without the effect may have gone where no law fits). A trial effect's refit starts
+      // from its profile, not from off: its profile already says off is not where it fits. A
+      // start that wins only by moving the base is caught by the fair comparison below.
+      const auto& trial = trial_start[static_cast<std::size_t>(c)];
+      std::vector<Eigen::VectorXd> starts{gn};
+      if (trial) {
+        const auto shifts = start.size() - nb - static_cast<Eigen::Index>(ec.size());
+        Eigen::VectorXd corrected = problem.of(trial->at);
+        corrected.head(nb) = trial->corrected.head(nb);
+        corrected.tail(shifts) = trial->corrected.tail(shifts);
+        starts.push_back(problem.of(trial->at));
+        starts.push_back(corrected);
+        starts.push_back(problem.of(trial->staged));
+      } else {
+        starts.insert(starts.begin(), start);
+      }
+      double rss_start = std::numeric_limits<double>::infinity();
+      for (const auto& u : starts)
+        if (const double rss = predictor.residuals(problem.at(u)).squaredNorm(); rss < rss_start) start = u, rss_start = rss;
       const model_point fitted = fit(problem, start, s.max_fit_evaluations);
       predictor.anchor(fitted);  // judged on its own orbits
       const Eigen::VectorXd rf = predictor.residuals(fitted);
@@ -605,7 +689,7 @@ loop_result run_loop(const std::vector<std::pair<record, std::string>>& records,
       break;
     }
     // A fair comparison: the winner's refit moves the base coordinates too, and may gain only
-    // because the base leaves a local minimum of its own (a misorientation record's base fit,
+    // because the base leaves a local minimum of its own (a misorientation record's before-fit,
     // docs/loop.md). So the base is refitted without the effect from where the winner ended; if
     // that lands lower, the winner must pass the significance rule against it too, else the
     // refitted base becomes the base and the round is scored again.

@@ -71,7 +71,7 @@ struct excluded_dwell {
 
 struct effect_candidate {
   std::string name;
-  double score = 0.0;        // ERR of its linearised regressors on the residual
+  double score = 0.0;        // ERR on the residual of its linearised regressors (or secants to trial values)
   bool refitted = false;
   double bic_drop = 0.0;     // BIC before - BIC after the refit (positive: better)
   double excess_share = 0.0; // of the residual energy above noise, removed by the refit

@@ -1,5 +1,6 @@
 #include "ref/rig/rig.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 #include <random>
@@ -91,6 +92,9 @@ void validate(const rig_request& req) {
   double samples = 0.0;
   for (const double rpm : req.speeds_rpm) samples += req.record_revs * 60.0 / rpm * pr.sample_rate;
   require(samples <= 1e8, "the record would hold over 1e8 samples");
+  // Each dwell is a run from rest: the slowest speed's is the longest.
+  const double slowest = *std::min_element(req.speeds_rpm.begin(), req.speeds_rpm.end());
+  require_safe_rates(req.params, compliant, (req.settle_revs + req.record_revs) * 60.0 / slowest);
 }
 
 rig_output run_rig(const rig_request& req) {
