@@ -1,13 +1,7 @@
 #!/usr/bin/env bash
 # The CLI as a user meets it: a bad input gives exit code 2, exactly one line on stderr naming
 # the problem, and no output file (an existing one is left untouched).
-set -u
-rubref=$1
-work=$(mktemp -d)
-trap 'rm -rf "$work"' EXIT
-failures=0
-
-fail() { echo "FAIL: $*"; failures=$((failures + 1)); }
+source "$(dirname "${BASH_SOURCE[0]}")/shell_support.sh"
 
 # expect_error <expected-substring> <args...>
 expect_error() {
@@ -129,5 +123,4 @@ expect_error "no dwell reaches its clearance" loop "$work/free.csv" --out "$work
 expect_error "short.csv" loop "$work/short.csv" --clearance 3e-4 --out "$work/loop"
 [ ! -e "$work/loop" ] || fail "loop left a report behind"
 
-[ "$failures" -eq 0 ] && echo "cli_test: all passed"
-exit "$failures"
+finish "cli_test: all passed"

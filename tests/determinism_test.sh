@@ -2,12 +2,7 @@
 # Same inputs, same bits, whatever the thread count (docs/robustness.md): every command that runs
 # tasks on threads is run on 1 and on 2 threads (--threads, or RUBREF_THREADS for the commands
 # without the option) and a second time on 1, and every file it writes is compared byte for byte.
-set -u
-rubref=$1
-work=$(mktemp -d)
-trap 'rm -rf "$work"' EXIT
-failures=0
-fail() { echo "FAIL: $*"; failures=$((failures + 1)); }
+source "$(dirname "${BASH_SOURCE[0]}")/shell_support.sh"
 
 # same <what> <dir-a> <dir-b>: the two outputs are identical, file by file.
 same() {
@@ -40,5 +35,4 @@ for n in 1 2; do
 done
 same "identify with output-error refinement (1 vs 2 threads)" "$work/identify_1" "$work/identify_2"
 
-[ "$failures" -eq 0 ] && echo "determinism: all outputs identical" && exit 0
-exit 1
+finish "determinism: all outputs identical"

@@ -1,12 +1,7 @@
 #!/usr/bin/env bash
 # The main job end to end, as the README's first command runs it: every figure (PNG and SVG),
 # the report, its numbers and the data behind them.
-set -u
-rubref=$1
-work=$(mktemp -d)
-trap 'rm -rf "$work"' EXIT
-failures=0
-fail() { echo "FAIL: $*"; failures=$((failures + 1)); }
+source "$(dirname "${BASH_SOURCE[0]}")/shell_support.sh"
 
 "$rubref" reproduce --out "$work/rep" >"$work/log" 2>&1 || { cat "$work/log"; fail "reproduce failed"; }
 grep -q "report.md" "$work/log" || fail "reproduce did not say where the report is"
@@ -28,5 +23,4 @@ grep -q "Table 2" "$work/rep/report.md" || fail "report lacks Table 2"
 "$rubref" reproduce --no-figures --out "$work/rep" >/dev/null 2>&1 || fail "second reproduce failed"
 [ ! -e "$work/rep/fig10_jump.png" ] || fail "second run kept the first run's figures"
 
-[ "$failures" -eq 0 ] && echo "reproduce_test: all passed"
-exit "$failures"
+finish "reproduce_test: all passed"
