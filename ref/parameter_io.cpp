@@ -35,6 +35,9 @@ void apply_json(parameters& p, const nlohmann::json& j, std::string_view source,
                                     [&](const parameter_info& i) { return i.key == key; });
     if (info == parameter_table.end()) throw input_error(at + "unknown parameter '" + key + "'");
     if (!value.is_number()) throw input_error(at + "parameter '" + key + "' is not a number");
+    // A file's value must be valid on its own (a later option may not rescue it): said here,
+    // where the file and line are known.
+    if (const std::string why = violation(*info, value.get<double>()); !why.empty()) throw input_error(at + why);
     p.*info->member = value.get<double>();
   }
 }

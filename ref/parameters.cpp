@@ -29,18 +29,19 @@ bool satisfies(double v, constraint rule) {
 }
 }  // namespace
 
+std::string violation(const parameter_info& info, double v) {
+  if (std::isfinite(v) && satisfies(v, info.rule)) return {};
+  std::ostringstream msg;
+  msg.precision(17);
+  msg << "parameter " << info.key << " must be finite";
+  if (info.rule != constraint::finite) msg << " and " << describe(info.rule);
+  msg << " (got " << v << ")";
+  return msg.str();
+}
+
 void validate(const parameters& p) {
-  for (const auto& info : parameter_table) {
-    const double v = p.*info.member;
-    if (!std::isfinite(v) || !satisfies(v, info.rule)) {
-      std::ostringstream msg;
-      msg.precision(17);
-      msg << "parameter " << info.key << " must be finite";
-      if (info.rule != constraint::finite) msg << " and " << describe(info.rule);
-      msg << " (got " << v << ")";
-      throw input_error(msg.str());
-    }
-  }
+  for (const auto& info : parameter_table)
+    if (const std::string why = violation(info, p.*info.member); !why.empty()) throw input_error(why);
 }
 
 }  // namespace rubref

@@ -57,6 +57,10 @@ inline constexpr std::array<parameter_info, 13> parameter_table{{
     {&parameters::c2, "c2", "c2_kg_m", "kg/m", "quadratic contact damping (c2 zdot^2)", constraint::non_negative},
 }};
 
+// Why `v` is not a valid value of the parameter ("parameter mu must be finite and >= 0 (got -1)"),
+// or empty if it is.
+std::string violation(const parameter_info& info, double v);
+
 // Throws input_error naming the first parameter that is non-finite or violates its constraint.
 void validate(const parameters& p);
 

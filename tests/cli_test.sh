@@ -41,6 +41,8 @@ expect_error "numerically dangerous parameters: sqrt(k1/m)" simulate --k1 1e30 "
 expect_error "numerically dangerous parameters: sqrt(k1/m)" rig --k1 1e30 --out "$work/o.csv"
 printf '{\n  "m_kg": 1.52,\n  "mu": "0.2"\n}\n' >"$work/pm.json"
 expect_error "pm.json:3: parameter 'mu' is not a number" simulate --params "$work/pm.json" "${out[@]}"
+printf '{\n  "k1_N_m": 0\n}\n' >"$work/pk.json"
+expect_error "pk.json:2: parameter k1_N_m must be finite and > 0" simulate --params "$work/pk.json" "${out[@]}"
 # A coarse fixed step through contact runs, but warns with the time (stderr), exit 0.
 "$rubref" simulate --stepper rk4 --dt 3e-4 --revs 2 --settle-revs 20 --out "$work/coarse.csv" >/dev/null 2>"$work/stderr" \
   || fail "coarse rk4 run failed"

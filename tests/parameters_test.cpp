@@ -82,6 +82,13 @@ TEST(parameters, json_round_trip_and_errors) {
   EXPECT_THROW(apply_json(q, nlohmann::json::parse(R"({"k_1": 1})"), "p.json"), input_error);
   EXPECT_THROW(apply_json(q, nlohmann::json::parse(R"({"k1_N_m": "1e6"})"), "p.json"), input_error);
   EXPECT_THROW(apply_json(q, nlohmann::json::parse("[1, 2]"), "p.json"), input_error);
+  // An out-of-range value is refused where it is read, naming the file and its line.
+  try {
+    apply_parameter_text(q, "{\n  \"m_kg\": 1.52,\n  \"mu\": -0.1\n}\n", "p.json");
+    ADD_FAILURE() << "mu = -0.1 accepted";
+  } catch (const input_error& e) {
+    EXPECT_EQ(std::string(e.what()), "p.json:3: parameter mu must be finite and >= 0 (got -0.10000000000000001)");
+  }
 }
 
 TEST(run_request, bad_settings_are_rejected_before_integration) {
