@@ -52,7 +52,7 @@ sweep_branch run_branch(const sweep_settings& s, sweep_direction d) {
   std::vector<double> speeds = sweep_speeds(s);
   if (d == sweep_direction::down) std::reverse(speeds.begin(), speeds.end());
 
-  sweep_branch branch{d, {}, {}};
+  sweep_branch branch{d, {}, {}, 0.0};
   run_request req = request_at(s, speeds.front());
   // A quasi-static sweep arrives at its first speed slowly: on the contact-free steady state when
   // that orbit clears the stator, else from rest (docs/sweeps.md).
@@ -62,6 +62,7 @@ sweep_branch run_branch(const sweep_settings& s, sweep_direction d) {
     req.rpm = speeds[i];
     req.settle_revs = i == 0 ? s.first_settle_revs : s.settle_revs;
     orbit o = simulate(req);
+    if (o.counts.coarse_contact_steps > 0 && branch.counts.coarse_contact_steps == 0) branch.first_coarse_contact_rpm = speeds[i];
     accumulate(branch.counts, o.counts);
     sweep_point pt{speeds[i], summarize(o), {}};
     if (s.keep_orbits) pt.samples = std::move(o.samples);

@@ -49,7 +49,8 @@ struct sweep_point {
 struct sweep_branch {
   sweep_direction direction;
   std::vector<sweep_point> points;  // in the order visited
-  integration_counts counts;
+  integration_counts counts;        // summed over the points (first_coarse_contact_t: within its point's run)
+  double first_coarse_contact_rpm = 0.0;  // the point of the first under-resolved contact step (0: none)
 };
 
 // One sweep direction, sequential (continuation makes each speed depend on the previous one).

@@ -144,7 +144,11 @@ nlohmann::ordered_json sweep_summary_json(const sweep_settings& s, const std::ve
     jb["speeds"] = b.points.size();
     jb["steps"] = b.counts.steps;
     jb["events"] = b.counts.events;
-    if (b.counts.coarse_contact_steps > 0) jb["coarse_contact_steps"] = b.counts.coarse_contact_steps;
+    if (b.counts.coarse_contact_steps > 0) {
+      jb["coarse_contact_steps"] = b.counts.coarse_contact_steps;
+      jb["max_contact_rate_dt"] = b.counts.max_contact_rate_dt;
+      jb["first_coarse_contact_rpm"] = b.first_coarse_contact_rpm;
+    }
     for (const auto& [lo, hi] : backward_whirl_ranges(b)) jb["backward_whirl_rpm"].push_back({lo, hi});
     if (!jb.contains("backward_whirl_rpm")) jb["backward_whirl_rpm"] = nlohmann::json::array();
     j["branches"].push_back(jb);

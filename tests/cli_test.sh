@@ -49,6 +49,12 @@ expect_error "pk.json:2: parameter k1_N_m must be finite and > 0" simulate --par
 grep -q "^warning: .* crossed a contact at rate \* dt up to .* first at t = " "$work/stderr" || fail "no coarse-contact warning: $(cat "$work/stderr")"
 grep -q '"coarse_contact_steps"' "$work/coarse.summary.json" || fail "summary lacks coarse_contact_steps"
 rm -f "$work/coarse.csv" "$work/coarse.summary.json"
+# A sweep says at which speed its first under-resolved contact step was (the time is within that run).
+"$rubref" sweep --stepper rk4 --dt 3e-4 --from 1580 --to 1620 --step 20 --first-settle-revs 20 --settle-revs 5 --direction up \
+  --out "$work/coarse_sweep" >/dev/null 2>"$work/stderr" || fail "coarse rk4 sweep failed"
+grep -q "^up branch, first at 1[56][0-9]0 rpm: warning: " "$work/stderr" || fail "sweep warning lacks the speed: $(cat "$work/stderr")"
+grep -q '"first_coarse_contact_rpm"' "$work/coarse_sweep/summary.json" || fail "sweep summary lacks first_coarse_contact_rpm"
+rm -rf "$work/coarse_sweep"
 
 # A failed run never replaces an existing result.
 echo keep >"$work/existing.csv"

@@ -70,7 +70,7 @@ void add_sweep(CLI::App& app) {
     std::cout << "wrote " << dir.target().string() << "/{sweep.csv, waterfall_*.csv, summary.json}\n";
     for (const auto& b : branches)
       if (const std::string w = coarse_contact_warning(b.counts); !w.empty())
-        std::cerr << to_string(b.direction) << " branch: " << w << "\n";
+        std::cerr << to_string(b.direction) << " branch, first at " << format_number(b.first_coarse_contact_rpm) << " rpm: " << w << "\n";
   });
 }
 
