@@ -609,7 +609,7 @@ loop_result run_loop(const std::vector<std::pair<record, std::string>>& records,
         cands.back().score = score;
         model_point m = current;
         grid.apply(m, best_value);
-        Eigen::VectorXd u = base.of(m) - J.colPivHouseholderQr().solve(predictor.residuals(m));  // effect there, base corrected
+        Eigen::VectorXd u = base.of(m) - qj.solve(predictor.residuals(m));  // effect there, base corrected (J factored once)
         model_point staged = m;  // the same trial on the staged model (step 1a)
         staged.p = out.initial.p;
         grid.apply(staged, best_value);
