@@ -24,8 +24,9 @@ struct run {
   loop_result result;
 };
 
-run loop_on_rig(const std::vector<std::string>& effects, speed_fluctuation fluctuation = {}) {
+run loop_on_rig(const std::vector<std::string>& effects, speed_fluctuation fluctuation = {}, const probe_settings& probes = {}) {
   run out;
+  out.req.probes = probes;
   out.req.probes.keyphasor_angle = 0.7;  // the loop does not know where the notch is
   out.req.fluctuation = fluctuation;
   for (const auto& e : effects) apply_effect(out.req.effects, e);
@@ -35,8 +36,8 @@ run loop_on_rig(const std::vector<std::string>& effects, speed_fluctuation fluct
 }
 
 // The effect found first, with its switch parameters within `rel_tol` of the truth.
-void expect_found_first(const std::string& name, double rel_tol) {
-  const run r = loop_on_rig({name});
+void expect_found_first(const std::string& name, double rel_tol, const probe_settings& probes = {}) {
+  const run r = loop_on_rig({name}, {}, probes);
   ASSERT_FALSE(r.result.effects.empty()) << name << " not found";
   const loop_step& first = r.result.effects.front();
   EXPECT_EQ(first.effect, name);
@@ -81,10 +82,18 @@ TEST(loop_scenarios, probe_misorientation) { expect_found_first("probe_misorient
 TEST(loop_scenarios, contact_angle) { expect_found_first("contact_angle", 0.1); }
 // Not found yet (docs/loop.md, "Limits, measured"): kept runnable with
 // --gtest_also_run_disabled_tests, and not registered with ctest, until the loop finds them.
-// hertz_contact: the paper's law with free k1, k3, c2 absorbs it to the noise level.
+// hertz_contact: the paper's law with free k1, k3, c2 absorbs all but ~0.01 um RMS of it, 2 % of
+// the default probes' noise, which 16 revolutions per dwell do not resolve (docs/loop.md measures
+// 0.5 and 0.05 um). With probes quiet enough to resolve it (5 nm, no ADC step) it must be found.
+TEST(loop_scenarios, hertz_contact_quiet_probes) {
+  probe_settings quiet;
+  quiet.noise = 5e-9;
+  quiet.quantisation = 0.0;
+  expect_found_first("hertz_contact", 0.01, quiet);
+}
+TEST(loop_scenarios, DISABLED_hertz_contact) { expect_found_first("hertz_contact", 0.3); }
 // stator_compliance: probe_runout is named first (the linear score at a rigid stator is weak).
 TEST(loop_scenarios, DISABLED_stator_compliance) { expect_found_first("stator_compliance", 0.3); }
-TEST(loop_scenarios, DISABLED_hertz_contact) { expect_found_first("hertz_contact", 0.3); }
 
 // Two at once: both named.
 TEST(loop_scenarios, two_effects_are_both_found) {
