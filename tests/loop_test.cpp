@@ -24,20 +24,20 @@ struct run {
   loop_result result;
 };
 
-run loop_on_rig(const std::vector<std::string>& effects, speed_fluctuation fluctuation = {}, const probe_settings& probes = {}) {
+// `rig` sets the probes and records (default: the rig's defaults); the effects are added to it.
+run loop_on_rig(const std::vector<std::string>& effects, const rig_request& rig = {}) {
   run out;
-  out.req.probes = probes;
+  out.req = rig;
   out.req.probes.keyphasor_angle = 0.7;  // the loop does not know where the notch is
-  out.req.fluctuation = fluctuation;
   for (const auto& e : effects) apply_effect(out.req.effects, e);
   const rig_output o = run_rig(out.req);
   out.result = run_loop({{o.measurement, "rig.csv"}}, loop_settings{});
   return out;
 }
 
-// The effect found first, with its switch parameters within `rel_tol` of the truth.
-void expect_found_first(const std::string& name, double rel_tol, const probe_settings& probes = {}) {
-  const run r = loop_on_rig({name}, {}, probes);
+// The effect found first, with its switch parameters within `rel_tol` of the truth, and the
+// error after at most `error_ratio` x the error before.
+void check_found_first(const run& r, const std::string& name, double rel_tol, double error_ratio) {
   ASSERT_FALSE(r.result.effects.empty()) << name << " not found";
   const loop_step& first = r.result.effects.front();
   EXPECT_EQ(first.effect, name);
@@ -49,7 +49,7 @@ void expect_found_first(const std::string& name, double rel_tol, const probe_set
     const double truth = r.req.effects.*q.member;
     EXPECT_NEAR(est.at(std::string(q.key)), truth, rel_tol * std::abs(truth)) << name << "." << q.key;
   }
-  EXPECT_LT(r.result.error_after, kErrorRatio * r.result.error_before) << name;
+  EXPECT_LT(r.result.error_after, error_ratio * r.result.error_before) << name;
   // The measured line docs/loop.md quotes.
   std::printf("MEASURED %s: error %.4g -> %.4g (ratio %.3g), unexplained %d, effects", name.c_str(), r.result.error_before,
               r.result.error_after, r.result.error_after / r.result.error_before, r.result.unexplained);
@@ -57,6 +57,9 @@ void expect_found_first(const std::string& name, double rel_tol, const probe_set
   for (const auto& q : e.parameters)
     if (q.is_switch) std::printf("; %s = %.5g (truth %.5g)", std::string(q.key).c_str(), est.at(std::string(q.key)), r.req.effects.*q.member);
   std::printf("\n");
+}
+void expect_found_first(const std::string& name, double rel_tol, const rig_request& rig = {}) {
+  check_found_first(loop_on_rig({name}, rig), name, rel_tol, kErrorRatio);
 }
 
 // Paper model and noise only: nothing added, the residual is the noise.
@@ -84,14 +87,24 @@ TEST(loop_scenarios, contact_angle) { expect_found_first("contact_angle", 0.1); 
 // the default probes' noise, which 16 revolutions per dwell do not resolve (docs/loop.md measures
 // 0.5 and 0.05 um). With probes quiet enough to resolve it (5 nm, no ADC step) it must be found.
 TEST(loop_scenarios, hertz_contact_quiet_probes) {
-  probe_settings quiet;
-  quiet.noise = 5e-9;
-  quiet.quantisation = 0.0;
+  rig_request quiet;
+  quiet.probes.noise = 5e-9;
+  quiet.probes.quantisation = 0.0;
   expect_found_first("hertz_contact", 0.01, quiet);
+}
+// With the default probes and 128 revolutions per dwell the synchronous orders resolve the
+// remainder (chi^2/dof 1.745, limit 1.28): Hertz must be found and leave a residual that is noise.
+// Its error is the noise's (NRMSE ~0.0015 both times), so "well below" cannot hold: after < before.
+TEST(loop_scenarios, hertz_contact_long_records) {
+  rig_request long_records;
+  long_records.record_revs = 128;
+  const run r = loop_on_rig({"hertz_contact"}, long_records);
+  check_found_first(r, "hertz_contact", 0.02, 1.0);
+  EXPECT_FALSE(r.result.unexplained);
 }
 // Not found yet (docs/loop.md, "Limits, measured"): kept runnable with
 // --gtest_also_run_disabled_tests, and not registered with ctest, until the loop finds them.
-// hertz_contact with the default probes: see above.
+// hertz_contact with the default probes and 16 revolutions per dwell: see above.
 TEST(loop_scenarios, DISABLED_hertz_contact) { expect_found_first("hertz_contact", 0.3); }
 // stator_compliance: probe_runout is named first (the linear score at a rigid stator is weak).
 TEST(loop_scenarios, DISABLED_stator_compliance) { expect_found_first("stator_compliance", 0.3); }
@@ -109,7 +122,9 @@ TEST(loop_scenarios, two_effects_are_both_found) {
 // A drive that does not hold its speed (1 % at 3 Hz) is not in the library: the loop must say
 // it cannot explain the residual.
 TEST(loop_scenarios, an_effect_outside_the_library_is_unexplained) {
-  const run r = loop_on_rig({}, speed_fluctuation{0.01, 3.0});
+  rig_request drifting;
+  drifting.fluctuation = speed_fluctuation{0.01, 3.0};
+  const run r = loop_on_rig({}, drifting);
   EXPECT_TRUE(r.result.unexplained);
 }
 

@@ -27,7 +27,8 @@ struct loop_settings {
   int max_effects = 4;           // trace rounds
   int refit_candidates = 3;      // effects refitted per round (best linearised scores)
   // Significance rule: BIC must fall by more than this (Kass & Raftery 1995: > 10 is very strong
-  // evidence) and the effect must remove at least this share of the residual energy above noise.
+  // evidence) and the effect must remove at least this share of the synchronous excess: the energy
+  // of the residual's shaft orders -orders..orders above what noise alone puts there.
   double min_bic_drop = 10.0;
   double min_excess_share = 1.0 / 3.0;
   int orders = 20;               // shaft orders of the residual spectrum and the synchronous test
@@ -74,7 +75,7 @@ struct effect_candidate {
   double score = 0.0;        // ERR on the residual of its linearised regressors (or secants to trial values)
   bool refitted = false;
   double bic_drop = 0.0;     // BIC before - BIC after the refit (positive: better)
-  double excess_share = 0.0; // of the residual energy above noise, removed by the refit
+  double excess_share = 0.0; // of the synchronous excess (shaft orders above their noise energy), removed by the refit
   double error_after = 0.0;  // NRMSE over contact dwells after the refit
 };
 
