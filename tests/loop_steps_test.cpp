@@ -1,6 +1,6 @@
 // The loop's building blocks (ref/loop/) on virtual-rig records whose truth is known: noise
 // estimate, keyphasor timing, the linear part by harmonic balance, contact's fingerprint, the
-// fit's coordinates, and the model's orbits at the truth.
+// fit's coordinates, the model's orbits at the truth, and the synchronous energy.
 
 #include <gtest/gtest.h>
 
@@ -141,6 +141,50 @@ TEST(loop_steps, the_truths_orbits_leave_the_noise) {
   const double rms = std::sqrt(r.squaredNorm() / static_cast<double>(r.size()));
   constexpr double kRmsTol = 0.02;  // ~3e4 samples: the sample RMS of white noise is good to ~0.5 %
   EXPECT_NEAR(rms, req.probes.noise, kRmsTol * req.probes.noise);
+}
+
+// The synchronous energy (the synchronous check's and the share rule's measure): at the truth
+// it is the noise's, chi^2 with `dof` degrees of freedom; a forward order-2 whirl of amplitude a
+// added to the residual adds n a^2 per dwell, to within the cross term with the noise.
+TEST(loop_steps, synchronous_energy_measures_the_periodic_residual) {
+  rig_request req;
+  req.speeds_rpm = {1300, 1600, 1700};
+  req.probes.quantisation = 0.0;
+  auto dwells = rig_dwells(req);
+  double n_total = 0.0;
+  for (auto& d : dwells) {  // the rig's own time origin, as above
+    const double t0 = d.data.t.front();
+    for (double& t : d.data.t) t -= t0;
+    d.timing_sigma = std::numeric_limits<double>::infinity();
+    d.data.clearance = req.params.delta;
+    n_total += static_cast<double>(d.data.size());
+  }
+  orbit_predictor predictor(dwells, req.probes.noise);
+  model_point truth;
+  truth.shift.assign(dwells.size(), 0.0);
+  const Eigen::VectorXd r = predictor.residuals(truth);
+  constexpr int kOrders = 20;
+  constexpr double kZ = 3.29;  // two-sided 0.1 %
+  const double sigma = req.probes.noise;
+  const synchronous_energy noise_only = synchronous_part(dwells, predictor, truth, r, kOrders);
+  EXPECT_EQ(noise_only.dof, 2.0 * (2 * kOrders + 1) * static_cast<double>(dwells.size()));
+  EXPECT_NEAR(noise_only.energy / (sigma * sigma), noise_only.dof, kZ * std::sqrt(2.0 * noise_only.dof));
+
+  constexpr double a = 1e-6;  // m, twice the noise
+  Eigen::VectorXd whirl = r;
+  for (std::size_t k = 0; k < dwells.size(); ++k) {
+    const dwell& d = dwells[k].data;
+    for (std::size_t i = 0; i < d.size(); ++i) {
+      const double psi = d.omega() * d.t[i];
+      whirl[static_cast<Eigen::Index>(predictor.offset(k) + 2 * i)] += a * std::cos(2.0 * psi);
+      whirl[static_cast<Eigen::Index>(predictor.offset(k) + 2 * i + 1)] += a * std::sin(2.0 * psi);
+    }
+  }
+  const double added = synchronous_part(dwells, predictor, truth, whirl, kOrders).energy - noise_only.energy;
+  const double expected = n_total * a * a;
+  // Cross term 2 n Re(conj(a) c_noise): standard deviation 2 a sigma sqrt(n) summed over dwells.
+  const double tol = kZ * 2.0 * a * sigma * std::sqrt(n_total);
+  EXPECT_NEAR(added, expected, tol);
 }
 
 }  // namespace

@@ -307,23 +307,6 @@ std::vector<std::complex<double>> order_coefficients(const dwell& d, const Eigen
   return c;
 }
 
-// Energy of the residual's shaft orders -H..H, sum over dwells of n |c_k|^2 (m^2), and its
-// expectation under noise alone, sigma^2 dof (n |c_k|^2 / sigma^2 ~ chi^2(2) per order and dwell).
-struct synchronous_energy {
-  double energy = 0.0, dof = 0.0;
-  double excess(double noise) const { return std::max(energy - noise * noise * dof, 0.0); }
-};
-synchronous_energy synchronous_part(const std::vector<loop_dwell>& dwells, const orbit_predictor& pr, const model_point& m,
-                                    const Eigen::VectorXd& r, int orders) {
-  synchronous_energy out;
-  for (std::size_t k = 0; k < dwells.size(); ++k) {
-    const dwell& d = dwells[k].data;
-    for (const auto& ck : order_coefficients(d, r, pr.offset(k), m.shift[k], orders)) out.energy += static_cast<double>(d.size()) * std::norm(ck);
-    out.dof += 2.0 * (2.0 * orders + 1.0);
-  }
-  return out;
-}
-
 validity_report validity(const std::vector<loop_dwell>& dwells, const orbit_predictor& pr, const model_point& m,
                          const Eigen::VectorXd& r, double noise, const loop_settings& s) {
   validity_report v;
@@ -433,6 +416,17 @@ std::vector<std::pair<std::string, double>> effect_params(const effect_info& e, 
 }
 
 }  // namespace
+
+synchronous_energy synchronous_part(const std::vector<loop_dwell>& dwells, const orbit_predictor& pr, const model_point& m,
+                                    const Eigen::VectorXd& r, int orders) {
+  synchronous_energy out;
+  for (std::size_t k = 0; k < dwells.size(); ++k) {
+    const dwell& d = dwells[k].data;
+    for (const auto& ck : order_coefficients(d, r, pr.offset(k), m.shift[k], orders)) out.energy += static_cast<double>(d.size()) * std::norm(ck);
+    out.dof += 2.0 * (2.0 * orders + 1.0);
+  }
+  return out;
+}
 
 loop_result run_loop(const std::vector<std::pair<record, std::string>>& records, const loop_settings& s) {
   if (records.empty()) throw input_error("loop needs at least one record");

@@ -10,6 +10,7 @@
 //     passes the significance rule; repeat until the residual is noise or nothing passes
 //  4. report: error before and after, the effects in order, `unexplained`
 
+#include <algorithm>
 #include <functional>
 #include <nlohmann/json.hpp>
 #include <string>
@@ -122,6 +123,16 @@ void align_by_keyphasor(loop_dwell& d, std::vector<std::string>& notes);
 parameters fit_linear_harmonic(const std::vector<loop_dwell>& dwells, double mass);
 // RMS per probe of orders |k| >= 3 of one averaged revolution (contact's fingerprint).
 double high_order_content(const dwell& cycle);
+// Energy of a residual's shaft orders -orders..orders, sum over dwells of n |c_k|^2 (m^2) with
+// c_k the mean of (r_x + i r_y) e^{-i k psi}, and its expectation under noise alone, sigma^2 dof
+// (n |c_k|^2 / sigma^2 ~ chi^2(2) per order and dwell): the synchronous check and the trace's
+// share rule measure this.
+struct synchronous_energy {
+  double energy = 0.0, dof = 0.0;
+  double excess(double noise) const { return std::max(energy - noise * noise * dof, 0.0); }
+};
+synchronous_energy synchronous_part(const std::vector<loop_dwell>& dwells, const orbit_predictor& pr, const model_point& m,
+                                    const Eigen::VectorXd& r, int orders);
 
 // Records with their names. input_error for unusable data (e.g. fewer than two speeds without contact).
 loop_result run_loop(const std::vector<std::pair<record, std::string>>& records, const loop_settings& s);
