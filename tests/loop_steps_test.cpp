@@ -121,12 +121,15 @@ TEST(loop_steps, effect_coordinates_switch_their_effect) {
   }
 }
 
-// At the truth (timing shifts fitted aside) the model's periodic orbits leave only the probe
-// noise: the residual RMS is the noise to within its sampling spread.
-TEST(loop_steps, the_truths_orbits_leave_the_noise) {
+// Three contact dwells of an undisturbed rig (no ADC step) on the rig's own time origin, so the
+// truth's timing shifts are 0.
+rig_request truth_rig() {
   rig_request req;
   req.speeds_rpm = {1300, 1600, 1700};
   req.probes.quantisation = 0.0;
+  return req;
+}
+std::vector<loop_dwell> truth_timed_dwells(const rig_request& req) {
   auto dwells = rig_dwells(req);
   for (auto& d : dwells) {  // the rig's own time origin: a whole number of turns before the dwell
     const double t0 = d.data.t.front();
@@ -134,6 +137,14 @@ TEST(loop_steps, the_truths_orbits_leave_the_noise) {
     d.timing_sigma = std::numeric_limits<double>::infinity();
     d.data.clearance = req.params.delta;
   }
+  return dwells;
+}
+
+// At the truth (timing shifts fitted aside) the model's periodic orbits leave only the probe
+// noise: the residual RMS is the noise to within its sampling spread.
+TEST(loop_steps, the_truths_orbits_leave_the_noise) {
+  const rig_request req = truth_rig();
+  const auto dwells = truth_timed_dwells(req);
   orbit_predictor predictor(dwells, req.probes.noise);
   model_point truth;
   truth.shift.assign(dwells.size(), 0.0);
@@ -147,18 +158,10 @@ TEST(loop_steps, the_truths_orbits_leave_the_noise) {
 // it is the noise's, chi^2 with `dof` degrees of freedom; a forward order-2 whirl of amplitude a
 // added to the residual adds n a^2 per dwell, to within the cross term with the noise.
 TEST(loop_steps, synchronous_energy_measures_the_periodic_residual) {
-  rig_request req;
-  req.speeds_rpm = {1300, 1600, 1700};
-  req.probes.quantisation = 0.0;
-  auto dwells = rig_dwells(req);
+  const rig_request req = truth_rig();
+  const auto dwells = truth_timed_dwells(req);
   double n_total = 0.0;
-  for (auto& d : dwells) {  // the rig's own time origin, as above
-    const double t0 = d.data.t.front();
-    for (double& t : d.data.t) t -= t0;
-    d.timing_sigma = std::numeric_limits<double>::infinity();
-    d.data.clearance = req.params.delta;
-    n_total += static_cast<double>(d.data.size());
-  }
+  for (const auto& d : dwells) n_total += static_cast<double>(d.data.size());
   orbit_predictor predictor(dwells, req.probes.noise);
   model_point truth;
   truth.shift.assign(dwells.size(), 0.0);
