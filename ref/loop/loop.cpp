@@ -562,9 +562,9 @@ loop_result run_loop(const std::vector<std::pair<record, std::string>>& records,
     // orders above their noise expectation. (Against rss - N sigma^2 instead, a residual within
     // 1 % of the noise is dominated by the noise estimate's own ~1 % error: docs/loop.md, Hertz.)
     const synchronous_energy sync0 = synchronous_part(out.dwells, predictor, current, r0, s.orders);
-    const double excess = sync0.excess(noise);
-    const auto share_removed = [&](const model_point& m, const Eigen::VectorXd& rm, double base_energy, double base_excess) {
-      return base_excess > 0.0 ? (base_energy - synchronous_part(out.dwells, predictor, m, rm, s.orders).energy) / base_excess : 0.0;
+    const auto share_removed = [&](const synchronous_energy& base, double energy_after) {
+      const double excess = base.excess(noise);
+      return excess > 0.0 ? (base.energy - energy_after) / excess : 0.0;
     };
     // The residual's part the base coordinates cannot remove (to first order).
     const Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qj(J);
@@ -647,8 +647,7 @@ loop_result run_loop(const std::vector<std::pair<record, std::string>>& records,
     s.progress("      best scores: " + cands[0].name + (cands.size() > 1 ? ", " + cands[1].name : std::string()) + "; refitting ...");
     int best = -1;
     model_point best_point;
-    double best_rss = 0.0;
-    Eigen::VectorXd best_r;
+    double best_rss = 0.0, best_energy = 0.0;  // the winner's residual energy, all and synchronous
     for (int c = 0; c < std::min<int>(s.refit_candidates, static_cast<int>(cands.size())); ++c) {
       auto& cand = cands[static_cast<std::size_t>(c)];
       if (cand.score < kRefitScoreShare * cands.front().score) break;
@@ -692,14 +691,15 @@ loop_result run_loop(const std::vector<std::pair<record, std::string>>& records,
       const Eigen::VectorXd rf = predictor.residuals(fitted);
       cand.refitted = true;
       cand.bic_drop = bic(rss0, N, with.size() - ec.size()) - bic(rf.squaredNorm(), N, with.size());
-      cand.excess_share = share_removed(fitted, rf, sync0.energy, excess);
+      const double energy_after = synchronous_part(out.dwells, predictor, fitted, rf, s.orders).energy;
+      cand.excess_share = share_removed(sync0, energy_after);
       cand.error_after = errors_of(out.dwells, predictor, rf).nrmse_contact;
       if (cand.bic_drop > s.min_bic_drop && cand.excess_share >= s.min_excess_share &&
           (best < 0 || cand.bic_drop > cands[static_cast<std::size_t>(best)].bic_drop)) {
         best = c;
         best_point = fitted;
         best_rss = rf.squaredNorm();
-        best_r = rf;
+        best_energy = energy_after;
       }
     }
     if (best < 0) {
@@ -721,8 +721,7 @@ loop_result run_loop(const std::vector<std::pair<record, std::string>>& records,
         if (rss_b < rss0) {
           const std::size_t ne = effect_coordinates(find_effect(cands[static_cast<std::size_t>(best)].name)).size();
           const double fair_drop = bic(rss_b, N, coords.size()) - bic(best_rss, N, coords.size() + ne);
-          const synchronous_energy sync_b = synchronous_part(out.dwells, predictor, refit_base, rb, s.orders);
-          const double fair_share = share_removed(best_point, best_r, sync_b.energy, sync_b.excess(noise));
+          const double fair_share = share_removed(synchronous_part(out.dwells, predictor, refit_base, rb, s.orders), best_energy);
           if (!(fair_drop > s.min_bic_drop && fair_share >= s.min_excess_share)) {
             ++base_restarts;
             --round;  // no effect was added
