@@ -56,6 +56,23 @@ struct fit_coordinate {
     std::function<void(model_point&, double)> apply;
   };
   std::optional<trial_grid> trials = {};
+  // When the effect adds a lightly damped resonance that still rings when the rotor comes back
+  // (a compliant stator), the residual along its coordinate is a comb of narrow dips: the phase of
+  // that ringing at the next impact turns with the coordinate. A local fit stays in the dip it
+  // starts in (docs/loop.md, stator), so the effect's refit searches instead: a profile over
+  // `envelope` values on the staged model with the coordinates named in `profiled` refitted at
+  // each, a fit from its best, then hops: the residual along the coordinate within `factor` of
+  // the fit's value either way, in relative steps of `step`, with `move` setting each value, and
+  // a fit from the lowest dips while one lands lower.
+  struct dip_search {
+    std::vector<double> envelope;
+    std::vector<std::string> profiled;
+    // Sets the coordinate to a value and keeps what the data already pin (false: it cannot there).
+    std::function<bool(model_point&, double)> move;
+    double factor = 1.0;
+    double step = 0.0;
+  };
+  std::optional<dip_search> search = {};
 };
 
 // The paper's model's coordinates: the linear part (c_x, c_y, k_x, k_y, e, unbalance angle), the

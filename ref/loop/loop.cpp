@@ -258,6 +258,80 @@ fit_problem make_problem(orbit_predictor& predictor, const std::vector<loop_dwel
   return p;
 }
 
+// A dip search's hops (fit_coordinate::dip_search): the dips refitted per hop and the hops at
+// most. From a fit in a wrong dip, the right one was first or second of its scan's other dips in
+// every scan docs/loop.md measures; each refit costs one fit of every coordinate.
+constexpr int kSearchDips = 2;
+constexpr int kSearchHops = 4;
+// Evaluations of the fit of the profiled coordinates at each envelope value: a few coordinates
+// and the shifts, from the staged model.
+constexpr int kEnvelopeEvaluations = 20;
+// A dip within this relative distance of the fit's value is the fit's own.
+constexpr double kOwnDip = 0.02;
+
+// The refit of an effect whose coordinate `j` of `problem` (its base: the current model, the
+// effect off) has a dip search: the envelope on the staged model, a fit from its best value, then
+// hops between dips while a refit lands lower. Returns the lowest fit.
+model_point search_dips(const fit_problem& problem, std::size_t j, const model_point& staged, const std::vector<loop_dwell>& dwells,
+                        int max_evaluations, const std::function<void(const std::string&)>& progress) {
+  const fit_coordinate& coordinate = problem.coords[j];
+  const auto& search = *coordinate.search;
+  orbit_predictor& predictor = *problem.predictor;
+  const auto rss_at = [&](const model_point& m) {  // on its own orbits, as every refit is judged
+    predictor.anchor(m);
+    return predictor.residuals(m).squaredNorm();
+  };
+  // The envelope on the staged model (the linear part from the dwells without contact, which the
+  // effect does not reach; a fit without the effect has bent it towards the contacts).
+  std::vector<fit_coordinate> profiled;
+  for (const auto& name : search.profiled)
+    for (const auto& c : problem.coords)
+      if (c.name == name) profiled.push_back(c);
+  model_point start;
+  double start_rss = std::numeric_limits<double>::infinity(), start_value = 0.0;
+  for (const double value : search.envelope) {
+    model_point m = problem.base;
+    m.p = staged.p;
+    coordinate.set(m, value);
+    const fit_problem inner = make_problem(predictor, dwells, m, profiled);
+    m = fit(inner, inner.of(m), kEnvelopeEvaluations);
+    if (const double rss = rss_at(m); rss < start_rss) start = m, start_rss = rss, start_value = value;
+  }
+  model_point at = fit(problem, problem.of(start), max_evaluations);
+  double at_rss = rss_at(at);
+  progress("      " + coordinate.name + ": envelope best " + str(start_value) + ", fitted " + str(coordinate.get(at)) + " (residual " +
+           str(at_rss) + " m^2)");
+  const int steps = static_cast<int>(std::log(search.factor) / search.step);
+  for (int hop = 0; hop < kSearchHops; ++hop) {
+    predictor.anchor(at);
+    const double value = coordinate.get(at);
+    std::vector<std::pair<double, double>> scan;  // (value, residual)
+    for (int i = -steps; i <= steps; ++i) {
+      model_point q = at;
+      const double v = value * std::exp(i * search.step);
+      if (search.move(q, v)) scan.emplace_back(v, predictor.residuals(q).squaredNorm());
+    }
+    std::vector<std::pair<double, double>> dips;  // (residual, value), lowest first
+    for (std::size_t i = 1; i + 1 < scan.size(); ++i)
+      if (scan[i].second < scan[i - 1].second && scan[i].second < scan[i + 1].second && std::abs(std::log(scan[i].first / value)) > kOwnDip)
+        dips.emplace_back(scan[i].second, scan[i].first);
+    std::sort(dips.begin(), dips.end());
+    model_point next = at;
+    double next_rss = at_rss;
+    for (std::size_t d = 0; d < std::min<std::size_t>(kSearchDips, dips.size()); ++d) {
+      model_point q = at;
+      search.move(q, dips[d].second);
+      const model_point f = fit(problem, problem.of(q), max_evaluations);
+      if (const double rss = rss_at(f); rss < next_rss) next = f, next_rss = rss;
+    }
+    if (!(next_rss < at_rss)) break;
+    at = next;
+    at_rss = next_rss;
+    progress("      " + coordinate.name + ": hop " + std::to_string(hop + 1) + " to " + str(coordinate.get(at)) + " (residual " + str(at_rss) + " m^2)");
+  }
+  return at;
+}
+
 // An effect at its profile's best value (the trace's trial grid): on the current point, with the
 // base coordinates' linear correction (u of the base problem), and on the staged model.
 struct trial_point {
@@ -648,13 +722,13 @@ loop_result run_loop(const std::vector<std::pair<record, std::string>>& records,
     int best = -1;
     model_point best_point;
     double best_rss = 0.0, best_energy = 0.0;  // the winner's residual energy, all and synchronous
-    for (int c = 0; c < std::min<int>(s.refit_candidates, static_cast<int>(cands.size())); ++c) {
+    const auto refit = [&](int c) {
       auto& cand = cands[static_cast<std::size_t>(c)];
-      if (cand.score < kRefitScoreShare * cands.front().score) break;
       auto with = coords;
       const auto ec = effect_coordinates(find_effect(cand.name));
       with.insert(with.end(), ec.begin(), ec.end());
       const fit_problem problem = make_problem(predictor, out.dwells, current, with);
+      const auto searched = std::find_if(ec.begin(), ec.end(), [](const fit_coordinate& q) { return q.search.has_value(); });
       // Start from the Gauss-Newton point if it is better than the current one (the effect at 0).
       Eigen::VectorXd start = problem.of(current);
       Eigen::VectorXd gn = start;
@@ -686,7 +760,10 @@ loop_result run_loop(const std::vector<std::pair<record, std::string>>& records,
       double rss_start = std::numeric_limits<double>::infinity();
       for (const auto& u : starts)
         if (const double rss = predictor.residuals(problem.at(u)).squaredNorm(); rss < rss_start) start = u, rss_start = rss;
-      const model_point fitted = fit(problem, start, s.max_fit_evaluations);
+      const model_point fitted =
+          searched == ec.end()
+              ? fit(problem, start, s.max_fit_evaluations)
+              : search_dips(problem, coords.size() + static_cast<std::size_t>(searched - ec.begin()), out.initial, out.dwells, s.max_fit_evaluations, s.progress);
       predictor.anchor(fitted);  // judged on its own orbits
       const Eigen::VectorXd rf = predictor.residuals(fitted);
       cand.refitted = true;
@@ -701,7 +778,23 @@ loop_result run_loop(const std::vector<std::pair<record, std::string>>& records,
         best_rss = rf.squaredNorm();
         best_energy = energy_after;
       }
+    };
+    for (int c = 0; c < std::min<int>(s.refit_candidates, static_cast<int>(cands.size())); ++c) {
+      if (cands[static_cast<std::size_t>(c)].score < kRefitScoreShare * cands.front().score) break;
+      refit(c);
     }
+    // Before the round gives up, an effect whose linear score says little (its coordinate has a
+    // dip search: at a rigid stator the compliance is a series spring that k1 absorbs) is refitted
+    // whatever its score, by its search.
+    if (best < 0)
+      for (int c = 0; c < static_cast<int>(cands.size()); ++c) {
+        const auto& cand = cands[static_cast<std::size_t>(c)];
+        const auto ec = effect_coordinates(find_effect(cand.name));
+        if (!cand.refitted && std::any_of(ec.begin(), ec.end(), [](const fit_coordinate& q) { return q.search.has_value(); })) {
+          s.progress("      nothing passes; searching " + cand.name + " ...");
+          refit(c);
+        }
+      }
     if (best < 0) {
       out.last_round = cands;
       break;
