@@ -167,15 +167,16 @@ std::vector<fit_coordinate> effect_coordinates(const effect_info& e) {
                               [](model_point& q, double v) { q.fx.stator_k = v > 0.0 ? 1.0 / v : 0.0; }};
     // At a rigid stator its derivative is a series spring that k1 absorbs, and the stator rings
     // between impacts (m_s = 1 kg on 4e6 N/m: 318 Hz, damping ratio 0.025, ~15 % of it left when
-    // the rotor returns), so the residual along 1/k_s is a comb of dips a few % apart. Envelope:
-    // k_s from 1e6 to 3.3e7 N/m in steps of sqrt(2) (above ~8e6 the identified law's c2 zdot^2
-    // pumps a 1 kg stator until the integrator stops, docs/loop.md), the law (k1, c2, mu)
-    // refitted at each; k3 is left out (it goes to 0 in every fit of these orbits). Hops move the
-    // compliance with k1 keeping the law and stator's series stiffness, which the contacts pin.
+    // the rotor returns), so the residual along 1/k_s is a comb of dips a few % apart and ~2 %
+    // wide (docs/loop.md). Envelope: k_s from 1e6 to 3.3e7 N/m in factors of sqrt 2, the law (k1,
+    // c2, mu) refitted at each; k3 is left out (it goes to 0 in every fit of these orbits). Hops:
+    // a factor 1.45 either way covers the envelope's spacing with room, in steps of 0.5 % that
+    // land in every dip; they move the compliance with k1 keeping the law and stator's series
+    // stiffness, which the contacts pin.
     std::vector<double> envelope;
     for (double c = 3e-8; c < 1.01e-6; c *= std::numbers::sqrt2) envelope.push_back(c);
     compliance.search = fit_coordinate::dip_search{
-        std::move(envelope), {"k1", "c2", "mu"},
+        envelope, {"k1", "c2", "mu"},
         [](model_point& q, double c) {
           const double old = q.fx.stator_k > 0.0 ? 1.0 / q.fx.stator_k : 0.0;
           const double law = 1.0 / q.p.k1 + old - c;  // 1 / k1 at the same series stiffness
