@@ -63,7 +63,7 @@ struct fit_coordinate {
   // `envelope` values on the staged model with the coordinates named in `profiled` refitted at
   // each, a fit from its best, then hops: the residual along the coordinate within `factor` of
   // the fit's value either way, in relative steps of `step`, with `move` setting each value, and
-  // a fit from the lowest dips while one lands lower.
+  // a fit from the lowest other dip while that lands clearly lower (ref/loop/loop.cpp).
   struct dip_search {
     std::vector<double> envelope;
     std::vector<std::string> profiled;

@@ -732,41 +732,44 @@ loop_result run_loop(const std::vector<std::pair<record, std::string>>& records,
       with.insert(with.end(), ec.begin(), ec.end());
       const fit_problem problem = make_problem(predictor, out.dwells, current, with);
       const auto searched = std::find_if(ec.begin(), ec.end(), [](const fit_coordinate& q) { return q.search.has_value(); });
-      // Start from the Gauss-Newton point if it is better than the current one (the effect at 0).
-      Eigen::VectorXd start = problem.of(current);
-      Eigen::VectorXd gn = start;
-      const Eigen::VectorXd& step = gauss_newton[static_cast<std::size_t>(c)];
-      const auto nb = static_cast<Eigen::Index>(coords.size());
-      gn.head(nb) += step.head(nb);
-      gn.segment(nb, static_cast<Eigen::Index>(ec.size())) = step.tail(static_cast<Eigen::Index>(ec.size()));
-      gn.tail(start.size() - nb - static_cast<Eigen::Index>(ec.size())) += step.segment(nb, start.size() - nb - static_cast<Eigen::Index>(ec.size()));
-      predictor.anchor(current);
-      // Starts: the effect off (the current point), its Gauss-Newton point, and for an effect
-      // with a trial grid its profile's best value: as it is, base corrected (the linear
-      // correction may overshoot far from the current point), and on the staged model (a base
-      // fit without the effect may have gone where no law fits). A trial effect's refit starts
-      // from its profile, not from off: its profile already says off is not where it fits. A
-      // start that wins only by moving the base is caught by the fair comparison below.
-      const auto& trial = trial_start[static_cast<std::size_t>(c)];
-      std::vector<Eigen::VectorXd> starts{gn};
-      if (trial) {
-        const auto shifts = start.size() - nb - static_cast<Eigen::Index>(ec.size());
-        Eigen::VectorXd corrected = problem.of(trial->at);
-        corrected.head(nb) = trial->corrected.head(nb);
-        corrected.tail(shifts) = trial->corrected.tail(shifts);
-        starts.push_back(problem.of(trial->at));
-        starts.push_back(corrected);
-        starts.push_back(problem.of(trial->staged));
+      model_point fitted;
+      if (searched != ec.end()) {  // its coordinate's dip search is its refit
+        fitted = search_dips(problem, coords.size() + static_cast<std::size_t>(searched - ec.begin()), out.initial, out.dwells,
+                             s.max_fit_evaluations, s.progress);
       } else {
-        starts.insert(starts.begin(), start);
+        // Start from the Gauss-Newton point if it is better than the current one (the effect at 0).
+        Eigen::VectorXd start = problem.of(current);
+        Eigen::VectorXd gn = start;
+        const Eigen::VectorXd& step = gauss_newton[static_cast<std::size_t>(c)];
+        const auto nb = static_cast<Eigen::Index>(coords.size());
+        gn.head(nb) += step.head(nb);
+        gn.segment(nb, static_cast<Eigen::Index>(ec.size())) = step.tail(static_cast<Eigen::Index>(ec.size()));
+        gn.tail(start.size() - nb - static_cast<Eigen::Index>(ec.size())) += step.segment(nb, start.size() - nb - static_cast<Eigen::Index>(ec.size()));
+        predictor.anchor(current);
+        // Starts: the effect off (the current point), its Gauss-Newton point, and for an effect
+        // with a trial grid its profile's best value: as it is, base corrected (the linear
+        // correction may overshoot far from the current point), and on the staged model (a base
+        // fit without the effect may have gone where no law fits). A trial effect's refit starts
+        // from its profile, not from off: its profile already says off is not where it fits. A
+        // start that wins only by moving the base is caught by the fair comparison below.
+        const auto& trial = trial_start[static_cast<std::size_t>(c)];
+        std::vector<Eigen::VectorXd> starts{gn};
+        if (trial) {
+          const auto shifts = start.size() - nb - static_cast<Eigen::Index>(ec.size());
+          Eigen::VectorXd corrected = problem.of(trial->at);
+          corrected.head(nb) = trial->corrected.head(nb);
+          corrected.tail(shifts) = trial->corrected.tail(shifts);
+          starts.push_back(problem.of(trial->at));
+          starts.push_back(corrected);
+          starts.push_back(problem.of(trial->staged));
+        } else {
+          starts.insert(starts.begin(), start);
+        }
+        double rss_start = std::numeric_limits<double>::infinity();
+        for (const auto& u : starts)
+          if (const double rss = predictor.residuals(problem.at(u)).squaredNorm(); rss < rss_start) start = u, rss_start = rss;
+        fitted = fit(problem, start, s.max_fit_evaluations);
       }
-      double rss_start = std::numeric_limits<double>::infinity();
-      for (const auto& u : starts)
-        if (const double rss = predictor.residuals(problem.at(u)).squaredNorm(); rss < rss_start) start = u, rss_start = rss;
-      const model_point fitted =
-          searched == ec.end()
-              ? fit(problem, start, s.max_fit_evaluations)
-              : search_dips(problem, coords.size() + static_cast<std::size_t>(searched - ec.begin()), out.initial, out.dwells, s.max_fit_evaluations, s.progress);
       predictor.anchor(fitted);  // judged on its own orbits
       const Eigen::VectorXd rf = predictor.residuals(fitted);
       cand.refitted = true;
