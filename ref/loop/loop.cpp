@@ -271,11 +271,17 @@ constexpr int kEnvelopeEvaluations = 20;
 // A dip within this relative distance of the fit's value is the fit's own.
 constexpr double kOwnDip = 0.02;
 
+// The coordinate of an effect that has a dip search, or end(): such an effect is refitted by it.
+std::vector<fit_coordinate>::const_iterator dip_searched(const std::vector<fit_coordinate>& ec) {
+  return std::find_if(ec.begin(), ec.end(), [](const fit_coordinate& q) { return q.search.has_value(); });
+}
+
 // The refit of an effect whose coordinate `j` of `problem` (its base: the current model, the
-// effect off) has a dip search: the envelope on the staged model, a fit from its best value, then
-// hops between dips while a refit lands lower. Returns the lowest fit.
-model_point search_dips(const fit_problem& problem, std::size_t j, const model_point& staged, const std::vector<loop_dwell>& dwells,
-                        int max_evaluations, const std::function<void(const std::string&)>& progress) {
+// effect off, leaving `base_rss`) has a dip search: the envelope on the staged model, a fit from
+// its best value, then hops between dips while a refit lands lower. Returns the lowest fit.
+model_point search_dips(const fit_problem& problem, std::size_t j, double base_rss, const model_point& staged,
+                        const std::vector<loop_dwell>& dwells, int max_evaluations,
+                        const std::function<void(const std::string&)>& progress) {
   const fit_coordinate& coordinate = problem.coords[j];
   const auto& search = *coordinate.search;
   orbit_predictor& predictor = *problem.predictor;
@@ -289,7 +295,6 @@ model_point search_dips(const fit_problem& problem, std::size_t j, const model_p
   for (const auto& name : search.profiled)
     for (const auto& c : problem.coords)
       if (c.name == name) profiled.push_back(c);
-  const double base_rss = rss_at(problem.base);
   model_point start = problem.base;
   double start_rss = std::numeric_limits<double>::infinity(), start_value = 0.0;
   for (const double value : search.envelope) {
@@ -731,10 +736,10 @@ loop_result run_loop(const std::vector<std::pair<record, std::string>>& records,
       const auto ec = effect_coordinates(find_effect(cand.name));
       with.insert(with.end(), ec.begin(), ec.end());
       const fit_problem problem = make_problem(predictor, out.dwells, current, with);
-      const auto searched = std::find_if(ec.begin(), ec.end(), [](const fit_coordinate& q) { return q.search.has_value(); });
+      const auto searched = dip_searched(ec);
       model_point fitted;
       if (searched != ec.end()) {  // its coordinate's dip search is its refit
-        fitted = search_dips(problem, coords.size() + static_cast<std::size_t>(searched - ec.begin()), out.initial, out.dwells,
+        fitted = search_dips(problem, coords.size() + static_cast<std::size_t>(searched - ec.begin()), rss0, out.initial, out.dwells,
                              s.max_fit_evaluations, s.progress);
       } else {
         // Start from the Gauss-Newton point if it is better than the current one (the effect at 0).
@@ -796,7 +801,7 @@ loop_result run_loop(const std::vector<std::pair<record, std::string>>& records,
       for (int c = 0; c < static_cast<int>(cands.size()); ++c) {
         const auto& cand = cands[static_cast<std::size_t>(c)];
         const auto ec = effect_coordinates(find_effect(cand.name));
-        if (!cand.refitted && std::any_of(ec.begin(), ec.end(), [](const fit_coordinate& q) { return q.search.has_value(); })) {
+        if (!cand.refitted && dip_searched(ec) != ec.end()) {
           s.progress("      nothing passes; searching " + cand.name + " ...");
           refit(c);
         }
