@@ -154,6 +154,37 @@ TEST(loop_steps, the_truths_orbits_leave_the_noise) {
   EXPECT_NEAR(rms, req.probes.noise, kRmsTol * req.probes.noise);
 }
 
+// A dwell with a whole number of samples per revolution (10 kHz at 1500 rpm: 400) and t_s
+// shaft-synchronous puts samples exactly on revolution boundaries; each must fall in [0, T) of
+// the periodic orbit (floor-based phases put some at -1e-17 s, lost to the integrator, and the
+// dwell was scored as failed). Without a keyphasor the truth's orbits leave the noise there too.
+TEST(loop_steps, whole_samples_per_revolution_are_all_predicted) {
+  constexpr double kPeriod = 60.0 / 1500.0;
+  for (int k = 0; k < 4000; ++k) {
+    const double f = phase_in_period(2.4 + k * 1e-4, kPeriod);
+    ASSERT_GE(f, 0.0) << k;
+    ASSERT_LT(f, kPeriod) << k;
+  }
+  rig_request req = truth_rig();
+  req.speeds_rpm = {1200, 1500, 1600};  // 500, 400 and 375 samples per revolution
+  req.probes.keyphasor = false;
+  req.time_base = rig_time_base::shaft;
+  const rig_output o = run_rig(req);
+  std::vector<loop_dwell> dwells;
+  for (auto& d : split_dwells(o.measurement, "rig")) {
+    d.clearance = req.params.delta;
+    dwells.push_back({std::move(d), "rig"});
+  }
+  orbit_predictor predictor(dwells, req.probes.noise);
+  model_point truth;
+  truth.p = req.params;
+  truth.fx = req.effects;
+  truth.shift.assign(dwells.size(), 0.0);
+  const Eigen::VectorXd r = predictor.residuals(truth);
+  constexpr double kRmsTol = 0.03;  // ~2e4 samples: the sample RMS of white noise is good to ~1 %
+  EXPECT_NEAR(std::sqrt(r.squaredNorm() / static_cast<double>(r.size())), req.probes.noise, kRmsTol * req.probes.noise);
+}
+
 // The synchronous energy (the synchronous check's and the share rule's measure): at the truth
 // it is the noise's, chi^2 with `dof` degrees of freedom; a forward order-2 whirl of amplitude a
 // added to the residual adds n a^2 per dwell, to within the cross term with the noise.

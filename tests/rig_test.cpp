@@ -3,6 +3,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <complex>
 #include <numbers>
@@ -272,6 +273,52 @@ TEST(rig_output, states_clearance_and_rate_but_not_the_effects) {
   EXPECT_EQ(o.truth["effects"][0]["params"]["k_h"], 1e9);
 }
 
+// Records of the kind another lab or code writes: no keyphasor, shaft-synchronous time, only the
+// three metadata lines rubref reads, and dwells that settle from the previous one (a run-up).
+TEST(rig_output, writes_records_as_from_elsewhere) {
+  rig_request req = quiet_rig();
+  req.params.delta = 0.01;  // no contact: one attractor, so run-up and from-rest orbits agree
+  req.speeds_rpm = {1200.0, 1500.0, 1650.0};
+  req.settle_revs = 60;
+  const rig_output from_rest = run_rig(req);
+  req.probes.keyphasor = false;
+  req.time_base = rig_time_base::shaft;
+  req.carry_over = true;
+  req.minimal_header = true;
+  const rig_output o = run_rig(req);
+  std::vector<std::string> keys;
+  for (const auto& [key, value] : o.measurement.metadata) keys.push_back(key);
+  EXPECT_EQ(keys, (std::vector<std::string>{"description", "clearance_m", "sample_rate_hz"}));
+  EXPECT_EQ(std::find(o.measurement.columns.begin(), o.measurement.columns.end(), "keyphasor"), o.measurement.columns.end());
+  const auto& t = o.measurement.column("t_s");
+  const auto& rpm = o.measurement.column("speed_rpm");
+  const auto& y = o.measurement.column("y_m");
+  const auto& y_rest = from_rest.measurement.column("y_m");
+  ASSERT_EQ(t.size(), y_rest.size());
+  // Shaft-synchronous: the shaft angle w t_s of sample j of a dwell is w (settle + j dt) up to
+  // whole turns; time still increases across the file.
+  const double dt = 1.0 / req.probes.sample_rate;
+  std::size_t j = 0;
+  for (std::size_t i = 0; i < t.size(); ++i, ++j) {
+    if (i > 0) {
+      EXPECT_GT(t[i], t[i - 1]);
+      if (rpm[i] != rpm[i - 1]) j = 0;
+    }
+    const double period = 60.0 / rpm[i];
+    constexpr double kAngleTol = 1e-9;  // rad: rounding of t_s ~ 1e-15 s times w ~ 170 rad/s, with room
+    const double turns = (t[i] - (req.settle_revs * period + static_cast<double>(j) * dt)) / period;
+    EXPECT_NEAR(2.0 * std::numbers::pi * (turns - std::round(turns)), 0.0, kAngleTol) << i;
+    // The first dwell starts from rest in both; later ones from the previous orbit. What is
+    // left of the start after the settle revolutions decays as exp(-c t / 2m) from at most the
+    // orbits' size (< 1 mm here): ~7 nm at 1500 rpm, 60 revolutions.
+    const double decay = std::exp(-std::min(req.params.c_x, req.params.c_y) / (2.0 * req.params.m) * req.settle_revs * period);
+    const double kSettledTol = 1e-3 * decay;  // m
+    EXPECT_NEAR(y[i], y_rest[i], kSettledTol) << i;
+  }
+  EXPECT_EQ(o.truth["time_base"], "shaft");
+  EXPECT_EQ(o.truth["carry_over"], true);
+}
+
 TEST(rig_input, bad_settings_are_named) {
   const auto rejects = [](auto&& mutate, const char* what) {
     rig_request req = quiet_rig();
@@ -288,6 +335,7 @@ TEST(rig_input, bad_settings_are_named) {
   rejects([](rig_request& r) { r.probes.noise = -1.0; }, "probe noise");
   rejects([](rig_request& r) { r.effects.hertz_k = -1.0; }, "hertz_contact");
   rejects([](rig_request& r) { r.params.m = 0.0; }, "m_kg");
+  rejects([](rig_request& r) { r.probes.keyphasor = false; }, "shaft-synchronous");
   effect_parameters p;
   EXPECT_THROW(apply_effect(p, "gravity_waves"), input_error);
   EXPECT_THROW(apply_effect(p, "hertz_contact:k=3"), input_error);

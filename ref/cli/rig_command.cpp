@@ -3,6 +3,7 @@
 #include <memory>
 
 #include "ref/atomic_output.hpp"
+#include "ref/errors.hpp"
 #include "ref/cli/commands.hpp"
 #include "ref/cli/options.hpp"
 #include "ref/rig/rig.hpp"
@@ -13,8 +14,10 @@ namespace {
 struct rig_state {
   rig_request req;
   parameter_options params;
+  integration_cli integration;
   std::vector<std::string> effects;
-  std::string out, truth;
+  std::string out, truth, time_base;
+  bool no_keyphasor = false;
 };
 }  // namespace
 
@@ -37,12 +40,25 @@ void add_rig(CLI::App& app) {
   sub->add_option("--quantisation", r.probes.quantisation, "probe quantisation step [m]")->capture_default_str();
   sub->add_option("--keyphasor-angle", r.probes.keyphasor_angle, "the keyphasor notch's angle from the unbalance [rad]")->capture_default_str();
   sub->add_option("--seed", r.probes.seed, "noise seed")->capture_default_str();
+  sub->add_flag("--no-keyphasor", st->no_keyphasor, "write no keyphasor column (t_s is then shaft-synchronous)");
+  sub->add_option("--time-base", st->time_base,
+                  "what t_s is: acquisition (the sampling clock, default with a keyphasor) or shaft (shaft angle w t_s; "
+                  "the default without one)");
+  sub->add_flag("--carry-over", r.carry_over, "each dwell settles from where the previous one ended (a run-up), not from rest");
+  sub->add_flag("--minimal-header", r.minimal_header, "write only clearance_m, sample_rate_hz and description (a record from elsewhere)");
   sub->add_option("--out", st->out, "measurement record to write (docs/data-format.md)")->required();
   sub->add_option("--truth", st->truth, "truth JSON to write (the effects; for tests); default: <out without .csv>.truth.json");
   st->params.add_to(*sub);
+  st->integration.add_to(*sub);
   sub->callback([st] {
     rig_request req = st->req;
     req.params = st->params.resolve();
+    req.integration = st->integration.resolve();
+    req.probes.keyphasor = !st->no_keyphasor;
+    if (st->time_base.empty()) req.time_base = st->no_keyphasor ? rig_time_base::shaft : rig_time_base::acquisition;
+    else if (st->time_base == "shaft") req.time_base = rig_time_base::shaft;
+    else if (st->time_base == "acquisition") req.time_base = rig_time_base::acquisition;
+    else throw input_error("--time-base must be acquisition or shaft (got '" + st->time_base + "')");
     for (const auto& e : st->effects) apply_effect(req.effects, e);
     std::string truth = st->truth;
     if (truth.empty()) {

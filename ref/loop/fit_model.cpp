@@ -92,6 +92,14 @@ rig_state guess_from_data(const dwell& d, const effect_parameters& fx) {
 
 }  // namespace
 
+double phase_in_period(double tau, double period) {
+  // fmod is exact; tau - period * floor(tau / period) is not, and at a whole number of samples per
+  // revolution its rounding put samples at -1e-17 s, before the revolution the integrator reports.
+  double f = std::fmod(tau, period);
+  if (f < 0.0) f += period;
+  return f < period ? f : 0.0;
+}
+
 std::vector<fit_coordinate> paper_coordinates(const model_point&) {
   // Positive physical quantities are searched as log(value): a trial step can never make a
   // stiffness, damping or the unbalance negative (a negative k3 lets the rotor run through the
@@ -219,10 +227,7 @@ bool orbit_predictor::predict(std::size_t k, const model_point& m) {
   const double shift = m.shift.empty() ? 0.0 : m.shift[k];
   std::vector<std::pair<double, std::size_t>> ph(d.size());
   for (std::size_t i = 0; i < d.size(); ++i) {
-    const double tau = d.t[i] + shift;
-    double f = tau - period * std::floor(tau / period);
-    if (f >= period) f = 0.0;
-    ph[i] = {f, i};
+    ph[i] = {phase_in_period(d.t[i] + shift, period), i};
   }
   std::sort(ph.begin(), ph.end());
   c.phase.resize(ph.size());

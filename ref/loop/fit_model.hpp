@@ -75,6 +75,9 @@ struct fit_coordinate {
   std::optional<dip_search> search = {};
 };
 
+// Time within the revolution, in [0, period): where a sample at time tau falls on the periodic orbit.
+double phase_in_period(double tau, double period);
+
 // The paper's model's coordinates: the linear part (c_x, c_y, k_x, k_y, e, unbalance angle), the
 // identified law (k1, k3, c2) and friction (mu), all but the angle as logarithms (they are
 // positive). m is given (Eq. 1 scales with it).

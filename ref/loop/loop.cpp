@@ -905,7 +905,7 @@ loop_result run_loop(const std::vector<std::pair<record, std::string>>& records,
     const double period = 60.0 / d.rpm;
     for (std::size_t i = 0; i < d.size(); ++i) {
       const double tau = d.t[i] + out.after.shift[k];
-      out.plot_phase.push_back(360.0 * (tau / period - std::floor(tau / period)));
+      out.plot_phase.push_back(360.0 * phase_in_period(tau, period) / period);
       out.plot_x.push_back(d.x[i]);
       out.plot_y.push_back(d.y[i]);
       const auto at = static_cast<Eigen::Index>(predictor.offset(k) + 2 * i);

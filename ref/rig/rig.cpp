@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numbers>
 #include <random>
 
@@ -24,8 +25,11 @@ struct truth_samples {
   std::vector<double> angle;  // rad, shaft angle at each sample
 };
 
+// One dwell: `settle_revs` revolutions from `start` (rest, or the previous dwell's end), then
+// `count` samples. The dwell's clock starts at 0 with the shaft angle w t; `end` is its last state.
 template <class Law>
-truth_samples run_dwell(const rig_request& req, double rpm, std::size_t count) {
+truth_samples run_dwell(const rig_request& req, double rpm, std::size_t count, const std::array<double, 6>& start,
+                        std::array<double, 6>* end) {
   const rig_system<Law> model(req.params, req.effects, rpm_to_rad_s(rpm), req.fluctuation);
   const double t0 = req.settle_revs * model.period(), dt = 1.0 / req.probes.sample_rate;
   struct keep {
@@ -39,8 +43,9 @@ truth_samples run_dwell(const rig_request& req, double rpm, std::size_t count) {
   };
   truth_samples out;
   keep obs{&model, &out};
-  integrate_hybrid(model, start_state(model, std::array<double, 6>{}, 0.0), t0 + static_cast<double>(count) * dt,
-                   req.integration, sample_grid{t0, dt, count}, obs);
+  const auto last = integrate_hybrid(model, start_state(model, start, 0.0), t0 + static_cast<double>(count) * dt, req.integration,
+                                     sample_grid{t0, dt, count}, obs);
+  if (end) *end = last.s;
   return out;
 }
 
@@ -80,6 +85,8 @@ void validate(const rig_request& req) {
   require(std::isfinite(pr.noise) && pr.noise >= 0.0, "probe noise must be finite and >= 0 (got " + str(pr.noise) + ")");
   require(std::isfinite(pr.quantisation) && pr.quantisation >= 0.0, "quantisation must be finite and >= 0 (got " + str(pr.quantisation) + ")");
   require(std::isfinite(pr.keyphasor_angle), "keyphasor angle must be finite");
+  require(pr.keyphasor || req.time_base == rig_time_base::shaft,
+          "a record without a keyphasor needs shaft-synchronous time (time base 'shaft'), else no tool can tell the shaft angle");
   const auto& fl = req.fluctuation;
   require(std::isfinite(fl.amplitude) && fl.amplitude >= 0.0 && fl.amplitude < 0.5, "speed fluctuation amplitude must be in [0, 0.5)");
   require(fl.amplitude == 0.0 || (std::isfinite(fl.frequency) && fl.frequency > 0.0), "speed fluctuation needs a frequency > 0 Hz");
@@ -104,41 +111,60 @@ rig_output run_rig(const rig_request& req) {
   for (std::size_t i = 0; i < n; ++i)
     counts[i] = static_cast<std::size_t>(std::floor(req.record_revs * 60.0 / req.speeds_rpm[i] * req.probes.sample_rate));
   std::vector<truth_samples> truth(n);
-  parallel_for(n, 0, [&](std::size_t i) {
+  const auto dwell = [&](std::size_t i, const std::array<double, 6>& start, std::array<double, 6>* end) {
     truth[i] = visit_variant(req.variant, [&]<class V>() {
       if constexpr (compliant_law<V>) {
-        return run_dwell<V>(req, req.speeds_rpm[i], counts[i]);
+        return run_dwell<V>(req, req.speeds_rpm[i], counts[i], start, end);
       } else {
         return truth_samples{};  // rejected by validate
       }
     });
-  });
+  };
+  if (req.carry_over) {  // a run-up: each dwell from where the previous one ended
+    std::array<double, 6> state{};
+    for (std::size_t i = 0; i < n; ++i) dwell(i, state, &state);
+  } else {
+    parallel_for(n, 0, [&](std::size_t i) { dwell(i, std::array<double, 6>{}, nullptr); });
+  }
 
   std::vector<double> t, x, y, rpm, kp;
   const double dt = 1.0 / req.probes.sample_rate;
   std::size_t k = 0;  // the acquisition clock runs on across dwells
+  double last = -std::numeric_limits<double>::infinity();
   for (std::size_t i = 0; i < n; ++i) {
     measure(req, truth[i], i, x, y, kp);
+    // Shaft time: the dwell's own clock (shaft angle w t), moved on by whole periods of its speed
+    // so that time increases across the file (docs/data-format.md).
+    const double period = 60.0 / req.speeds_rpm[i], first = req.settle_revs * period;
+    const double periods = std::max(0.0, std::ceil((last + 0.5 * dt - first) / period));
     for (std::size_t j = 0; j < truth[i].s.size(); ++j, ++k) {
-      t.push_back(static_cast<double>(k) * dt);
+      t.push_back(req.time_base == rig_time_base::acquisition ? static_cast<double>(k) * dt
+                                                               : first + static_cast<double>(j) * dt + periods * period);
       rpm.push_back(req.speeds_rpm[i]);
     }
+    if (!t.empty()) last = t.back();
   }
 
   rig_output out;
   record& r = out.measurement;
-  r.set("description", "virtual rig: rotor kit, two proximity probes (x at 0 deg, y at 90 deg), keyphasor; t_s is the acquisition clock");
-  r.set("generator", "rubref " + std::string(version()) + " rig");
-  r.set("commit", std::string(commit()));
+  const bool shaft_time = req.time_base == rig_time_base::shaft;
+  r.set("description", std::string("virtual rig: rotor kit, two proximity probes (x at 0 deg, y at 90 deg)") +
+                           (req.probes.keyphasor ? ", keyphasor" : "") +
+                           (shaft_time ? "; t_s is shaft-synchronous (shaft angle w t_s)" : "; t_s is the acquisition clock"));
+  if (!req.minimal_header) {
+    r.set("generator", "rubref " + std::string(version()) + " rig");
+    r.set("commit", std::string(commit()));
+  }
   r.set("clearance_m", req.params.delta);
-  r.set("m_kg", req.params.m);
+  if (!req.minimal_header) r.set("m_kg", req.params.m);
   r.set("sample_rate_hz", req.probes.sample_rate);
-  r.set("keyphasor", "column keyphasor: 1 at the first sample after the shaft's notch passes its probe");
+  if (req.probes.keyphasor && !req.minimal_header)
+    r.set("keyphasor", "column keyphasor: 1 at the first sample after the shaft's notch passes its probe");
   r.add_column("t_s", std::move(t));
   r.add_column("x_m", std::move(x));
   r.add_column("y_m", std::move(y));
   r.add_column("speed_rpm", std::move(rpm));
-  r.add_column("keyphasor", std::move(kp));
+  if (req.probes.keyphasor) r.add_column("keyphasor", std::move(kp));
 
   nlohmann::ordered_json& j = out.truth;
   j["generator"] = "rubref " + std::string(version()) + " rig";
@@ -156,7 +182,14 @@ rig_output run_rig(const rig_request& req) {
                  {"noise_m", req.probes.noise},
                  {"quantisation_m", req.probes.quantisation},
                  {"keyphasor_angle_rad", req.probes.keyphasor_angle},
-                 {"seed", req.probes.seed}};
+                 {"seed", req.probes.seed},
+                 {"keyphasor", req.probes.keyphasor}};
+  j["time_base"] = shaft_time ? "shaft" : "acquisition";
+  j["carry_over"] = req.carry_over;
+  j["integration"] = {{"stepper", std::string(to_string(req.integration.stepper.kind))},
+                      {"rtol", req.integration.stepper.rtol},
+                      {"atol", req.integration.stepper.atol},
+                      {"dt_s", req.integration.stepper.dt}};
   j["speeds_rpm"] = req.speeds_rpm;
   j["settle_revs"] = req.settle_revs;
   j["record_revs"] = req.record_revs;
