@@ -125,7 +125,7 @@ TEST(loop_scenarios, two_effects_are_both_found) {
 // it cannot explain the residual.
 TEST(loop_scenarios, an_effect_outside_the_library_is_unexplained) {
   rig_request drifting;
-  drifting.fluctuation = speed_fluctuation{0.01, 3.0};
+  drifting.unmodelled.drive = speed_fluctuation{0.01, 3.0};
   const run r = loop_on_rig({}, drifting);
   EXPECT_TRUE(r.result.unexplained);
 }

@@ -32,9 +32,17 @@ void add_rig(CLI::App& app) {
   sub->add_option("--revs", r.record_revs, "revolutions recorded per dwell")->capture_default_str();
   sub->add_option("--effect", st->effects,
                   "an effect of the library, at its moderate level or as name:key=value,... (repeatable; `rubref effects` lists them)");
-  sub->add_option("--speed-fluctuation", r.fluctuation.amplitude, "relative speed fluctuation eps, w(1 + eps sin 2 pi f t) (not a library effect)")
-      ->capture_default_str();
-  sub->add_option("--fluctuation-hz", r.fluctuation.frequency, "its frequency f [Hz]")->capture_default_str();
+  const char* outside = "Outside the effect library";
+  sub->add_option("--speed-fluctuation", r.unmodelled.drive.amplitude, "relative speed fluctuation eps, w(1 + eps sin 2 pi f t)")
+      ->capture_default_str()
+      ->group(outside);
+  sub->add_option("--fluctuation-hz", r.unmodelled.drive.frequency, "its frequency f [Hz]")->capture_default_str()->group(outside);
+  sub->add_option("--cubic-stiffness", r.unmodelled.cubic_stiffness, "hardening shaft supports: -k (x^3, y^3) [N/m^3]")
+      ->capture_default_str()
+      ->group(outside);
+  sub->add_option("--probe-gain-x", r.unmodelled.probe_gain_x, "the x probe's sensitivity error g: it reads (1 + g) x [-]")
+      ->capture_default_str()
+      ->group(outside);
   sub->add_option("--sample-rate", r.probes.sample_rate, "probe sample rate [Hz]")->capture_default_str();
   sub->add_option("--noise", r.probes.noise, "probe white noise, standard deviation [m]")->capture_default_str();
   sub->add_option("--quantisation", r.probes.quantisation, "probe quantisation step [m]")->capture_default_str();
@@ -72,11 +80,33 @@ void add_rig(CLI::App& app) {
     files.commit();
     std::cout << "wrote " << st->out << " (" << o.measurement.rows() << " samples, " << req.speeds_rpm.size() << " dwells) and " << truth << "\n";
   });
-  app.add_subcommand("effects", "list the effect library (docs/loop.md)")->callback([] {
+  auto json_out = std::make_shared<bool>(false);
+  auto* effects = app.add_subcommand("effects", "list the effect library (docs/loop.md)");
+  effects->add_flag("--json", *json_out, "as JSON: every parameter with its unit, moderate level, fit range and documented levels");
+  effects->callback([json_out] {
+    if (*json_out) {
+      nlohmann::ordered_json all = nlohmann::ordered_json::array();
+      for (const auto& e : effect_library()) {
+        nlohmann::ordered_json params = nlohmann::ordered_json::array();
+        for (const auto& q : e.parameters) {
+          nlohmann::ordered_json j{{"key", q.key}, {"unit", q.unit}, {"switch", q.is_switch}, {"off", q.off},
+                                   {"moderate", q.moderate}, {"fit_range", {q.lo, q.hi}}};
+          if (q.is_switch) j["levels"] = {{"magnitude", {q.level_lo, q.level_hi}}, {"either_sign", q.signed_level}};
+          params.push_back(j);
+        }
+        all.push_back({{"name", e.name}, {"model", e.model}, {"reference", e.reference}, {"measurement_only", e.measurement_only},
+                       {"parameters", params}});
+      }
+      std::cout << all.dump(2) << "\n";
+      return;
+    }
     for (const auto& e : effect_library()) {
       std::cout << e.name << (e.measurement_only ? " (measurement)" : "") << ": " << e.model << "\n";
-      for (const auto& q : e.parameters)
-        std::cout << "    " << q.key << " [" << q.unit << "] moderate " << q.moderate << ", range [" << q.lo << ", " << q.hi << "]\n";
+      for (const auto& q : e.parameters) {
+        std::cout << "    " << q.key << " [" << q.unit << "] moderate " << q.moderate << ", range [" << q.lo << ", " << q.hi << "]";
+        if (q.is_switch) std::cout << ", documented levels " << (q.signed_level ? "+-" : "") << "[" << q.level_lo << ", " << q.level_hi << "]";
+        std::cout << "\n";
+      }
     }
   });
 }

@@ -56,7 +56,9 @@ struct effect_parameters {
 
 // One parameter of an effect: where it lives, its name and unit in files, whether it switches
 // the effect on (an effect is present when any switch is away from its `off` value), a moderate
-// level (what the tests inject), and the range a fit may search.
+// level (what the tests inject), the range a fit may search, and, for a switch, the documented
+// levels: the magnitudes the loop is specified for, which the randomized campaign draws from
+// (docs/loop.md; either sign where `signed_level`).
 struct effect_parameter_info {
   double effect_parameters::*member;
   std::string_view key;    // e.g. "k_h"
@@ -65,6 +67,8 @@ struct effect_parameter_info {
   double off;              // the switch's value when the effect is absent; a shape's default
   double moderate;         // a clearly visible but moderate level
   double lo, hi;           // fit bounds
+  double level_lo = 0.0, level_hi = 0.0;  // documented levels of a switch's magnitude (0, 0 for a shape)
+  bool signed_level = false;              // the level may take either sign
 };
 
 struct effect_info {

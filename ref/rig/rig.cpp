@@ -30,7 +30,7 @@ struct truth_samples {
 template <class Law>
 truth_samples run_dwell(const rig_request& req, double rpm, std::size_t count, const std::array<double, 6>& start,
                         std::array<double, 6>* end) {
-  const rig_system<Law> model(req.params, req.effects, rpm_to_rad_s(rpm), req.fluctuation);
+  const rig_system<Law> model(req.params, req.effects, rpm_to_rad_s(rpm), req.unmodelled);
   const double t0 = req.settle_revs * model.period(), dt = 1.0 / req.probes.sample_rate;
   struct keep {
     const rig_system<Law>* model;
@@ -61,7 +61,7 @@ void measure(const rig_request& req, const truth_samples& truth, std::size_t dwe
     const auto& s = truth.s[i];
     const double psi = truth.angle[i];
     const auto [xm, ym] = probe_reading(req.effects, s[idx::x], s[idx::y], psi);
-    x.push_back(quantise(xm + req.probes.noise * noise(rng)));
+    x.push_back(quantise((1.0 + req.unmodelled.probe_gain_x) * xm + req.probes.noise * noise(rng)));
     y.push_back(quantise(ym + req.probes.noise * noise(rng)));
     const double now = std::floor((psi + req.probes.keyphasor_angle) / two_pi);
     const double before = i > 0 ? std::floor((truth.angle[i - 1] + req.probes.keyphasor_angle) / two_pi) : now;
@@ -87,9 +87,12 @@ void validate(const rig_request& req) {
   require(std::isfinite(pr.keyphasor_angle), "keyphasor angle must be finite");
   require(pr.keyphasor || req.time_base == rig_time_base::shaft,
           "a record without a keyphasor needs shaft-synchronous time (time base 'shaft'), else no tool can tell the shaft angle");
-  const auto& fl = req.fluctuation;
+  const auto& fl = req.unmodelled.drive;
   require(std::isfinite(fl.amplitude) && fl.amplitude >= 0.0 && fl.amplitude < 0.5, "speed fluctuation amplitude must be in [0, 0.5)");
   require(fl.amplitude == 0.0 || (std::isfinite(fl.frequency) && fl.frequency > 0.0), "speed fluctuation needs a frequency > 0 Hz");
+  require(std::isfinite(req.unmodelled.cubic_stiffness) && req.unmodelled.cubic_stiffness >= 0.0 && req.unmodelled.cubic_stiffness <= 1e13,
+          "cubic support stiffness must be in [0, 1e13] N/m^3");
+  require(std::isfinite(req.unmodelled.probe_gain_x) && std::abs(req.unmodelled.probe_gain_x) <= 0.5, "x probe gain error must be in [-0.5, 0.5]");
   for (const auto& e : effect_library())
     for (const auto& q : e.parameters) {
       const double v = req.effects.*q.member;
@@ -177,7 +180,8 @@ rig_output run_rig(const rig_request& req) {
     for (const auto& q : e.parameters) params[std::string(q.key)] = req.effects.*q.member;
     j["effects"].push_back({{"name", e.name}, {"params", params}});
   }
-  j["speed_fluctuation"] = {{"amplitude", req.fluctuation.amplitude}, {"frequency_hz", req.fluctuation.frequency}};
+  j["speed_fluctuation"] = {{"amplitude", req.unmodelled.drive.amplitude}, {"frequency_hz", req.unmodelled.drive.frequency}};
+  j["unmodelled"] = {{"cubic_stiffness_N_m3", req.unmodelled.cubic_stiffness}, {"probe_gain_x", req.unmodelled.probe_gain_x}};
   j["probes"] = {{"sample_rate_hz", req.probes.sample_rate},
                  {"noise_m", req.probes.noise},
                  {"quantisation_m", req.probes.quantisation},

@@ -36,7 +36,7 @@ struct rig_request {
   std::string variant = "identified";   // the truth's contact law (a compliant one)
   parameters params;                     // the truth rotor (the paper's by default)
   effect_parameters effects;             // the truth's effects (none by default)
-  speed_fluctuation fluctuation;
+  unmodelled_effects unmodelled;         // outside the library (none by default)
   // One dwell each: three below the rub (the loop fits the linear part there), six with it, all
   // with orbits that repeat every revolution under the paper's law at 0.3 mm (1425-1475 rpm do not).
   std::vector<double> speeds_rpm{1200, 1300, 1400, 1500, 1550, 1600, 1650, 1700, 1750};

@@ -46,6 +46,16 @@ struct speed_fluctuation {
   }
 };
 
+// Effects outside the library: the loop is never told of them, and its campaign uses them to
+// test that it admits what it cannot explain (docs/loop.md).
+struct unmodelled_effects {
+  speed_fluctuation drive;       // a drive that does not hold its speed
+  double cubic_stiffness = 0.0;  // N/m^3: hardening shaft supports, adding -k (x^3, y^3) to Eq. 1
+  double probe_gain_x = 0.0;     // -: the x probe's sensitivity error, it reads (1 + g) x (measurement only)
+
+  bool any() const noexcept { return drive.amplitude != 0.0 || cubic_stiffness != 0.0 || probe_gain_x != 0.0; }
+};
+
 // What the two probes read (x at 0, y at 90 deg) of a rotor at (x, y) with the shaft at angle psi:
 // the position in axes turned by the misorientation alpha, plus the shaft surface's runout
 // a1 cos(psi' + phi1) + a2 cos(2 psi' + phi2), psi' = psi minus the probe's angle.
@@ -63,12 +73,13 @@ class rig_system {
   using state_type = std::array<double, 6>;
   static constexpr bool compliant = true;
 
-  rig_system(const parameters& p, const effect_parameters& fx, double omega, speed_fluctuation drive = {},
+  rig_system(const parameters& p, const effect_parameters& fx, double omega, const unmodelled_effects& outside = {},
              contact_phase phase = contact_phase::by_penetration)
       : law_(Law::from(p)),
         p_(p),
         fx_(fx),
-        drive_(drive),
+        drive_(outside.drive),
+        cubic_(outside.cubic_stiffness),
         nx_(std::sin(fx.contact_angle)),
         ny_(std::cos(fx.contact_angle)),
         sign_(omega < 0.0 ? -1.0 : 1.0),
@@ -93,6 +104,10 @@ class rig_system {
       const double ab = shaft + fx_.bow_phase;
       fx += p_.k_x * fx_.bow * std::cos(ab);
       fy += p_.k_y * fx_.bow * std::sin(ab);
+    }
+    if (cubic_ != 0.0) {
+      fx -= cubic_ * s[idx::x] * s[idx::x] * s[idx::x];
+      fy -= cubic_ * s[idx::y] * s[idx::y] * s[idx::y];
     }
     ds[idx::x] = s[idx::vx];
     ds[idx::y] = s[idx::vy];
@@ -148,6 +163,7 @@ class rig_system {
   parameters p_;
   effect_parameters fx_;
   speed_fluctuation drive_;
+  double cubic_;    // N/m^3, outside the library
   double nx_, ny_;  // contact normal
   double sign_;     // +1 counter-clockwise, -1 clockwise
   double omega_;
