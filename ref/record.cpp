@@ -94,6 +94,12 @@ std::string format_number_17(double v) {
   return std::string(buf, ptr);
 }
 
+std::string format_digits(double v, int digits) {
+  char buf[64];
+  const auto [ptr, ec] = std::to_chars(buf, buf + sizeof buf, v, std::chars_format::general, digits);
+  return std::string(buf, ptr);
+}
+
 std::string to_csv(const record& r, number_format format) {
   const auto number = format == number_format::shortest ? format_number : format_number_17;
   for (std::size_t i = 0; i < kRequiredColumns.size(); ++i)

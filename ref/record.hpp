@@ -46,6 +46,8 @@ struct record {
 std::string format_number(double v);
 // Exactly 17 significant digits (golden files: the precision is visible in every cell).
 std::string format_number_17(double v);
+// `digits` significant digits, for messages and reports (as printf's %g).
+std::string format_digits(double v, int digits = 4);
 
 // How numbers in the rows are written: both read back to the identical double.
 enum class number_format { shortest, significant_17 };

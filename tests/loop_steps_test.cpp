@@ -8,7 +8,8 @@
 #include <numbers>
 
 #include "ref/errors.hpp"
-#include "ref/loop/fit_model.hpp"
+#include "ref/loop/coordinates.hpp"
+#include "ref/loop/paper_fit.hpp"
 #include "ref/loop/loop.hpp"
 #include "ref/rig/rig.hpp"
 
@@ -148,7 +149,7 @@ TEST(loop_steps, the_truths_orbits_leave_the_noise) {
   orbit_predictor predictor(dwells, req.probes.noise);
   model_point truth;
   truth.shift.assign(dwells.size(), 0.0);
-  const Eigen::VectorXd r = predictor.residuals(truth);
+  const Eigen::VectorXd r = predictor.residuals(truth).value();
   const double rms = std::sqrt(r.squaredNorm() / static_cast<double>(r.size()));
   constexpr double kRmsTol = 0.02;  // ~3e4 samples: the sample RMS of white noise is good to ~0.5 %
   EXPECT_NEAR(rms, req.probes.noise, kRmsTol * req.probes.noise);
@@ -180,7 +181,7 @@ TEST(loop_steps, whole_samples_per_revolution_are_all_predicted) {
   truth.p = req.params;
   truth.fx = req.effects;
   truth.shift.assign(dwells.size(), 0.0);
-  const Eigen::VectorXd r = predictor.residuals(truth);
+  const Eigen::VectorXd r = predictor.residuals(truth).value();
   constexpr double kRmsTol = 0.03;  // ~2e4 samples: the sample RMS of white noise is good to ~1 %
   EXPECT_NEAR(std::sqrt(r.squaredNorm() / static_cast<double>(r.size())), req.probes.noise, kRmsTol * req.probes.noise);
 }
@@ -196,7 +197,7 @@ TEST(loop_steps, synchronous_energy_measures_the_periodic_residual) {
   orbit_predictor predictor(dwells, req.probes.noise);
   model_point truth;
   truth.shift.assign(dwells.size(), 0.0);
-  const Eigen::VectorXd r = predictor.residuals(truth);
+  const Eigen::VectorXd r = predictor.residuals(truth).value();
   constexpr int kOrders = 20;
   constexpr double kZ = 3.29;  // two-sided 0.1 %
   const double sigma = req.probes.noise;

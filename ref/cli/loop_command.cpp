@@ -5,6 +5,7 @@
 #include "ref/cli/commands.hpp"
 #include "ref/errors.hpp"
 #include "ref/loop/loop.hpp"
+#include "ref/loop/report.hpp"
 #include "ref/python_script.hpp"
 #include "ref/record.hpp"
 

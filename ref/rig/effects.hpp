@@ -71,12 +71,31 @@ struct effect_parameter_info {
   bool signed_level = false;              // the level may take either sign
 };
 
+// How the loop fits one switch of an effect (docs/loop.md, "The effect library"). Shape
+// parameters are held at their defaults; a phase is fitted through its amplitude's pair.
+enum class fit_form {
+  value,           // the switch itself
+  polar,           // an amplitude with the phase parameter after it, as (a cos phi, a sin phi): smooth through a = 0
+  compliance,      // a stiffness as its compliance 1/k (0: rigid, smooth there); its ringing makes the residual a
+                   // comb of dips along it, so the trace searches them (ref/loop/search.hpp)
+  excess_over_mu,  // a friction coefficient as its excess over the model's mu (<= 0: off)
+};
+struct effect_fit {
+  std::string_view key;        // the switch
+  fit_form form;
+  double scale;                // the search's unit: the moderate level's order of magnitude
+  // Trial values where the effect enters the orbit so nonlinearly that its linearisation at
+  // "off" misleads (the contact normal's angle, the probes' orientation): the trace profiles it.
+  std::vector<double> trials = {};
+};
+
 struct effect_info {
   std::string_view name;         // e.g. "hertz_contact"
   std::string_view model;        // one line: what it does to the equations
   std::string_view reference;    // where the model comes from
   bool measurement_only;         // acts on the probes, not on the rotor
   std::vector<effect_parameter_info> parameters;
+  std::vector<effect_fit> fit;   // the loop's coordinates, one entry per switch
 };
 
 // The library, in a fixed order (docs/loop.md).

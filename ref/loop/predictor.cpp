@@ -1,4 +1,4 @@
-#include "ref/loop/fit_model.hpp"
+#include "ref/loop/predictor.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -6,8 +6,6 @@
 
 #include "ref/errors.hpp"
 #include "ref/parallel.hpp"
-#include "ref/rig/rig_system.hpp"
-#include "variants/identified.hpp"
 
 namespace rubref {
 
@@ -100,112 +98,17 @@ double phase_in_period(double tau, double period) {
   return f < period ? f : 0.0;
 }
 
-std::vector<fit_coordinate> paper_coordinates(const model_point&) {
-  // Positive physical quantities are searched as log(value): a trial step can never make a
-  // stiffness, damping or the unbalance negative (a negative k3 lets the rotor run through the
-  // stator, where the law's forces explode). The scale is 1: u = log(value).
-  const auto positive = [](std::string name, double parameters::*m) {
-    return fit_coordinate{std::move(name), 1.0, [m](const model_point& q) { return std::log(std::max(q.p.*m, 1e-300)); },
-                          [m](model_point& q, double u) { q.p.*m = std::exp(u); }};
-  };
-  return {positive("c_x", &parameters::c_x),
-          positive("c_y", &parameters::c_y),
-          positive("k_x", &parameters::k_x),
-          positive("k_y", &parameters::k_y),
-          positive("e", &parameters::e),
-          {"unbalance_phase", 1.0, [](const model_point& q) { return q.p.unbalance_phase; },
-           [](model_point& q, double v) { q.p.unbalance_phase = v; }},
-          positive("k1", &parameters::k1),
-          positive("k3", &parameters::k3),
-          positive("c2", &parameters::c2),
-          positive("mu", &parameters::mu)};
-}
-
-std::vector<fit_coordinate> effect_coordinates(const effect_info& e) {
-  using P = effect_parameters;
-  const auto plain = [&](std::string_view key, double P::*m, double scale) {
-    return fit_coordinate{std::string(e.name) + "." + std::string(key), scale, [m](const model_point& q) { return q.fx.*m; },
-                          [m](model_point& q, double v) { q.fx.*m = v; }};
-  };
-  // An amplitude a >= 0 at angle phi as (a cos phi, a sin phi): smooth through a = 0. Going
-  // through (a, phi) leaves ~1e-17 of a component set to zero; below 1e-12 of the scale it is 0.
-  const auto flush = [](double a, double scale) { return a < 1e-12 * scale ? 0.0 : a; };
-  const auto pair = [&](std::string_view key, double P::*amp, double P::*phase, double scale) {
-    return std::vector<fit_coordinate>{
-        {std::string(e.name) + "." + std::string(key) + "_cos", scale,
-         [=](const model_point& q) { return q.fx.*amp * std::cos(q.fx.*phase); },
-         [=](model_point& q, double v) {
-           const double s = q.fx.*amp * std::sin(q.fx.*phase);
-           q.fx.*amp = flush(std::hypot(v, s), scale);
-           q.fx.*phase = std::atan2(s, v);
-         }},
-        {std::string(e.name) + "." + std::string(key) + "_sin", scale,
-         [=](const model_point& q) { return q.fx.*amp * std::sin(q.fx.*phase); },
-         [=](model_point& q, double v) {
-           const double c = q.fx.*amp * std::cos(q.fx.*phase);
-           q.fx.*amp = flush(std::hypot(c, v), scale);
-           q.fx.*phase = std::atan2(v, c);
-         }}};
-  };
-  // Scales are the library's moderate levels' orders of magnitude: they only condition the search.
-  const std::string_view n = e.name;
-  if (n == "hertz_contact") return {plain("k_h", &P::hertz_k, 1e8)};
-  if (n == "hunt_crossley_damping") return {plain("lambda", &P::hc_lambda, 1e9)};
-  if (n == "contact_angle") {  // the normal's angle moves every contact force: tried across its bounds
-    auto theta = plain("theta", &P::contact_angle, 0.1);
-    theta.trials = fit_coordinate::trial_grid{{-0.75, -0.5, -0.25, 0.25, 0.5, 0.75}, theta.set};
-    return {theta};
+std::string_view to_string(orbit_kind k) {
+  switch (k) {
+    case orbit_kind::periodic: return "periodic";
+    case orbit_kind::transient: return "transient";
+    case orbit_kind::failed: return "failed";
   }
-  if (n == "preload") return {plain("F_x", &P::preload_x, 1.0), plain("F_y", &P::preload_y, 1.0)};
-  if (n == "misalignment_2x") return pair("F2", &P::misalignment_force, &P::misalignment_phase, 1.0);
-  if (n == "shaft_bow") return pair("b", &P::bow, &P::bow_phase, 1e-5);
-  if (n == "probe_runout") {
-    auto a = pair("a1", &P::runout_1x, &P::runout_1x_phase, 1e-6);
-    auto b = pair("a2", &P::runout_2x, &P::runout_2x_phase, 1e-6);
-    a.insert(a.end(), b.begin(), b.end());
-    return a;
-  }
-  if (n == "probe_misorientation") {  // turns the whole orbit: a local fit without it can sit far from alpha = 0's basin
-    auto alpha = plain("alpha", &P::misorientation, 0.01);
-    alpha.trials = fit_coordinate::trial_grid{{-0.3, -0.2, -0.1, -0.05, 0.05, 0.1, 0.2, 0.3}, alpha.set};
-    return {alpha};
-  }
-  if (n == "stator_compliance") {  // compliance 1 / k_s: 0 is the rigid stator, and the fit is smooth there
-    fit_coordinate compliance{"stator_compliance.1/k_s", 1e-7, [](const model_point& q) { return q.fx.stator_k > 0.0 ? 1.0 / q.fx.stator_k : 0.0; },
-                              [](model_point& q, double v) { q.fx.stator_k = v > 0.0 ? 1.0 / v : 0.0; }};
-    // At a rigid stator its derivative is a series spring that k1 absorbs, and the stator rings
-    // between impacts (m_s = 1 kg on 4e6 N/m: 318 Hz, damping ratio 0.025, ~15 % of it left when
-    // the rotor returns), so the residual along 1/k_s is a comb of dips a few % apart and ~2 %
-    // wide (docs/loop.md). Envelope: k_s from 1e6 to 3.3e7 N/m in factors of sqrt 2, the law (k1,
-    // c2, mu) refitted at each; k3 is left out (it goes to 0 in every fit of these orbits). Hops:
-    // a factor 1.45 either way covers the envelope's spacing with room, in steps of 0.5 % that
-    // land in every dip; they move the compliance with k1 keeping the law and stator's series
-    // stiffness, which the contacts pin.
-    std::vector<double> envelope;
-    for (double c = 3e-8; c < 1.01e-6; c *= std::numbers::sqrt2) envelope.push_back(c);
-    compliance.search = fit_coordinate::dip_search{
-        envelope, {"k1", "c2", "mu"},
-        [](model_point& q, double c) {
-          const double old = q.fx.stator_k > 0.0 ? 1.0 / q.fx.stator_k : 0.0;
-          const double law = 1.0 / q.p.k1 + old - c;  // 1 / k1 at the same series stiffness
-          if (!(c > 0.0 && law > 0.0)) return false;
-          q.fx.stator_k = 1.0 / c;
-          q.p.k1 = 1.0 / law;
-          return true;
-        },
-        1.45, 0.005};
-    return {compliance};
-  }
-  if (n == "velocity_dependent_friction")  // the excess mu_s - mu >= 0 (mu_s <= mu is off)
-    return {{"velocity_dependent_friction.mu_s-mu", 0.1,
-             [](const model_point& q) { return q.fx.mu_static > q.p.mu ? q.fx.mu_static - q.p.mu : 0.0; },
-             [](model_point& q, double v) { q.fx.mu_static = v > 0.0 ? q.p.mu + v : 0.0; }}};
-  if (n == "cross_coupling") return {plain("k_xy", &P::k_xy, 1e3), plain("k_yx", &P::k_yx, 1e3)};
-  throw input_error("the loop has no coordinates for effect '" + std::string(n) + "'");
+  return "?";
 }
 
 orbit_predictor::orbit_predictor(const std::vector<loop_dwell>& dwells, double noise)
-    : dwells_(dwells), noise_(noise), caches_(dwells.size()) {
+    : dwells_(dwells), noise_(noise), caches_(dwells.size()), kinds_(dwells.size(), orbit_kind::failed) {
   for (const auto& d : dwells_) {
     offsets_.push_back(orbit_rows_);
     orbit_rows_ += 2 * d.data.size();
@@ -215,7 +118,7 @@ orbit_predictor::orbit_predictor(const std::vector<loop_dwell>& dwells, double n
     if (std::isfinite(d.timing_sigma)) ++rows_;
 }
 
-bool orbit_predictor::predict(std::size_t k, const model_point& m) {
+orbit_kind orbit_predictor::predict(std::size_t k, const model_point& m) {
   const dwell& d = dwells_[k].data;
   cache& c = caches_[k];
   parameters p = m.p;
@@ -248,7 +151,7 @@ bool orbit_predictor::predict(std::size_t k, const model_point& m) {
     result = shoot(k, m, sys, period, grid, n);
     c.started = true;
   }
-  if (result == shot::converged) return true;
+  if (result == shot::converged) return orbit_kind::periodic;
   c.inverse_jacobian.resize(0, 0);
   // No periodic orbit near the data (these parameters give a subharmonic, chaotic or far
   // orbit): compare the motion the model settles into from the data's state instead, so that the
@@ -260,12 +163,12 @@ bool orbit_predictor::predict(std::size_t k, const model_point& m) {
     const rig_state settled = flow(sys, guess_from_data(d, m.fx), kFallbackSettleRevs * period, settle, sample_grid{}, nullptr);
     std::vector<rig_state> sorted;
     flow(sys, settled, period, opt, grid, &sorted);
-    if (sorted.size() != d.size()) return false;
+    if (sorted.size() != d.size()) return orbit_kind::failed;
     c.states.resize(d.size());
     for (std::size_t i = 0; i < sorted.size(); ++i) c.states[c.order[i]] = sorted[i];
-    return true;
+    return orbit_kind::transient;
   } catch (const numerical_error&) {
-    return false;
+    return orbit_kind::failed;
   }
 }
 
@@ -328,22 +231,21 @@ void orbit_predictor::reset() {
 
 void orbit_predictor::anchor(const model_point& m) {
   reset();
-  residuals(m);
+  (void)residuals(m);  // a dwell that fails keeps no anchor: it starts from its data next time
   for (auto& c : caches_) {
     c.started = c.last_ok;
     c.start = c.last;
   }
 }
 
-Eigen::VectorXd orbit_predictor::residuals(const model_point& m) {
+std::optional<Eigen::VectorXd> orbit_predictor::residuals(const model_point& m) {
   Eigen::VectorXd r(static_cast<Eigen::Index>(rows_));
+  kinds_.assign(dwells_.size(), orbit_kind::failed);
   parallel_for(dwells_.size(), 0, [&](std::size_t k) {
+    kinds_[k] = predict(k, m);
+    if (kinds_[k] == orbit_kind::failed) return;
     const dwell& d = dwells_[k].data;
     const auto at = static_cast<Eigen::Index>(offsets_[k]);
-    if (!predict(k, m)) {
-      r.segment(at, static_cast<Eigen::Index>(2 * d.size())).setConstant(kFailed);
-      return;
-    }
     const double w = d.omega(), shift = m.shift.empty() ? 0.0 : m.shift[k];
     for (std::size_t i = 0; i < d.size(); ++i) {
       const auto& s = caches_[k].states[i];
@@ -352,9 +254,11 @@ Eigen::VectorXd orbit_predictor::residuals(const model_point& m) {
       r[at + static_cast<Eigen::Index>(2 * i + 1)] = ym - d.y[i];
     }
   });
+  if (std::find(kinds_.begin(), kinds_.end(), orbit_kind::failed) != kinds_.end()) return std::nullopt;
   Eigen::Index row = static_cast<Eigen::Index>(orbit_rows_);
   for (std::size_t k = 0; k < dwells_.size(); ++k)
     if (std::isfinite(dwells_[k].timing_sigma)) r[row++] = noise_ * (m.shift.empty() ? 0.0 : m.shift[k]) / dwells_[k].timing_sigma;
+  if (!r.allFinite()) return std::nullopt;
   return r;
 }
 

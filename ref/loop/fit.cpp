@@ -1,0 +1,174 @@
+#include "ref/loop/fit.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+
+namespace rubref {
+
+namespace {
+// Relative finite-difference step of the Jacobian, in scaled coordinates: orbit changes of
+// ~1e-9..1e-7 m, far above the 1e-13 m integration error and small enough to stay linear.
+constexpr double kStep = 1e-3;
+// A step that gains less than this in chi^2 (rss / noise^2) ends the fit: a fraction of one
+// degree of freedom, far below every threshold the loop compares fits with (BIC drops of 10).
+constexpr double kConvergedChi2 = 1e-2;
+// Marquardt's damping: the first value (relative to the diagonal of J'J), and where it is so
+// large that no step of useful size is left.
+constexpr double kFirstDamping = 1e-3;
+constexpr double kMaxDamping = 1e12;
+}  // namespace
+
+model_point fit_problem::at(const Eigen::VectorXd& u) const {
+  model_point m = base;
+  for (std::size_t j = 0; j < coords.size(); ++j) coords[j].set(m, u[static_cast<Eigen::Index>(j)] * coords[j].scale);
+  for (std::size_t j = 0; j < shifted.size(); ++j) m.shift[shifted[j]] = u[static_cast<Eigen::Index>(coords.size() + j)] * shift_scale[j];
+  return m;
+}
+
+Eigen::VectorXd fit_problem::of(const model_point& m) const {
+  Eigen::VectorXd u(size());
+  for (std::size_t j = 0; j < coords.size(); ++j) u[static_cast<Eigen::Index>(j)] = coords[j].get(m) / coords[j].scale;
+  for (std::size_t j = 0; j < shifted.size(); ++j) u[static_cast<Eigen::Index>(coords.size() + j)] = m.shift[shifted[j]] / shift_scale[j];
+  return u;
+}
+
+Eigen::VectorXd fit_problem::feasible(Eigen::VectorXd u) const {
+  for (std::size_t j = 0; j < coords.size(); ++j) {
+    const double lower = coords[j].lower / coords[j].scale;
+    auto& v = u[static_cast<Eigen::Index>(j)];
+    if (v < lower) v = lower;
+  }
+  return u;
+}
+
+Eigen::MatrixXd fit_problem::jacobian(const Eigen::VectorXd& u, const Eigen::VectorXd& r0) const {
+  Eigen::MatrixXd J = Eigen::MatrixXd::Zero(r0.size(), size());
+  for (std::size_t j = 0; j < coords.size(); ++j) {
+    const auto col = static_cast<Eigen::Index>(j);
+    for (const double h : {kStep, -kStep}) {
+      Eigen::VectorXd v = u;
+      v[col] += h;
+      if (const auto r = predictor->residuals(at(v))) {
+        J.col(col) = (*r - r0) / h;
+        break;
+      }
+    }
+  }
+  if (!shifted.empty()) {
+    const model_point m = at(u);
+    if (predictor->residuals(m)) {  // the states at u for the analytic columns
+      const Eigen::MatrixXd S = predictor->shift_columns(m);
+      for (std::size_t j = 0; j < shifted.size(); ++j)
+        J.col(static_cast<Eigen::Index>(coords.size() + j)) = S.col(static_cast<Eigen::Index>(shifted[j])) * shift_scale[j];
+    }
+  }
+  return J;
+}
+
+fit_problem make_problem(orbit_predictor& predictor, const std::vector<loop_dwell>& dwells, const model_point& base,
+                         std::vector<fit_coordinate> coords, double noise) {
+  fit_problem p{&predictor, std::move(coords), {}, base, {}, noise};
+  for (std::size_t k = 0; k < dwells.size(); ++k)
+    if (std::isfinite(dwells[k].timing_sigma)) {
+      p.shifted.push_back(k);
+      p.shift_scale.push_back(std::max(dwells[k].timing_sigma, 1e-9));
+    }
+  return p;
+}
+
+fit_result fit(const fit_problem& problem, const Eigen::VectorXd& start, int max_iterations) {
+  orbit_predictor& predictor = *problem.predictor;
+  fit_result out;
+  out.at = problem.at(problem.feasible(start));
+  predictor.anchor(out.at);
+  auto r = predictor.residuals(out.at);
+  ++out.evaluations;
+  if (!r) return out;
+  out.ok = true;
+  out.rss = r->squaredNorm();
+  const double chi2_unit = std::max(problem.noise * problem.noise, 1e-300);
+  Eigen::VectorXd u = problem.feasible(start);
+  double damping = kFirstDamping, growth = 2.0;
+  while (out.iterations < max_iterations) {
+    const Eigen::MatrixXd J = problem.jacobian(u, *r);
+    ++out.iterations;
+    out.evaluations += static_cast<int>(problem.coords.size()) + 1;
+    const Eigen::MatrixXd A = J.transpose() * J;
+    const Eigen::VectorXd g = J.transpose() * *r;
+    const Eigen::VectorXd d = A.diagonal().cwiseMax(1e-12 * std::max(A.diagonal().maxCoeff(), 1e-300));
+    bool accepted = false;
+    double gain = 0.0;
+    while (damping < kMaxDamping) {
+      Eigen::MatrixXd M = A;
+      M.diagonal() += damping * d;
+      const Eigen::VectorXd free_step = -M.ldlt().solve(g);
+      if (!free_step.allFinite()) {
+        damping *= growth, growth *= 2.0;
+        continue;
+      }
+      // Projected onto the bounds: a coordinate at its bound that the step pushes further is held.
+      const Eigen::VectorXd trial = problem.feasible(u + free_step);
+      const Eigen::VectorXd step = trial - u;
+      const auto rt = predictor.residuals(problem.at(trial));
+      ++out.evaluations;
+      const double predicted = step.dot(A * step) + 2.0 * damping * step.dot(d.cwiseProduct(step));
+      if (!rt) {
+        ++out.rejected;
+        damping *= growth, growth *= 2.0;
+        continue;
+      }
+      const double rss = rt->squaredNorm();
+      if (rss < out.rss) {
+        const double rho = predicted > 0.0 ? (out.rss - rss) / predicted : 1.0;
+        damping *= std::max(1.0 / 3.0, 1.0 - std::pow(2.0 * rho - 1.0, 3));
+        growth = 2.0;
+        gain = (out.rss - rss) / chi2_unit;
+        u = trial;
+        r = rt;
+        out.rss = rss;
+        accepted = true;
+        break;
+      }
+      damping *= growth, growth *= 2.0;
+      // A step too small to change the residual at all: nothing is left to gain.
+      if (step.cwiseAbs().maxCoeff() < 1e-14 * std::max(1.0, u.cwiseAbs().maxCoeff())) break;
+    }
+    if (!accepted || gain < kConvergedChi2) break;
+  }
+  out.at = problem.at(u);
+  return out;
+}
+
+std::optional<Eigen::VectorXd> residual_at(orbit_predictor& predictor, const model_point& m) {
+  predictor.anchor(m);
+  return predictor.residuals(m);
+}
+
+multistart_result fit_from_starts(const fit_problem& problem, const std::vector<named_start>& starts, int max_iterations,
+                                  double good_enough, int max_fits) {
+  multistart_result out;
+  for (const auto& s : starts) {
+    start_outcome o{s.name};
+    if (const auto r = residual_at(*problem.predictor, s.at)) o.rss_start = r->squaredNorm();
+    out.starts.push_back(o);
+  }
+  std::vector<std::size_t> order(starts.size());
+  std::iota(order.begin(), order.end(), 0);
+  std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return out.starts[a].rss_start < out.starts[b].rss_start; });
+  int fits = 0;
+  for (const std::size_t i : order) {
+    if (fits >= max_fits || !std::isfinite(out.starts[i].rss_start)) break;
+    if (fits > 0 && out.best.rss <= good_enough) break;
+    const fit_result f = fit(problem, problem.of(starts[i].at), max_iterations);
+    ++fits;
+    out.starts[i].rss_fit = f.rss;
+    if (f.ok && f.rss < out.best.rss) {
+      out.best = f;
+      out.winner = starts[i].name;
+    }
+  }
+  return out;
+}
+
+}  // namespace rubref

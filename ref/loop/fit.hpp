@@ -1,0 +1,82 @@
+#pragma once
+// Stage 3 of `rubref loop` (docs/loop.md): least squares of the model's orbits against the
+// measured samples. Levenberg-Marquardt over some coordinates of the model (the rest held), plus
+// one timing shift per dwell with a keyphasor; and fits from several starts, keeping the best.
+//
+// Eigen's Levenberg-Marquardt (a MINPACK port) can only abort when an evaluation fails; here a
+// trial point where the model's orbit cannot be computed is a rejected step, like one that raises
+// the residual, so a failure never enters the objective as a number.
+
+#include <Eigen/Dense>
+#include <limits>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "ref/loop/coordinates.hpp"
+#include "ref/loop/predictor.hpp"
+
+namespace rubref {
+
+struct fit_problem {
+  orbit_predictor* predictor;
+  std::vector<fit_coordinate> coords;  // model coordinates (shifts follow them in u)
+  std::vector<std::size_t> shifted;    // dwells whose shift is fitted
+  model_point base;                    // every other coordinate
+  std::vector<double> shift_scale;     // s, per fitted dwell
+  double noise = 0.0;                  // m, the convergence test's unit
+
+  Eigen::Index size() const { return static_cast<Eigen::Index>(coords.size() + shifted.size()); }
+  model_point at(const Eigen::VectorXd& u) const;
+  Eigen::VectorXd of(const model_point& m) const;
+  // u with every coordinate at or above its lower bound.
+  Eigen::VectorXd feasible(Eigen::VectorXd u) const;
+  // The Jacobian at u (residual r0 there): model coordinates by forward differences (backward
+  // where the forward point cannot be computed; a coordinate with neither is held for the step),
+  // shifts analytically.
+  Eigen::MatrixXd jacobian(const Eigen::VectorXd& u, const Eigen::VectorXd& r0) const;
+};
+
+// The problem over `coords` around `base`, with the shift of every dwell that has a keyphasor.
+fit_problem make_problem(orbit_predictor& predictor, const std::vector<loop_dwell>& dwells, const model_point& base,
+                         std::vector<fit_coordinate> coords, double noise);
+
+struct fit_result {
+  model_point at;
+  double rss = std::numeric_limits<double>::infinity();  // m^2, on the orbits anchored at the start
+  int iterations = 0;     // Jacobians
+  int evaluations = 0;    // residual evaluations, the Jacobians' included
+  int rejected = 0;       // trial points the model could not be computed at
+  bool ok = false;        // false: the start itself could not be computed (at = the start)
+};
+
+// Levenberg-Marquardt (Marquardt's scaling, Nielsen's damping update) from u = start, at most
+// `max_iterations` Jacobians; it stops when a step gains less than 0.01 in chi^2 = rss / noise^2.
+// Every accepted step lowers the residual, so the result is never worse than its start.
+fit_result fit(const fit_problem& problem, const Eigen::VectorXd& start, int max_iterations);
+
+// The residual of m on its own periodic orbits (anchored at m), as every comparison of fits uses;
+// nothing if the model's orbit cannot be computed in some dwell.
+std::optional<Eigen::VectorXd> residual_at(orbit_predictor& predictor, const model_point& m);
+
+// Fits from several starts (named for the report): every start is evaluated, the best is fitted,
+// and while the best fit so far leaves more than `good_enough` (m^2) the next best start is
+// fitted too, `max_fits` in all. The lowest fit wins.
+struct named_start {
+  std::string name;
+  model_point at;
+};
+struct start_outcome {
+  std::string name;
+  double rss_start = std::numeric_limits<double>::infinity();  // m^2 (inf: not computable)
+  double rss_fit = std::numeric_limits<double>::quiet_NaN();   // m^2 (NaN: not fitted)
+};
+struct multistart_result {
+  fit_result best;
+  std::string winner;
+  std::vector<start_outcome> starts;
+};
+multistart_result fit_from_starts(const fit_problem& problem, const std::vector<named_start>& starts, int max_iterations,
+                                  double good_enough, int max_fits);
+
+}  // namespace rubref

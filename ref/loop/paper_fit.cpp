@@ -1,0 +1,131 @@
+#include "ref/loop/paper_fit.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <complex>
+
+#include "ref/errors.hpp"
+#include "ref/identification/identify.hpp"
+
+namespace rubref {
+
+namespace {
+// The fit is good enough when its residual is within the validity check's noise level:
+// RMS / noise <= 1.05 (ref/loop/residuals.cpp).
+constexpr double kNoiseRatioLimit = 1.05;
+}  // namespace
+
+// The linear part from the dwells without contact, by harmonic balance on their 1X components
+// (steady response of Eq. 1 without contact): with X, Y the 1X phasors of x and y and
+// E = e exp(i phase),
+//   (k_x - m w^2 + i c_x w) X = m w^2 E,   (k_y - m w^2 + i c_y w) Y = -i m w^2 E,
+// linear in (k_x, c_x, k_y, c_y, Re E, Im E). The 1X phasor averages every revolution, so noise
+// barely enters; it needs two speeds or more.
+parameters fit_linear_harmonic(const std::vector<loop_dwell>& dwells, double mass) {
+  std::vector<const loop_dwell*> free;
+  for (const auto& d : dwells)
+    if (!d.contact) free.push_back(&d);
+  std::vector<double> speeds;
+  for (const auto* d : free) speeds.push_back(d->data.rpm);
+  std::sort(speeds.begin(), speeds.end());
+  if (std::unique(speeds.begin(), speeds.end()) - speeds.begin() < 2)
+    throw input_error("the loop fits the linear part on dwells without contact and needs them at two speeds or more (found " +
+                      std::to_string(speeds.end() - speeds.begin() > 0 ? std::unique(speeds.begin(), speeds.end()) - speeds.begin() : 0) + ")");
+  Eigen::MatrixXd A = Eigen::MatrixXd::Zero(4 * static_cast<Eigen::Index>(free.size()), 6);
+  Eigen::VectorXd b(A.rows());
+  Eigen::Index row = 0;
+  for (const auto* ld : free) {
+    const dwell& d = ld->data;
+    const double w = d.omega(), mw2 = mass * w * w;
+    std::complex<double> X, Y;
+    double mx = 0.0, my = 0.0;
+    for (std::size_t i = 0; i < d.size(); ++i) mx += d.x[i] / d.size(), my += d.y[i] / d.size();
+    for (std::size_t i = 0; i < d.size(); ++i) {
+      const auto e = std::polar(2.0 / static_cast<double>(d.size()), -w * d.t[i]);
+      X += (d.x[i] - mx) * e;
+      Y += (d.y[i] - my) * e;
+    }
+    const std::complex<double> I(0.0, 1.0);
+    // x: k_x X + c_x i w X - mw2 E = mw2 X ; y: k_y Y + c_y i w Y + i mw2 E = mw2 Y
+    const std::complex<double> ax[6] = {X, I * w * X, 0.0, 0.0, -mw2, -mw2 * I};
+    const std::complex<double> ay[6] = {0.0, 0.0, Y, I * w * Y, I * mw2, I * mw2 * I};
+    for (int j = 0; j < 6; ++j) {
+      A(row, j) = ax[j].real();
+      A(row + 1, j) = ax[j].imag();
+      A(row + 2, j) = ay[j].real();
+      A(row + 3, j) = ay[j].imag();
+    }
+    b[row] = (mw2 * X).real();
+    b[row + 1] = (mw2 * X).imag();
+    b[row + 2] = (mw2 * Y).real();
+    b[row + 3] = (mw2 * Y).imag();
+    row += 4;
+  }
+  const Eigen::VectorXd v = A.colPivHouseholderQr().solve(b);
+  parameters p;
+  p.m = mass;
+  p.k_x = v[0];
+  p.c_x = v[1];
+  p.k_y = v[2];
+  p.c_y = v[3];
+  p.e = std::hypot(v[4], v[5]);
+  p.unbalance_phase = std::atan2(v[5], v[4]);
+  return p;
+}
+
+model_point staged_model(const std::vector<loop_dwell>& dwells, double mass, std::vector<std::string>& notes) {
+  // The paper's pipeline (docs/identification.md) on the re-timed dwells: the linear part without
+  // contact (here by harmonic balance), then the identified law's terms by FROLS on the contact
+  // forces. (Its NLopt output-error stage is left to the before-fit, which refines every
+  // coordinate on every dwell at once.)
+  std::vector<dwell> plain;
+  for (const auto& ld : dwells) plain.push_back(ld.data);
+  identify_settings is;
+  is.mass = mass;
+  is.linear = fit_linear_harmonic(dwells, mass);
+  is.average_revolutions = true;
+  is.library = "z1,z3,zd2";  // Eq. 5's terms: the loop's base model is the identified law
+  is.frols.rho = 0.0;
+  is.frols.err_threshold = 0.0;
+  is.bootstrap = 0;
+  model_point start;
+  start.p.m = mass;
+  start.p.delta = dwells.front().data.clearance;  // for the report; every dwell uses its own
+  start.shift.assign(dwells.size(), 0.0);
+  const parameters& lin = *is.linear;
+  start.p.c_x = lin.c_x;
+  start.p.c_y = lin.c_y;
+  start.p.k_x = lin.k_x;
+  start.p.k_y = lin.k_y;
+  start.p.e = lin.e;
+  start.p.unbalance_phase = lin.unbalance_phase;
+  try {
+    const identification id = identify(plain, is);
+    // The law's start: FROLS's coefficients where positive (else the paper's Table 2 value: the
+    // fit searches logarithms), mu from the friction ratio (Fig. 5).
+    for (const auto& t : id.estimates) {
+      if (t.name == "z1" && t.value > 0.0) start.p.k1 = t.value;
+      if (t.name == "z3" && t.value > 0.0) start.p.k3 = t.value;
+      if (t.name == "zd2" && t.value > 0.0) start.p.c2 = t.value;
+    }
+    if (std::isfinite(id.mu_mean) && id.mu_mean > 0.0 && id.mu_mean < 2.0) start.p.mu = id.mu_mean;
+  } catch (const input_error& e) {
+    notes.push_back(std::string("FROLS start not available (") + e.what() + "); the law starts from the paper's Table 2");
+  }
+  return start;
+}
+
+multistart_result fit_paper_model(orbit_predictor& predictor, const std::vector<loop_dwell>& dwells, const model_point& staged, double noise,
+                                  int max_iterations) {
+  const fit_problem problem = make_problem(predictor, dwells, staged, paper_coordinates(), noise);
+  model_point table2 = staged;
+  const parameters paper;
+  table2.p.k1 = paper.k1;
+  table2.p.k3 = paper.k3;
+  table2.p.c2 = paper.c2;
+  table2.p.mu = paper.mu;
+  const double noise_level = std::pow(kNoiseRatioLimit * noise, 2) * static_cast<double>(predictor.orbit_rows());
+  return fit_from_starts(problem, {{"staged (FROLS law)", staged}, {"staged linear part, Table 2 law", table2}}, max_iterations, noise_level, 2);
+}
+
+}  // namespace rubref

@@ -1,0 +1,30 @@
+#pragma once
+// The paper's model fitted to the dwells (docs/loop.md, step 2): the staged start (the linear part
+// by harmonic balance on the dwells without contact, then the identified law's terms by the
+// paper's FROLS on the contact forces, Eq. 3-5) and the "before" fit of every coordinate together
+// on the orbits of every dwell, from several starts.
+
+#include <string>
+#include <vector>
+
+#include "ref/loop/fit.hpp"
+#include "ref/loop/preprocess.hpp"
+
+namespace rubref {
+
+// The linear part of Eq. 1 from the dwells without contact (harmonic balance on their 1X).
+parameters fit_linear_harmonic(const std::vector<loop_dwell>& dwells, double mass);
+
+// The staged model: the linear part from the dwells without contact, the law from FROLS (where
+// its coefficients are positive, else the paper's Table 2), mu from the force ratio (Fig. 5).
+// Notes what it could not do.
+model_point staged_model(const std::vector<loop_dwell>& dwells, double mass, std::vector<std::string>& notes);
+
+// The before-fit: every coordinate of the paper's model, Levenberg-Marquardt from the best of
+// the staged model and the staged linear part with Table 2's law, and, while the fit leaves more
+// than the noise, from the other start too. The lowest fit wins; it is never worse than the best
+// start (every accepted step lowers the residual).
+multistart_result fit_paper_model(orbit_predictor& predictor, const std::vector<loop_dwell>& dwells, const model_point& staged, double noise,
+                                  int max_iterations);
+
+}  // namespace rubref

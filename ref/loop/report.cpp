@@ -1,0 +1,177 @@
+#include "ref/loop/report.hpp"
+
+#include <cmath>
+#include <sstream>
+
+#include "ref/parameter_io.hpp"
+
+namespace rubref {
+
+using json = nlohmann::ordered_json;
+
+namespace {
+
+json check_json(const correlation_check& c) { return {{"name", c.name}, {"value", c.value}, {"limit", c.limit}, {"pass", c.pass}}; }
+
+json validity_json(const validity_report& v) {
+  json j{{"noise_m", v.noise}, {"residual_rms_m", v.rms}, {"pass", v.pass}};
+  j["checks"] = json::array({check_json(v.noise_level), check_json(v.synchronous), check_json(v.whiteness)});
+  for (const auto& c : v.state) j["checks"].push_back(check_json(c));
+  return j;
+}
+
+json candidates_json(const std::vector<effect_candidate>& cs) {
+  json a = json::array();
+  for (const auto& c : cs) {
+    json j{{"name", c.name}, {"score", c.score}, {"refitted", c.refitted}};
+    if (c.refitted) {
+      j["start"] = c.start;
+      j["bic_drop"] = c.bic_drop;
+      j["excess_share"] = c.excess_share;
+      j["error_after"] = c.error_after;
+      if (std::isfinite(c.holdout_gain)) j["holdout_gain_chi2"] = c.holdout_gain;
+    }
+    j["verdict"] = c.verdict;
+    a.push_back(j);
+  }
+  return a;
+}
+
+std::string fmt(double v, int digits = 4) { return format_digits(v, digits); }
+
+// NaN (no fit: nothing synchronous with contact) as JSON null.
+json number(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
+
+}  // namespace
+
+json to_json(const loop_result& r) {
+  json j;
+  j["error_before"] = number(r.error_before);
+  j["error_after"] = number(r.error_after);
+  j["error_definition"] = "orbit NRMSE over the dwells with contact: sqrt(sum |model - measured|^2 / sum |measured - dwell mean|^2)";
+  j["effects"] = json::array();
+  for (const auto& e : r.effects) {
+    json params;
+    for (const auto& [k, v] : e.params) params[k] = v;
+    j["effects"].push_back({{"name", e.effect},
+                            {"params", params},
+                            {"held", e.held},
+                            {"error_after_adding", e.error_after_adding},
+                            {"bic_drop", e.bic_drop},
+                            {"excess_share", e.excess_share},
+                            {"holdout_gain_chi2", e.holdout_gain},
+                            {"candidates", candidates_json(e.candidates)}});
+  }
+  j["removed"] = json::array();
+  for (const auto& e : r.removed)
+    j["removed"].push_back({{"name", e.effect}, {"after_adding", e.after_adding}, {"bic_drop", e.bic_drop}, {"excess_share", e.excess_share}});
+  j["unexplained"] = r.unexplained;
+  if (!r.last_round.empty()) j["rejected_round"] = candidates_json(r.last_round);
+  j["excluded"] = json::array();
+  for (const auto& e : r.excluded)
+    j["excluded"].push_back(
+        {{"record", e.record}, {"rpm", e.rpm}, {"contact", e.contact}, {"revolution_spread_m", e.spread}, {"reason", e.reason}});
+  j["before_fit"] = {{"winner", r.start_winner}, {"starts", json::array()}};
+  for (const auto& st : r.starts)
+    j["before_fit"]["starts"].push_back({{"name", st.name}, {"rss_start_m2", number(st.rss_start)}, {"rss_fit_m2", number(st.rss_fit)}});
+  j["noise_m"] = r.noise;
+  j["mass_source"] = r.mass_source;
+  j["model_staged"] = to_json(r.initial.p);
+  j["model_before"] = to_json(r.before.p);
+  j["model_after"] = to_json(r.after.p);
+  j["validity_before"] = validity_json(r.validity_before);
+  j["validity_after"] = validity_json(r.validity_after);
+  j["records"] = json::array();
+  for (const auto& e : r.errors)
+    j["records"].push_back({{"record", e.record},
+                            {"rpm", e.rpm},
+                            {"contact", e.contact},
+                            {"samples", e.samples},
+                            {"orbit", e.orbit},
+                            {"rms_before_m", e.rms_before},
+                            {"rms_after_m", e.rms_after},
+                            {"error_before", e.nrmse_before},
+                            {"error_after", e.nrmse_after}});
+  j["residual_spectrum"] = {{"orders", r.spectrum.orders}, {"before_m", r.spectrum.before}, {"after_m", r.spectrum.after}};
+  j["notes"] = r.notes;
+  return j;
+}
+
+std::string to_markdown(const loop_result& r) {
+  std::ostringstream o;
+  o << "# rubref loop report\n\n";
+  o << "| | before | after |\n|---|---|---|\n";
+  o << "| orbit NRMSE (contact dwells) | " << fmt(r.error_before) << " | " << fmt(r.error_after) << " |\n";
+  o << "| residual RMS | " << fmt(r.validity_before.rms * 1e6) << " um | " << fmt(r.validity_after.rms * 1e6) << " um |\n";
+  o << "| residual consistent with noise (" << fmt(r.noise * 1e6) << " um) | " << (r.validity_before.pass ? "yes" : "no") << " | "
+    << (r.validity_after.pass ? "yes" : "no") << " |\n\n";
+  o << "Effects added, in order:";
+  if (r.effects.empty()) o << " none.";
+  o << "\n\n";
+  if (!r.effects.empty()) {
+    o << "| # | effect | parameters | error after adding | BIC drop | share of synchronous excess removed | out-of-sample gain (chi^2) |\n"
+         "|---|---|---|---|---|---|---|\n";
+    int i = 1;
+    for (const auto& e : r.effects) {
+      std::string ps;
+      for (const auto& [k, v] : e.params) ps += (ps.empty() ? "" : ", ") + k + " = " + fmt(v);
+      if (!e.held.empty()) {
+        std::string h;
+        for (const auto& k : e.held) h += (h.empty() ? "" : ", ") + k;
+        ps += " (held: " + h + ")";
+      }
+      o << "| " << i++ << " | " << e.effect << " | " << ps << " | " << fmt(e.error_after_adding) << " | " << fmt(e.bic_drop, 6) << " | "
+        << fmt(e.excess_share, 3) << " | " << fmt(e.holdout_gain, 4) << " |\n";
+    }
+    o << "\n";
+  }
+  for (const auto& e : r.removed)
+    o << "Removed again: " << e.effect << " (after " << e.after_adding << " effects it gained only BIC " << fmt(e.bic_drop) << ", share "
+      << fmt(e.excess_share, 3) << " over the model refitted without it).\n\n";
+  if (!r.start_winner.empty()) {
+    o << "Before-fit starts (the best fit wins):";
+    for (const auto& st : r.starts)
+      o << " " << st.name << " (residual " << fmt(st.rss_start) << " -> " << (std::isnan(st.rss_fit) ? std::string("not fitted") : fmt(st.rss_fit))
+        << " m^2)" << (st.name == r.start_winner ? " **won**" : "") << ";";
+    o << "\n\n";
+  }
+  if (!r.excluded.empty()) {
+    o << "Left out of the fit:\n\n";
+    for (const auto& e : r.excluded) o << "- " << e.record << ", " << fmt(e.rpm) << " rpm: " << e.reason << "\n";
+    o << "\n";
+  }
+  o << (r.unexplained ? "**Unexplained:** the final residual is not noise, and no effect of the library passes the significance rule.\n\n"
+                      : "The final residual is consistent with probe noise.\n\n");
+  if (!r.plot_x.empty()) o << "![orbit](orbit.png)\n\n![residual spectrum](residual_spectrum.png)\n\n![residual](residual.png)\n\n";
+  o << "## Validity checks (after)\n\n| check | value | limit | pass |\n|---|---|---|---|\n";
+  for (const auto* c : {&r.validity_after.noise_level, &r.validity_after.synchronous, &r.validity_after.whiteness})
+    o << "| " << c->name << " | " << fmt(c->value) << " | " << fmt(c->limit) << " | " << (c->pass ? "yes" : "no") << " |\n";
+  for (const auto& c : r.validity_after.state)
+    o << "| corr " << c.name << " | " << fmt(c.value) << " | " << fmt(c.limit) << " | " << (c.pass ? "yes" : "no") << " |\n";
+  o << "\n## Per dwell\n\n| record | rpm | contact | samples | orbit | NRMSE before | NRMSE after | RMS before [um] | RMS after [um] |\n"
+       "|---|---|---|---|---|---|---|---|---|\n";
+  for (const auto& e : r.errors)
+    o << "| " << e.record << " | " << e.rpm << " | " << (e.contact ? "yes" : "no") << " | " << e.samples << " | " << e.orbit << " | " << fmt(e.nrmse_before) << " | "
+      << fmt(e.nrmse_after) << " | " << fmt(e.rms_before * 1e6) << " | " << fmt(e.rms_after * 1e6) << " |\n";
+  for (const auto& n : r.notes) o << "\nNote: " << n << "\n";
+  return o.str();
+}
+
+json plot_data(const loop_result& r) {
+  if (r.plot_x.empty()) return json::object();
+  const auto& d = r.dwells[r.plot_dwell];
+  return {{"title", d.record + ", " + fmt(d.data.rpm) + " rpm"},
+          {"clearance_m", d.data.clearance},
+          {"phase_deg", r.plot_phase},
+          {"x_m", r.plot_x},
+          {"y_m", r.plot_y},
+          {"x_before_m", r.plot_x_before},
+          {"y_before_m", r.plot_y_before},
+          {"x_after_m", r.plot_x_after},
+          {"y_after_m", r.plot_y_after},
+          {"orders", r.spectrum.orders},
+          {"spectrum_before_m", r.spectrum.before},
+          {"spectrum_after_m", r.spectrum.after}};
+}
+
+}  // namespace rubref

@@ -1,0 +1,154 @@
+#include "ref/loop/residuals.hpp"
+
+#include <cmath>
+#include <limits>
+
+namespace rubref {
+
+namespace {
+// Two-sided 0.1 % point of the standard normal: the validity checks' false-alarm rate.
+constexpr double kZ = 3.29;
+// The noise estimate (MAD of 4th differences, ~1e5 samples) is good to about 1 %; a residual
+// more than 5 % above it carries 10 % more energy than noise does.
+constexpr double kNoiseRatioLimit = 1.05;
+}  // namespace
+
+error_totals errors_of(const std::vector<loop_dwell>& dwells, const orbit_predictor& pr, const Eigen::VectorXd& r) {
+  error_totals out;
+  double res_c = 0.0, sig_c = 0.0;
+  for (std::size_t k = 0; k < dwells.size(); ++k) {
+    const dwell& d = dwells[k].data;
+    const auto at = static_cast<Eigen::Index>(pr.offset(k));
+    const auto n = static_cast<Eigen::Index>(2 * d.size());
+    const double res = r.segment(at, n).squaredNorm();
+    double mx = 0.0, my = 0.0;
+    for (std::size_t i = 0; i < d.size(); ++i) mx += d.x[i] / d.size(), my += d.y[i] / d.size();
+    double sig = 0.0;
+    for (std::size_t i = 0; i < d.size(); ++i) sig += std::pow(d.x[i] - mx, 2) + std::pow(d.y[i] - my, 2);
+    out.rms.push_back(std::sqrt(res / static_cast<double>(n)));
+    out.nrmse.push_back(std::sqrt(res / sig));
+    if (dwells[k].contact) res_c += res, sig_c += sig;
+  }
+  out.nrmse_contact = sig_c > 0.0 ? std::sqrt(res_c / sig_c) : 0.0;
+  return out;
+}
+
+// Shaft-order coefficients c_k = mean(z e^{-i k psi}) of the complex residual z = r_x + i r_y.
+std::vector<std::complex<double>> order_coefficients(const dwell& d, const Eigen::VectorXd& r, std::size_t at, double shift,
+                                                     int orders) {
+  std::vector<std::complex<double>> c(static_cast<std::size_t>(2 * orders + 1));
+  const double w = d.omega();
+  for (std::size_t i = 0; i < d.size(); ++i) {
+    const std::complex<double> z(r[static_cast<Eigen::Index>(at + 2 * i)], r[static_cast<Eigen::Index>(at + 2 * i + 1)]);
+    const double psi = w * (d.t[i] + shift);
+    for (int k = -orders; k <= orders; ++k) c[static_cast<std::size_t>(k + orders)] += z * std::polar(1.0, -k * psi);
+  }
+  for (auto& v : c) v /= static_cast<double>(d.size());
+  return c;
+}
+
+synchronous_energy synchronous_part(const std::vector<loop_dwell>& dwells, const orbit_predictor& pr, const model_point& m,
+                                    const Eigen::VectorXd& r, int orders) {
+  synchronous_energy out;
+  for (std::size_t k = 0; k < dwells.size(); ++k) {
+    const dwell& d = dwells[k].data;
+    for (const auto& ck : order_coefficients(d, r, pr.offset(k), m.shift[k], orders)) out.energy += static_cast<double>(d.size()) * std::norm(ck);
+    out.dof += 2.0 * (2.0 * orders + 1.0);
+  }
+  return out;
+}
+
+validity_report validity(const std::vector<loop_dwell>& dwells, const orbit_predictor& pr, const model_point& m, const Eigen::VectorXd& r,
+                         double noise, int orders, int whiteness_lags) {
+  validity_report v;
+  v.noise = noise;
+  const auto N = static_cast<double>(pr.orbit_rows());
+  v.rms = std::sqrt(r.head(static_cast<Eigen::Index>(pr.orbit_rows())).squaredNorm() / N);
+  v.noise_level = {"residual RMS / noise", noise > 0.0 ? v.rms / noise : std::numeric_limits<double>::infinity(), kNoiseRatioLimit, false};
+  v.noise_level.pass = v.noise_level.value <= v.noise_level.limit;
+
+  // Synchronous part: under noise alone its chi^2 / dof is 1.
+  const synchronous_energy sync = synchronous_part(dwells, pr, m, r, orders);
+  const double chi2 = sync.energy / (noise * noise), dof = sync.dof;
+  double q = 0.0, qdof = 0.0;
+  for (std::size_t k = 0; k < dwells.size(); ++k) {
+    const dwell& d = dwells[k].data;
+    // Whiteness: Box-Pierce on each probe's residual in time order.
+    for (int ch = 0; ch < 2; ++ch) {
+      std::vector<double> e(d.size());
+      double mean = 0.0;
+      for (std::size_t i = 0; i < d.size(); ++i) mean += (e[i] = r[static_cast<Eigen::Index>(pr.offset(k) + 2 * i + ch)]) / d.size();
+      double c0 = 0.0;
+      for (auto& x : e) {
+        x -= mean;
+        c0 += x * x;
+      }
+      for (int lag = 1; lag <= whiteness_lags; ++lag) {
+        double cl = 0.0;
+        for (std::size_t i = static_cast<std::size_t>(lag); i < e.size(); ++i) cl += e[i] * e[i - static_cast<std::size_t>(lag)];
+        q += static_cast<double>(e.size()) * std::pow(cl / c0, 2);
+      }
+      qdof += whiteness_lags;
+    }
+  }
+  v.synchronous = {"synchronous chi^2 / dof (orders -" + std::to_string(orders) + ".." + std::to_string(orders) + ")", chi2 / dof,
+                   1.0 + kZ * std::sqrt(2.0 / dof) + 2.0 * (kNoiseRatioLimit - 1.0), false};
+  v.synchronous.pass = v.synchronous.value <= v.synchronous.limit;
+  v.whiteness = {"Box-Pierce Q / dof (lags 1.." + std::to_string(whiteness_lags) + ")", q / qdof, 1.0 + kZ * std::sqrt(2.0 / qdof), false};
+  v.whiteness.pass = v.whiteness.value <= v.whiteness.limit;
+
+  // Dependence on the state: correlation of the residual along the contact normal (y) and across
+  // it (x) with the model's penetration, its rate in contact, x, and the shaft angle.
+  std::vector<std::vector<double>> series(5);
+  std::vector<double> ey, ex;
+  for (std::size_t k = 0; k < dwells.size(); ++k) {
+    const dwell& d = dwells[k].data;
+    const auto& st = pr.states(k);
+    if (st.size() != d.size()) continue;
+    for (std::size_t i = 0; i < d.size(); ++i) {
+      const double z = st[i][idx::y] - d.clearance, psi = d.omega() * (d.t[i] + m.shift[k]);
+      series[0].push_back(std::max(z, 0.0));
+      series[1].push_back(z > 0.0 ? st[i][idx::vy] : 0.0);
+      series[2].push_back(st[i][idx::x]);
+      series[3].push_back(std::cos(psi));
+      series[4].push_back(std::sin(psi));
+      ex.push_back(r[static_cast<Eigen::Index>(pr.offset(k) + 2 * i)]);
+      ey.push_back(r[static_cast<Eigen::Index>(pr.offset(k) + 2 * i + 1)]);
+    }
+  }
+  const auto corr = [](const std::vector<double>& a, const std::vector<double>& b) {
+    const double n = static_cast<double>(a.size());
+    double ma = 0, mb = 0;
+    for (std::size_t i = 0; i < a.size(); ++i) ma += a[i] / n, mb += b[i] / n;
+    double sab = 0, saa = 0, sbb = 0;
+    for (std::size_t i = 0; i < a.size(); ++i) sab += (a[i] - ma) * (b[i] - mb), saa += (a[i] - ma) * (a[i] - ma), sbb += (b[i] - mb) * (b[i] - mb);
+    return saa > 0.0 && sbb > 0.0 ? sab / std::sqrt(saa * sbb) : 0.0;
+  };
+  const char* names[] = {"z+", "z_dot in contact", "x", "cos(shaft angle)", "sin(shaft angle)"};
+  const double band = ex.empty() ? 0.0 : kZ / std::sqrt(static_cast<double>(ex.size()));
+  for (int j = 0; j < 5; ++j)
+    for (int ch = 0; ch < 2; ++ch) {
+      const double c = series[static_cast<std::size_t>(j)].empty() ? 0.0 : corr(series[static_cast<std::size_t>(j)], ch ? ey : ex);
+      v.state.push_back({std::string(ch ? "e_y" : "e_x") + " vs " + names[j], c, band, std::abs(c) <= band});
+    }
+  v.pass = v.noise_level.pass && v.synchronous.pass && v.whiteness.pass &&
+           std::all_of(v.state.begin(), v.state.end(), [](const correlation_check& c) { return c.pass; });
+  return v;
+}
+
+// ERR of the columns S (after removing what J already spans) on the residual r.
+double err_score(const Eigen::MatrixXd& J, const Eigen::MatrixXd& S, const Eigen::VectorXd& r) {
+  const Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qj(J);
+  Eigen::MatrixXd Q = qj.householderQ() * Eigen::MatrixXd::Identity(J.rows(), qj.rank());
+  const Eigen::VectorXd rp = r - Q * (Q.transpose() * r);
+  const Eigen::MatrixXd Sp = S - Q * (Q.transpose() * S);
+  Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qs(Sp);
+  qs.setThreshold(1e-10);
+  if (qs.rank() == 0 || rp.squaredNorm() == 0.0) return 0.0;
+  const Eigen::MatrixXd Qs = qs.householderQ() * Eigen::MatrixXd::Identity(Sp.rows(), qs.rank());
+  return (Qs.transpose() * rp).squaredNorm() / rp.squaredNorm();
+}
+
+double bic(double rss, double n, std::size_t k) { return n * std::log(rss / n) + static_cast<double>(k) * std::log(n); }
+
+}  // namespace rubref

@@ -1,0 +1,434 @@
+#include "ref/loop/trace.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <optional>
+
+#include "ref/loop/residuals.hpp"
+#include "ref/loop/search.hpp"
+#include "ref/record.hpp"
+
+namespace rubref {
+
+namespace {
+
+// Relative finite-difference step of an effect's linearised regressors (as the fit's Jacobian).
+constexpr double kStep = 1e-3;
+// A candidate is refitted only if its linearised score reaches this share of the best one's:
+// a far weaker linear signal rarely overtakes after the refit, and each refit costs a fit.
+constexpr double kRefitScoreShare = 0.1;
+// How often a fair comparison may hand the round over to a better base fit (each costs a refit
+// and a rescoring); after that a candidate that fails it is only rejected.
+constexpr int kMaxBaseRestarts = 3;
+// Jacobians of each out-of-sample fit: they start from the fits on every dwell, a few steps away.
+constexpr int kHoldoutIterations = 6;
+
+using progress_fn = std::function<void(const std::string&)>;
+
+// What every step of a round reads.
+struct round_context {
+  const std::vector<loop_dwell>& dwells;
+  orbit_predictor& predictor;
+  double noise;
+  double rows;  // orbit residuals (N of the BIC)
+  const model_point& staged;
+  const trace_settings& s;
+};
+
+// A model of the trace: its point, its coordinates, and its residual on its own orbits.
+struct fitted_model {
+  model_point at;
+  std::vector<fit_coordinate> coords;
+  Eigen::VectorXd r;
+  double rss() const { return r.squaredNorm(); }
+};
+
+std::optional<fitted_model> judge(const round_context& c, const model_point& m, std::vector<fit_coordinate> coords) {
+  auto r = residual_at(c.predictor, m);
+  if (!r) return std::nullopt;
+  return fitted_model{m, std::move(coords), std::move(*r)};
+}
+
+// The significance rule of `with` against `without` (trace_settings).
+struct significance {
+  double bic_drop = 0.0, excess_share = 0.0;
+  bool pass = false;
+};
+significance test(const round_context& c, const fitted_model& without, const fitted_model& with) {
+  significance out;
+  out.bic_drop = bic(without.rss(), c.rows, without.coords.size()) - bic(with.rss(), c.rows, with.coords.size());
+  const synchronous_energy base = synchronous_part(c.dwells, c.predictor, without.at, without.r, c.s.orders);
+  const double after = synchronous_part(c.dwells, c.predictor, with.at, with.r, c.s.orders).energy;
+  const double excess = base.excess(c.noise);
+  out.excess_share = excess > 0.0 ? (base.energy - after) / excess : 0.0;
+  out.pass = out.bic_drop > c.s.min_bic_drop && out.excess_share >= c.s.min_excess_share;
+  return out;
+}
+
+std::vector<fit_coordinate> without_effect(const std::vector<fit_coordinate>& coords, std::string_view effect) {
+  std::vector<fit_coordinate> out;
+  const std::string prefix = std::string(effect) + ".";
+  for (const auto& q : coords)
+    if (!q.name.starts_with(prefix)) out.push_back(q);
+  return out;
+}
+
+model_point switched_off(model_point m, const effect_info& e) {
+  for (const auto& q : effect_coordinates(e)) q.set(m, 0.0);
+  return m;
+}
+
+// A candidate's scores and the starts its refit may take.
+struct scored {
+  effect_candidate candidate;
+  const effect_info* effect = nullptr;
+  Eigen::VectorXd gauss_newton;         // the step of (base, effect) coordinates, shifts last
+  std::optional<model_point> trial_at;  // its profile's best value on the current point
+  std::optional<Eigen::VectorXd> trial_corrected;  // the same with the base's linear correction (base problem's u)
+};
+
+// Scores every remaining effect at `current`: the error reduction ratio of its linearised
+// regressors on the residual, after what the base coordinates' Jacobian already spans; for an
+// effect with trial values also its profile's share, if higher. Best first.
+std::vector<scored> score(const round_context& c, const fitted_model& current, const std::vector<const effect_info*>& remaining,
+                          const fit_problem& base, const Eigen::MatrixXd& J) {
+  const Eigen::VectorXd& r0 = current.r;
+  const Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qj(J);
+  const Eigen::MatrixXd Qj = qj.householderQ() * Eigen::MatrixXd::Identity(J.rows(), qj.rank());
+  const auto project_out = [&](const Eigen::VectorXd& v) -> Eigen::VectorXd { return v - Qj * (Qj.transpose() * v); };
+  const double P0 = project_out(r0).squaredNorm();
+  std::vector<scored> out;
+  for (const auto* e : remaining) {
+    scored sc;
+    sc.effect = e;
+    sc.candidate.name = std::string(e->name);
+    const auto ec = effect_coordinates(*e);
+    Eigen::MatrixXd S(r0.size(), static_cast<Eigen::Index>(ec.size()));
+    bool computable = true;
+    for (std::size_t j = 0; j < ec.size() && computable; ++j) {
+      model_point m = current.at;
+      ec[j].set(m, kStep * ec[j].scale);
+      const auto r = c.predictor.residuals(m);
+      if (r) S.col(static_cast<Eigen::Index>(j)) = (*r - r0) / kStep;
+      computable = r.has_value();
+    }
+    if (!computable) {  // the model cannot be computed with the effect switched on a little
+      sc.candidate.verdict = "its model cannot be computed next to the current one";
+      out.push_back(std::move(sc));
+      continue;
+    }
+    sc.candidate.score = err_score(J, S, r0);
+    Eigen::MatrixXd JS(J.rows(), J.cols() + S.cols());
+    JS << J, S;
+    sc.gauss_newton = -JS.colPivHouseholderQr().solve(r0);
+    // An effect with trial values (it enters nonlinearly) is also scored by its profile: the
+    // residual left, after the base coordinates' linear correction, with the effect at a value.
+    // Its share of the base's residual is the linear score's analogue; the best value, base
+    // corrected, is a start of its refit.
+    for (const auto& q : ec) {
+      if (!q.trials) continue;
+      const auto left = [&](double value) {
+        model_point m = current.at;
+        q.trials->apply(m, value);
+        const auto r = c.predictor.residuals(m);
+        return r ? project_out(*r).squaredNorm() : std::numeric_limits<double>::infinity();
+      };
+      const profile_best best = profile(q.trials->values, P0, left);
+      const double share = P0 > 0.0 ? 1.0 - best.left / P0 : 0.0;
+      if (!(share > sc.candidate.score)) continue;
+      sc.candidate.score = share;
+      model_point m = current.at;
+      q.trials->apply(m, best.value);
+      if (const auto r = c.predictor.residuals(m)) {
+        sc.trial_at = m;
+        sc.trial_corrected = base.of(m) - qj.solve(*r);
+      }
+    }
+    out.push_back(std::move(sc));
+  }
+  std::stable_sort(out.begin(), out.end(), [](const scored& a, const scored& b) { return a.candidate.score > b.candidate.score; });
+  return out;
+}
+
+// The refit of a candidate with every coordinate: from the best of its starts (the effect off;
+// its Gauss-Newton point; the same on the staged model's base; its profile's best value as it
+// is, base-corrected, and on the staged model), or by its coordinate's dip search.
+std::optional<fitted_model> refit(const round_context& c, const fitted_model& current, const scored& sc, std::string& start_name) {
+  auto with = current.coords;
+  const auto ec = effect_coordinates(*sc.effect);
+  with.insert(with.end(), ec.begin(), ec.end());
+  const fit_problem problem = make_problem(c.predictor, c.dwells, current.at, with, c.noise);
+  if (const auto searched = dip_searched(ec); searched != ec.end()) {
+    start_name = "dip search";
+    const auto j = current.coords.size() + static_cast<std::size_t>(searched - ec.begin());
+    const fit_result f = search_dips(problem, j, current.rss(), c.staged, c.dwells, c.s.max_fit_iterations, c.s.progress);
+    return f.ok ? judge(c, f.at, with) : std::nullopt;
+  }
+  const auto nb = static_cast<Eigen::Index>(current.coords.size()), ne = static_cast<Eigen::Index>(ec.size());
+  const Eigen::VectorXd off = problem.of(current.at);
+  const auto shifts = off.size() - nb - ne;
+  std::vector<named_start> starts{{"off", current.at}};
+  if (sc.gauss_newton.size() == nb + ne + shifts) {
+    // The step's columns are the base problem's (coordinates, shifts), then the effect's.
+    Eigen::VectorXd gn = off;
+    gn.head(nb) += sc.gauss_newton.head(nb);
+    gn.segment(nb, ne) = sc.gauss_newton.tail(ne);
+    gn.tail(shifts) += sc.gauss_newton.segment(nb, shifts);
+    starts.push_back({"gauss-newton", problem.at(gn)});
+    // The same effect part on the staged model's base (the linear part from the dwells without
+    // contact, the law from FROLS): a fit without the effect may have bent the base far from
+    // where the effect's model fits (a preload record's before-fit holds k1 ~ 0.1 N/m).
+    model_point on_staged = current.at;
+    on_staged.p = c.staged.p;
+    const fit_problem staged_problem = make_problem(c.predictor, c.dwells, on_staged, with, c.noise);
+    Eigen::VectorXd us = staged_problem.of(on_staged);
+    us.segment(nb, ne) = sc.gauss_newton.tail(ne);
+    starts.push_back({"staged + gauss-newton", staged_problem.at(us)});
+  }
+  if (sc.trial_at) {
+    starts.push_back({"profile", *sc.trial_at});
+    Eigen::VectorXd corrected = problem.of(*sc.trial_at);
+    corrected.head(nb) = sc.trial_corrected->head(nb);
+    corrected.tail(shifts) = sc.trial_corrected->tail(shifts);
+    starts.push_back({"profile, base corrected", problem.at(corrected)});
+    model_point staged = *sc.trial_at;
+    staged.p = c.staged.p;
+    for (const auto& q : ec) q.set(staged, q.get(*sc.trial_at));
+    starts.push_back({"profile on the staged model", staged});
+  }
+  // One fit, from the best start: a second one from another start is the fair comparison's and
+  // the backward elimination's job, which test every addition against the refitted base.
+  const multistart_result m = fit_from_starts(problem, starts, c.s.max_fit_iterations, 0.0, 1);
+  start_name = m.winner;
+  return m.best.ok ? judge(c, m.best.at, with) : std::nullopt;
+}
+
+// The effect's gain out of sample, in chi^2: the dwells in two folds (alternate dwells of each
+// record in speed order, contact and free apart), the models with and without the effect refitted
+// on one fold from their fits on every dwell, and compared on the other.
+double holdout_gain(const round_context& c, const fitted_model& without, const fitted_model& with) {
+  std::vector<int> fold(c.dwells.size(), 0);
+  std::map<std::pair<std::string, bool>, std::vector<std::size_t>> groups;
+  for (std::size_t k = 0; k < c.dwells.size(); ++k) groups[{c.dwells[k].record, c.dwells[k].contact}].push_back(k);
+  for (auto& [key, members] : groups) {
+    std::stable_sort(members.begin(), members.end(), [&](std::size_t a, std::size_t b) { return c.dwells[a].data.rpm < c.dwells[b].data.rpm; });
+    for (std::size_t i = 0; i < members.size(); ++i) fold[members[i]] = static_cast<int>(i % 2);
+  }
+  const auto subset = [&](const model_point& m, const std::vector<std::size_t>& idx) {
+    model_point out = m;
+    out.shift.clear();
+    for (const std::size_t k : idx) out.shift.push_back(m.shift[k]);
+    return out;
+  };
+  double gain = 0.0;
+  for (int f = 0; f < 2; ++f) {
+    std::vector<std::size_t> train, held;
+    for (std::size_t k = 0; k < c.dwells.size(); ++k) (fold[k] == f ? held : train).push_back(k);
+    if (train.empty() || held.empty()) continue;
+    std::vector<loop_dwell> train_dwells, held_dwells;
+    for (const std::size_t k : train) train_dwells.push_back(c.dwells[k]);
+    for (const std::size_t k : held) held_dwells.push_back(c.dwells[k]);
+    orbit_predictor on_train(train_dwells, c.noise), on_held(held_dwells, c.noise);
+    double rss[2];
+    for (int i = 0; i < 2; ++i) {
+      const fitted_model& m = i == 0 ? without : with;
+      const model_point start = subset(m.at, train);
+      const fit_problem problem = make_problem(on_train, train_dwells, start, m.coords, c.noise);
+      const fit_result fitted = fit(problem, problem.of(start), kHoldoutIterations);
+      model_point predicted = fitted.ok ? fitted.at : start;
+      predicted.shift = subset(m.at, held).shift;  // timing is the held dwells' own, from every dwell's fit
+      const auto r = residual_at(on_held, predicted);
+      rss[i] = r ? r->head(static_cast<Eigen::Index>(on_held.orbit_rows())).squaredNorm() : std::numeric_limits<double>::infinity();
+    }
+    if (!std::isfinite(rss[1])) return -std::numeric_limits<double>::infinity();  // the model with it cannot predict them
+    gain += rss[0] - rss[1];
+  }
+  return gain / (c.noise * c.noise);
+}
+
+}  // namespace
+
+std::vector<std::pair<std::string, double>> effect_params(const effect_info& e, const effect_parameters& fx, std::vector<std::string>* held) {
+  std::vector<std::pair<std::string, double>> out;
+  for (const auto& q : e.parameters) {
+    out.emplace_back(std::string(q.key), fx.*q.member);
+    if (q.is_switch || !held) continue;
+    // A shape parameter is fitted only as the phase of a polar pair; others are held.
+    bool fitted = false;
+    for (std::size_t i = 0; i + 1 < e.parameters.size(); ++i)
+      if (&e.parameters[i + 1] == &q && q.key.starts_with("phi"))
+        for (const auto& f : e.fit) fitted = fitted || (f.key == e.parameters[i].key && f.form == fit_form::polar);
+    if (!fitted) held->push_back(std::string(q.key));
+  }
+  return out;
+}
+
+trace_result trace(const std::vector<loop_dwell>& dwells, orbit_predictor& predictor, double noise, const model_point& staged,
+                   const model_point& before, const trace_settings& s) {
+  trace_result out;
+  out.before = before;
+  const round_context c{dwells, predictor, noise, static_cast<double>(predictor.orbit_rows()), staged, s};
+  auto start = judge(c, before, paper_coordinates());
+  if (!start) throw numerical_error("the loop's model cannot be computed at its own before-fit");
+  fitted_model current = std::move(*start);
+  const auto is_noise = [&](const fitted_model& m) { return validity(dwells, predictor, m.at, m.r, noise, s.orders, s.whiteness_lags).pass; };
+  std::vector<const effect_info*> remaining;
+  for (const auto& e : effect_library()) remaining.push_back(&e);
+  int base_restarts = 0, round = 0;
+  // A fit within the validity check's noise level needs no second start.
+  const double noise_level = std::pow(1.05 * noise, 2) * c.rows;
+  const auto note = [&](const std::string& text) {
+    out.notes.push_back("trace: " + text);
+    s.progress("      " + text);
+  };
+  while (!is_noise(current) && static_cast<int>(out.effects.size()) < s.max_effects && !remaining.empty()) {
+    ++round;
+    s.progress("[2/3] trace round " + std::to_string(round) + ": scoring " + std::to_string(remaining.size()) + " effects ...");
+    const fit_problem base = make_problem(predictor, dwells, current.at, current.coords, noise);
+    predictor.anchor(current.at);
+    const Eigen::MatrixXd J = base.jacobian(base.of(current.at), current.r);
+    std::vector<scored> cands = score(c, current, remaining, base, J);
+    s.progress("      best scores: " + cands[0].candidate.name + (cands.size() > 1 ? ", " + cands[1].candidate.name : std::string()) +
+               "; refitting ...");
+
+    // Refits: the best few by score, and, before a round gives up, an effect whose linear score
+    // says little (a dip-searched coordinate: at a rigid stator the compliance is a series spring
+    // that k1 absorbs), whatever its score.
+    std::vector<std::pair<std::size_t, fitted_model>> passing;  // (candidate, refit), significant against the current model
+    const auto try_refit = [&](std::size_t i) {
+      auto& cand = cands[i].candidate;
+      auto fitted = refit(c, current, cands[i], cand.start);
+      cand.refitted = true;
+      if (!fitted) {
+        cand.verdict = "its refit cannot be computed";
+        return;
+      }
+      const significance sig = test(c, current, *fitted);
+      cand.bic_drop = sig.bic_drop;
+      cand.excess_share = sig.excess_share;
+      cand.error_after = errors_of(dwells, predictor, fitted->r).nrmse_contact;
+      if (sig.pass) passing.emplace_back(i, std::move(*fitted));
+      else cand.verdict = "fails the significance rule";
+    };
+    for (std::size_t i = 0; i < std::min<std::size_t>(static_cast<std::size_t>(s.refit_candidates), cands.size()); ++i) {
+      if (cands[i].candidate.score < kRefitScoreShare * cands.front().candidate.score || !cands[i].candidate.verdict.empty()) break;
+      try_refit(i);
+    }
+    if (passing.empty())
+      for (std::size_t i = 0; i < cands.size(); ++i) {
+        const auto ec = effect_coordinates(*cands[i].effect);
+        if (!cands[i].candidate.refitted && dip_searched(ec) != ec.end()) {
+          s.progress("      nothing passes; searching " + cands[i].candidate.name + " ...");
+          try_refit(i);
+        }
+      }
+    std::stable_sort(passing.begin(), passing.end(),
+                     [&](const auto& a, const auto& b) { return cands[a.first].candidate.bic_drop > cands[b.first].candidate.bic_drop; });
+
+    // The best passing candidate that also passes the fair comparison and the out-of-sample test.
+    std::optional<std::size_t> chosen;
+    std::optional<fitted_model> chosen_fit;
+    bool rescore = false;
+    for (auto& [i, with] : passing) {
+      auto& cand = cands[i].candidate;
+      // Fair comparison: the winner's refit moves the base coordinates too, and may gain only
+      // because the base leaves a local minimum of its own (a misorientation record's
+      // before-fit, docs/loop.md). The base is refitted without the effect from where the
+      // winner ended; if that lands lower, the winner must pass the rule against it too.
+      // A second start, the staged model's base with the current effects, escapes a base that
+      // has fallen into a degenerate minimum of its own (a law whose k1 went to 0).
+      fitted_model reference = current;
+      const fit_problem refit_base = make_problem(predictor, dwells, current.at, current.coords, noise);
+      model_point on_staged = current.at;
+      on_staged.p = staged.p;
+      const multistart_result b =
+          fit_from_starts(refit_base, {{"where its refit ended, without it", switched_off(with.at, *cands[i].effect)}, {"staged", on_staged}},
+                          s.max_fit_iterations, noise_level, 2);
+      if (b.best.ok)
+        if (auto judged = judge(c, b.best.at, current.coords); judged && judged->rss() < current.rss()) reference = std::move(*judged);
+      const significance fair = test(c, reference, with);
+      if (!fair.pass) {
+        cand.verdict = "the model without it, refitted from where its refit ended, explains its gain (BIC drop " + format_digits(fair.bic_drop) +
+                       ", share " + format_digits(fair.excess_share) + ")";
+        if (reference.rss() < current.rss() && base_restarts < kMaxBaseRestarts) {
+          ++base_restarts;
+          note("the model without " + cand.name + ", refitted from where its refit ended, explains its gain: the round is scored again on it");
+          current = std::move(reference);
+          if (out.effects.empty()) out.before = current.at;  // still the paper's model: its best fit is the "before"
+          rescore = true;
+          break;
+        }
+        continue;
+      }
+      // Out of sample.
+      cand.holdout_gain = holdout_gain(c, reference, with);
+      const double in_sample = (reference.rss() - with.rss()) / (noise * noise);
+      if (!(cand.holdout_gain > s.min_bic_drop && cand.holdout_gain >= s.min_holdout_share * in_sample)) {
+        cand.verdict = "not needed out of sample: refitted on half of the dwells it gains chi^2 " + format_digits(cand.holdout_gain) +
+                       " on the other half, against " + format_digits(in_sample) + " on all";
+        continue;
+      }
+      cand.verdict = "added";
+      chosen = i;
+      chosen_fit = std::move(with);
+      break;
+    }
+    if (rescore) {
+      --round;
+      continue;
+    }
+    if (!chosen) {
+      for (auto& sc : cands)
+        if (sc.candidate.verdict.empty()) sc.candidate.verdict = sc.candidate.refitted ? "fails the significance rule" : "not refitted (score)";
+      for (const auto& sc : cands) out.last_round.push_back(sc.candidate);
+      break;
+    }
+    loop_step step;
+    step.effect = cands[*chosen].candidate.name;
+    step.error_after_adding = cands[*chosen].candidate.error_after;
+    step.bic_drop = cands[*chosen].candidate.bic_drop;
+    step.excess_share = cands[*chosen].candidate.excess_share;
+    step.holdout_gain = cands[*chosen].candidate.holdout_gain;
+    for (const auto& sc : cands) step.candidates.push_back(sc.candidate);
+    out.effects.push_back(std::move(step));
+    remaining.erase(std::find(remaining.begin(), remaining.end(), cands[*chosen].effect));
+    current = std::move(*chosen_fit);
+
+    // Backward elimination: an earlier effect that the model no longer needs (the new one explains
+    // what it did) is taken out, the weakest first, one per round.
+    if (out.effects.size() > 1) {
+      std::optional<std::pair<std::size_t, fitted_model>> weakest;
+      double weakest_drop = std::numeric_limits<double>::infinity();
+      significance weakest_sig;
+      for (std::size_t a = 0; a + 1 < out.effects.size(); ++a) {
+        const effect_info& e = find_effect(out.effects[a].effect);
+        const auto coords = without_effect(current.coords, e.name);
+        const model_point from = switched_off(current.at, e);
+        const fit_problem problem = make_problem(predictor, dwells, from, coords, noise);
+        const fit_result f = fit(problem, problem.of(from), s.max_fit_iterations);
+        if (!f.ok) continue;
+        auto judged = judge(c, f.at, coords);
+        if (!judged) continue;
+        const significance sig = test(c, *judged, current);
+        if (!sig.pass && sig.bic_drop < weakest_drop) weakest_drop = sig.bic_drop, weakest_sig = sig, weakest.emplace(a, std::move(*judged));
+      }
+      if (weakest) {
+        const std::string name = out.effects[weakest->first].effect;
+        note(name + " is no longer needed with " + out.effects.back().effect + " (it gains BIC " + format_digits(weakest_sig.bic_drop) +
+             ", share " + format_digits(weakest_sig.excess_share) + " over the refit without it): removed");
+        out.removed.push_back({name, out.effects.size(), weakest_sig.bic_drop, weakest_sig.excess_share});
+        out.effects.erase(out.effects.begin() + static_cast<std::ptrdiff_t>(weakest->first));
+        current = std::move(weakest->second);
+      }
+    }
+  }
+  out.after = current.at;
+  for (auto& step : out.effects) {  // the final estimates (later effects refine earlier ones)
+    step.held.clear();
+    step.params = effect_params(find_effect(step.effect), current.at.fx, &step.held);
+  }
+  return out;
+}
+
+}  // namespace rubref

@@ -1,0 +1,83 @@
+#pragma once
+// Stage 4 of `rubref loop` (docs/loop.md, "Trace"): from a residual that is not noise to the
+// library effects the model lacks. Each round scores every effect not yet in the model, refits
+// the best few, and adds the one that lowers BIC most, if it passes three tests:
+//   - significance: a BIC drop and a share of the residual's synchronous excess;
+//   - a fair comparison: the model without it, refitted from where its refit ended, must not
+//     explain the same gain (a refit can gain by leaving the base's own local minimum);
+//   - out of sample: refitted on half of the dwells, it must predict the other half better.
+// After an effect is added, every earlier one is tested for removal (backward elimination).
+
+#include <functional>
+#include <limits>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "ref/loop/fit.hpp"
+#include "ref/loop/preprocess.hpp"
+
+namespace rubref {
+
+struct trace_settings {
+  int max_effects = 4;           // effects in the model at most
+  int refit_candidates = 3;      // effects refitted per round (best linearised scores)
+  // Significance rule: BIC must fall by more than this (Kass & Raftery 1995: > 10 is very strong
+  // evidence) and the effect must remove at least this share of the synchronous excess: the energy
+  // of the residual's shaft orders -orders..orders above what noise alone puts there.
+  double min_bic_drop = 10.0;
+  double min_excess_share = 1.0 / 3.0;
+  // Out of sample: the effect's gain on dwells it was not refitted on, in chi^2 = rss / noise^2,
+  // must exceed min_bic_drop and this share of its gain on all dwells.
+  double min_holdout_share = 1.0 / 3.0;
+  int orders = 20;               // shaft orders of the residual spectrum and the synchronous test
+  int whiteness_lags = 20;
+  int max_fit_iterations = 20;   // Jacobians per Levenberg-Marquardt fit
+  std::function<void(const std::string&)> progress = [](const std::string&) {};
+};
+
+struct effect_candidate {
+  std::string name;
+  double score = 0.0;        // ERR on the residual of its linearised regressors (or its profile's share)
+  bool refitted = false;
+  std::string start;         // the start its refit won from
+  double bic_drop = 0.0;     // BIC before - BIC after the refit (positive: better)
+  double excess_share = 0.0; // of the synchronous excess (shaft orders above their noise energy), removed by the refit
+  double error_after = 0.0;  // NRMSE over contact dwells after the refit
+  double holdout_gain = std::numeric_limits<double>::quiet_NaN();  // chi^2 gained out of sample (NaN: not tested)
+  std::string verdict;       // why it was or was not added
+};
+
+struct loop_step {
+  std::string effect;
+  std::vector<std::pair<std::string, double>> params;  // the library's keys and SI values
+  std::vector<std::string> held;                       // shape parameters held at the library's values
+  double error_after_adding = 0.0;
+  double bic_drop = 0.0, excess_share = 0.0, holdout_gain = 0.0;
+  std::vector<effect_candidate> candidates;            // the round's scores, best first
+};
+
+// An effect taken out again: the model without it, refitted, is not significantly worse.
+struct removed_effect {
+  std::string effect;
+  std::size_t after_adding = 0;  // how many effects had been added when it was removed
+  double bic_drop = 0.0, excess_share = 0.0;  // what it still gained over the refit without it
+};
+
+struct trace_result {
+  model_point before;  // the paper's model's best fit: a fair comparison before any effect may improve it
+  model_point after;
+  std::vector<loop_step> effects;  // in the model at the end, in the order added
+  std::vector<removed_effect> removed;
+  std::vector<effect_candidate> last_round;  // the round that added nothing (if any)
+  std::vector<std::string> notes;
+};
+
+// The trace from the paper's model's fit `before` (its orbit computable in every dwell).
+trace_result trace(const std::vector<loop_dwell>& dwells, orbit_predictor& predictor, double noise, const model_point& staged,
+                   const model_point& before, const trace_settings& s);
+
+// An effect's parameters in `fx` (library keys, SI), and the shape parameters the fit holds.
+std::vector<std::pair<std::string, double>> effect_params(const effect_info& e, const effect_parameters& fx, std::vector<std::string>* held);
+
+}  // namespace rubref
