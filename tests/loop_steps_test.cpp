@@ -9,6 +9,7 @@
 
 #include "ref/errors.hpp"
 #include "ref/loop/coordinates.hpp"
+#include "ref/loop/fit.hpp"
 #include "ref/loop/paper_fit.hpp"
 #include "ref/loop/loop.hpp"
 #include "ref/rig/rig.hpp"
@@ -184,6 +185,66 @@ TEST(loop_steps, whole_samples_per_revolution_are_all_predicted) {
   const Eigen::VectorXd r = predictor.residuals(truth).value();
   constexpr double kRmsTol = 0.03;  // ~2e4 samples: the sample RMS of white noise is good to ~1 %
   EXPECT_NEAR(std::sqrt(r.squaredNorm() / static_cast<double>(r.size())), req.probes.noise, kRmsTol * req.probes.noise);
+}
+
+// A model point whose orbit cannot be computed (a 20 g stator under the identified law runs
+// away, docs/loop.md) is a failure, named per dwell, never a number in the residual; the dwell
+// without contact still gets its orbit.
+model_point runaway(model_point m) {
+  m.fx.stator_k = 4e6;
+  m.fx.stator_m = 0.02;
+  return m;
+}
+TEST(loop_steps, an_orbit_that_cannot_be_computed_is_a_failure_not_a_number) {
+  const rig_request req = truth_rig();
+  const auto dwells = truth_timed_dwells(req);
+  orbit_predictor predictor(dwells, req.probes.noise);
+  model_point truth;
+  truth.shift.assign(dwells.size(), 0.0);
+  EXPECT_FALSE(predictor.residuals(runaway(truth)).has_value());
+  for (std::size_t k = 0; k < dwells.size(); ++k)
+    EXPECT_EQ(predictor.kinds()[k] == orbit_kind::failed, dwells[k].data.rpm > 1400.0) << dwells[k].data.rpm;
+}
+
+// The loop leaves out a dwell whose orbit no start of its fit can compute, and only such a dwell.
+TEST(loop_steps, dwells_no_start_can_compute_are_named) {
+  const rig_request req = truth_rig();
+  const auto dwells = truth_timed_dwells(req);
+  model_point truth;
+  truth.shift.assign(dwells.size(), 0.0);
+  std::vector<std::size_t> contact;
+  for (std::size_t k = 0; k < dwells.size(); ++k)
+    if (dwells[k].data.rpm > 1400.0) contact.push_back(k);
+  EXPECT_EQ(uncomputable_dwells(dwells, req.probes.noise, {{"runaway", runaway(truth)}}), contact);
+  EXPECT_TRUE(uncomputable_dwells(dwells, req.probes.noise, {{"runaway", runaway(truth)}, {"truth", truth}}).empty());
+}
+
+// Levenberg-Marquardt next to such a region: a step into it is rejected like a step that raises
+// the residual, and the fit ends no worse than its start, short of the region.
+TEST(loop_steps, a_fit_rejects_steps_it_cannot_compute) {
+  const rig_request req = truth_rig();
+  const auto dwells = truth_timed_dwells(req);
+  orbit_predictor predictor(dwells, req.probes.noise);
+  // One coordinate v: k1 = truth (0.5 + v), so the data ask for v = 0.5, but past v = 0.2 the
+  // model has the runaway stator. From v = 0 the first Gauss-Newton step lands in the region.
+  const double k1 = req.params.k1;
+  constexpr double kEdge = 0.2;
+  fit_coordinate v{"v", 1.0, [k1](const model_point& m) { return m.p.k1 / k1 - 0.5; },
+                   [k1](model_point& m, double x) {
+                     m.p.k1 = k1 * (0.5 + x);
+                     if (x > kEdge) m = runaway(m);
+                   }};
+  model_point start;
+  start.shift.assign(dwells.size(), 0.0);
+  v.set(start, 0.0);
+  const fit_problem problem = make_problem(predictor, dwells, start, {v}, req.probes.noise);
+  const double start_rss = residual_at(predictor, start).value().squaredNorm();
+  const fit_result f = fit(problem, problem.of(start), 30);
+  ASSERT_TRUE(f.ok);
+  EXPECT_GT(f.rejected, 0);
+  EXPECT_LT(f.rss, start_rss);
+  EXPECT_LE(v.get(f.at), kEdge);
+  EXPECT_GT(v.get(f.at), 0.5 * kEdge);  // it went as far towards the data as the model allows
 }
 
 // The synchronous energy (the synchronous check's and the share rule's measure): at the truth

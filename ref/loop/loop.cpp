@@ -17,27 +17,18 @@ void exclude(loop_result& out, std::size_t k, std::string reason, const loop_set
   out.excluded.push_back({d.record, d.data.rpm, d.contact, 0.0, std::move(reason)});
 }
 
-// Dwells where the model's orbit cannot be computed at either start of the before-fit (Newton
-// shooting and a transient from the measured state both fail) are left out: a fit cannot
-// compare what the model cannot give there.
+// Dwells where the model's orbit cannot be computed at any start of the before-fit are left out.
 void exclude_uncomputable(loop_result& out, double noise, const loop_settings& s) {
-  std::vector<bool> computable(out.dwells.size(), false);
-  model_point table2 = out.initial;
-  const parameters paper;
-  table2.p.k1 = paper.k1, table2.p.k3 = paper.k3, table2.p.c2 = paper.c2, table2.p.mu = paper.mu;
-  for (const model_point* m : {&out.initial, &table2}) {
-    orbit_predictor predictor(out.dwells, noise);
-    (void)predictor.residuals(*m);
-    for (std::size_t k = 0; k < out.dwells.size(); ++k) computable[k] = computable[k] || predictor.kinds()[k] != orbit_kind::failed;
-  }
+  const auto failed = uncomputable_dwells(out.dwells, noise, before_fit_starts(out.initial));
   std::vector<loop_dwell> kept;
   std::vector<double> shifts;
-  for (std::size_t k = 0; k < out.dwells.size(); ++k) {
-    if (computable[k]) {
+  for (std::size_t k = 0, f = 0; k < out.dwells.size(); ++k) {
+    if (f < failed.size() && failed[f] == k) {
+      ++f;
+      exclude(out, k, "the model's orbit cannot be computed there (Newton shooting and a transient from the measured state both fail at every start of the fit)", s);
+    } else {
       kept.push_back(out.dwells[k]);
       shifts.push_back(out.initial.shift[k]);
-    } else {
-      exclude(out, k, "the model's orbit cannot be computed there (Newton shooting and a transient from the measured state both fail at the staged model and at Table 2's law)", s);
     }
   }
   out.dwells = std::move(kept);

@@ -115,17 +115,34 @@ model_point staged_model(const std::vector<loop_dwell>& dwells, double mass, std
   return start;
 }
 
-multistart_result fit_paper_model(orbit_predictor& predictor, const std::vector<loop_dwell>& dwells, const model_point& staged, double noise,
-                                  int max_iterations) {
-  const fit_problem problem = make_problem(predictor, dwells, staged, paper_coordinates(), noise);
+std::vector<named_start> before_fit_starts(const model_point& staged) {
   model_point table2 = staged;
   const parameters paper;
   table2.p.k1 = paper.k1;
   table2.p.k3 = paper.k3;
   table2.p.c2 = paper.c2;
   table2.p.mu = paper.mu;
+  return {{"staged (FROLS law)", staged}, {"staged linear part, Table 2 law", table2}};
+}
+
+std::vector<std::size_t> uncomputable_dwells(const std::vector<loop_dwell>& dwells, double noise, const std::vector<named_start>& starts) {
+  std::vector<bool> computable(dwells.size(), false);
+  for (const auto& s : starts) {
+    orbit_predictor predictor(dwells, noise);
+    (void)predictor.residuals(s.at);
+    for (std::size_t k = 0; k < dwells.size(); ++k) computable[k] = computable[k] || predictor.kinds()[k] != orbit_kind::failed;
+  }
+  std::vector<std::size_t> out;
+  for (std::size_t k = 0; k < dwells.size(); ++k)
+    if (!computable[k]) out.push_back(k);
+  return out;
+}
+
+multistart_result fit_paper_model(orbit_predictor& predictor, const std::vector<loop_dwell>& dwells, const model_point& staged, double noise,
+                                  int max_iterations) {
+  const fit_problem problem = make_problem(predictor, dwells, staged, paper_coordinates(), noise);
   const double noise_level = std::pow(kNoiseRatioLimit * noise, 2) * static_cast<double>(predictor.orbit_rows());
-  return fit_from_starts(problem, {{"staged (FROLS law)", staged}, {"staged linear part, Table 2 law", table2}}, max_iterations, noise_level, 2);
+  return fit_from_starts(problem, before_fit_starts(staged), max_iterations, noise_level, 2);
 }
 
 }  // namespace rubref

@@ -20,9 +20,16 @@ parameters fit_linear_harmonic(const std::vector<loop_dwell>& dwells, double mas
 // Notes what it could not do.
 model_point staged_model(const std::vector<loop_dwell>& dwells, double mass, std::vector<std::string>& notes);
 
+// The before-fit's starts: the staged model, and the staged linear part with Table 2's law.
+std::vector<named_start> before_fit_starts(const model_point& staged);
+
+// The dwells whose model orbit cannot be computed at any of `starts` (Newton shooting and a
+// transient from the measured state both fail there): a fit cannot compare what the model cannot
+// give, so the loop leaves them out, with this reason.
+std::vector<std::size_t> uncomputable_dwells(const std::vector<loop_dwell>& dwells, double noise, const std::vector<named_start>& starts);
+
 // The before-fit: every coordinate of the paper's model, Levenberg-Marquardt from the best of
-// the staged model and the staged linear part with Table 2's law, and, while the fit leaves more
-// than the noise, from the other start too. The lowest fit wins; it is never worse than the best
+// its starts, and, while the fit leaves more than the noise, from the other start too. The lowest fit wins; it is never worse than the best
 // start (every accepted step lowers the residual).
 multistart_result fit_paper_model(orbit_predictor& predictor, const std::vector<loop_dwell>& dwells, const model_point& staged, double noise,
                                   int max_iterations);

@@ -308,10 +308,15 @@ trace_result trace(const std::vector<loop_dwell>& dwells, orbit_predictor& predi
       cand.bic_drop = sig.bic_drop;
       cand.excess_share = sig.excess_share;
       cand.error_after = errors_of(dwells, predictor, fitted->r).nrmse_contact;
+      s.progress("      " + cand.name + " refitted (from '" + cand.start + "'): BIC drop " + format_digits(sig.bic_drop) + ", share " +
+                 format_digits(sig.excess_share) + ", error " + format_digits(cand.error_after));
       if (sig.pass) passing.emplace_back(i, std::move(*fitted));
       else cand.verdict = "fails the significance rule";
     };
-    for (std::size_t i = 0; i < std::min<std::size_t>(static_cast<std::size_t>(s.refit_candidates), cands.size()); ++i) {
+    // A refit that leaves only noise settles the round: no other candidate can do better than
+    // the noise, and a weaker one's refit is the round's slowest (a fit far from the data).
+    const auto settled = [&] { return !passing.empty() && passing.back().second.rss() <= noise_level; };
+    for (std::size_t i = 0; i < std::min<std::size_t>(static_cast<std::size_t>(s.refit_candidates), cands.size()) && !settled(); ++i) {
       if (cands[i].candidate.score < kRefitScoreShare * cands.front().candidate.score || !cands[i].candidate.verdict.empty()) break;
       try_refit(i);
     }
@@ -362,6 +367,7 @@ trace_result trace(const std::vector<loop_dwell>& dwells, orbit_predictor& predi
         continue;
       }
       // Out of sample.
+      s.progress("      " + cand.name + " passes the fair comparison (BIC drop " + format_digits(fair.bic_drop) + "); out of sample ...");
       cand.holdout_gain = holdout_gain(c, reference, with);
       const double in_sample = (reference.rss() - with.rss()) / (noise * noise);
       if (!(cand.holdout_gain > s.min_bic_drop && cand.holdout_gain >= s.min_holdout_share * in_sample)) {
