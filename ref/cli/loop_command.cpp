@@ -48,6 +48,11 @@ void add_loop(CLI::App& app) {
     std::cout << "error before " << r.error_before << ", after " << r.error_after << "; effects:";
     for (const auto& e : r.effects) std::cout << " " << e.effect;
     if (r.effects.empty()) std::cout << " none";
+    if (!r.tentative.empty()) {
+      std::cout << " (tentative:";
+      for (const auto& e : r.tentative) std::cout << " " << e.effect;
+      std::cout << ")";
+    }
     std::cout << (r.unexplained ? "; residual unexplained" : "; residual is noise") << "\nwrote " << st->out << "/report.json, report.md\n";
   });
 }

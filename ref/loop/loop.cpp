@@ -44,6 +44,10 @@ void measure(loop_result& out, orbit_predictor& predictor, double noise, const l
   out.validity_before = validity(out.dwells, predictor, out.before, *r_before, noise, s.orders, s.whiteness_lags);
   out.validity_after = validity(out.dwells, predictor, out.after, *r, noise, s.orders, s.whiteness_lags);
   out.unexplained = !out.validity_after.pass;
+  const synchronous_energy sync_before = synchronous_part(out.dwells, predictor, out.before, *r_before, s.orders);
+  const double sync_after = synchronous_part(out.dwells, predictor, out.after, *r, s.orders).energy;
+  const double excess = sync_before.excess(noise);
+  out.explained_share = excess > 0.0 ? (sync_before.energy - sync_after) / excess : 1.0;
   const error_totals eb = errors_of(out.dwells, predictor, *r_before), ea = errors_of(out.dwells, predictor, *r);
   out.error_before = eb.nrmse_contact;
   out.error_after = ea.nrmse_contact;
@@ -135,8 +139,14 @@ loop_result run_loop(const std::vector<std::pair<record, std::string>>& records,
   out.last_round = std::move(traced.last_round);
   out.notes.insert(out.notes.end(), traced.notes.begin(), traced.notes.end());
 
-  // 4. Before and after.
+  // 4. Before and after, and what is claimed.
   measure(out, predictor, noise, s);
+  if (!out.effects.empty() && out.unexplained && out.explained_share < s.min_explained_share) {
+    out.notes.push_back("the effects added explain " + format_digits(100.0 * out.explained_share, 3) +
+                        " % of the before-fit's synchronous excess and leave a residual that is not noise: they are tentative, not claimed");
+    out.tentative = std::move(out.effects);
+    out.effects.clear();
+  }
   return out;
 }
 

@@ -22,6 +22,10 @@ namespace rubref {
 struct loop_settings : trace_settings {
   double mass = 0.0;       // kg; 0: the records' m_kg metadata, else the paper's
   double clearance = 0.0;  // m, for records without clearance_m
+  // The effects are claimed only if, together, they leave a residual that is noise or remove at
+  // least this share of the before-fit's synchronous excess; else they are only tentative (a
+  // model that still misses most of the data is not an explanation, however much better it fits).
+  double min_explained_share = 0.9;
 };
 
 struct dwell_error {
@@ -48,7 +52,9 @@ struct loop_result {
   std::string start_winner;                 // the one its best fit came from
   std::vector<std::string> notes;
   double error_before = 0.0, error_after = 0.0;
-  std::vector<loop_step> effects;
+  std::vector<loop_step> effects;            // claimed: the explanation
+  std::vector<loop_step> tentative;          // added by the trace but not claimed (min_explained_share)
+  double explained_share = 0.0;              // of the before-fit's synchronous excess, by the final model
   std::vector<removed_effect> removed;
   std::vector<effect_candidate> last_round;  // the round that added nothing (if any)
   bool unexplained = false;

@@ -62,6 +62,13 @@ json to_json(const loop_result& r) {
                             {"holdout_gain_chi2", e.holdout_gain},
                             {"candidates", candidates_json(e.candidates)}});
   }
+  j["explained_share"] = r.explained_share;
+  j["tentative"] = json::array();
+  for (const auto& e : r.tentative) {
+    json params;
+    for (const auto& [k, v] : e.params) params[k] = v;
+    j["tentative"].push_back({{"name", e.effect}, {"params", params}, {"bic_drop", e.bic_drop}, {"excess_share", e.excess_share}});
+  }
   j["removed"] = json::array();
   for (const auto& e : r.removed)
     j["removed"].push_back({{"name", e.effect}, {"after_adding", e.after_adding}, {"bic_drop", e.bic_drop}, {"excess_share", e.excess_share}});
@@ -108,6 +115,12 @@ std::string to_markdown(const loop_result& r) {
   o << "Effects added, in order:";
   if (r.effects.empty()) o << " none.";
   o << "\n\n";
+  if (!r.tentative.empty()) {
+    o << "Tentative (the trace added them, but together they explain only " << fmt(100.0 * r.explained_share, 3)
+      << " % of the synchronous excess and the residual is not noise, so they are not claimed):";
+    for (const auto& e : r.tentative) o << " " << e.effect;
+    o << ".\n\n";
+  }
   if (!r.effects.empty()) {
     o << "| # | effect | parameters | error after adding | BIC drop | share of synchronous excess removed | out-of-sample gain (chi^2) |\n"
          "|---|---|---|---|---|---|---|\n";
