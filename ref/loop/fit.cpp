@@ -77,11 +77,12 @@ fit_problem make_problem(orbit_predictor& predictor, const std::vector<loop_dwel
   return p;
 }
 
-fit_result fit(const fit_problem& problem, const Eigen::VectorXd& start, int max_iterations) {
+fit_result fit(const fit_problem& problem, const Eigen::VectorXd& start, int max_iterations, const orbit_anchors* from) {
   orbit_predictor& predictor = *problem.predictor;
   fit_result out;
   out.at = problem.at(problem.feasible(start));
-  predictor.anchor(out.at);
+  if (from) predictor.anchor(out.at, *from);
+  else predictor.anchor(out.at);
   auto r = predictor.residuals(out.at);
   ++out.evaluations;
   if (!r) return out;
@@ -137,6 +138,14 @@ fit_result fit(const fit_problem& problem, const Eigen::VectorXd& start, int max
     if (!accepted || gain < kConvergedChi2) break;
   }
   out.at = problem.at(u);
+  // The end on the orbits the fit followed (its last evaluation may have been a rejected trial).
+  if (auto rf = predictor.residuals(out.at)) {
+    out.r = std::move(*rf);
+    out.rss = out.r.squaredNorm();
+  } else {
+    out.r = *r;  // the accepted point's own evaluation
+  }
+  out.orbits = predictor.last_orbits();
   return out;
 }
 
@@ -150,7 +159,9 @@ multistart_result fit_from_starts(const fit_problem& problem, const std::vector<
   multistart_result out;
   for (const auto& s : starts) {
     start_outcome o{s.name};
-    if (const auto r = residual_at(*problem.predictor, s.at)) o.rss_start = r->squaredNorm();
+    if (s.orbits) problem.predictor->anchor(s.at, *s.orbits);
+    else problem.predictor->anchor(s.at);
+    if (const auto r = problem.predictor->residuals(s.at)) o.rss_start = r->squaredNorm();
     out.starts.push_back(o);
   }
   std::vector<std::size_t> order(starts.size());
@@ -160,7 +171,7 @@ multistart_result fit_from_starts(const fit_problem& problem, const std::vector<
   for (const std::size_t i : order) {
     if (fits >= max_fits || !std::isfinite(out.starts[i].rss_start)) break;
     if (fits > 0 && out.best.rss <= good_enough) break;
-    const fit_result f = fit(problem, problem.of(starts[i].at), max_iterations);
+    const fit_result f = fit(problem, problem.of(starts[i].at), max_iterations, starts[i].orbits ? &*starts[i].orbits : nullptr);
     ++fits;
     out.starts[i].rss_fit = f.rss;
     if (f.ok && f.rss < out.best.rss) {

@@ -43,7 +43,9 @@ fit_problem make_problem(orbit_predictor& predictor, const std::vector<loop_dwel
 
 struct fit_result {
   model_point at;
-  double rss = std::numeric_limits<double>::infinity();  // m^2, on the orbits anchored at the start
+  double rss = std::numeric_limits<double>::infinity();  // m^2, on the orbits followed from the start
+  Eigen::VectorXd r;                                      // the residual there
+  orbit_anchors orbits;                                   // and those orbits
   int iterations = 0;     // Jacobians
   int evaluations = 0;    // residual evaluations, the Jacobians' included
   int rejected = 0;       // trial points the model could not be computed at
@@ -53,7 +55,8 @@ struct fit_result {
 // Levenberg-Marquardt (Marquardt's scaling, Nielsen's damping update) from u = start, at most
 // `max_iterations` Jacobians; it stops when a step gains less than 0.01 in chi^2 = rss / noise^2.
 // Every accepted step lowers the residual, so the result is never worse than its start.
-fit_result fit(const fit_problem& problem, const Eigen::VectorXd& start, int max_iterations);
+// The start's orbits are `from` (else found from the data).
+fit_result fit(const fit_problem& problem, const Eigen::VectorXd& start, int max_iterations, const orbit_anchors* from = nullptr);
 
 // The residual of m on its own periodic orbits (anchored at m), as every comparison of fits uses;
 // nothing if the model's orbit cannot be computed in some dwell.
@@ -65,6 +68,7 @@ std::optional<Eigen::VectorXd> residual_at(orbit_predictor& predictor, const mod
 struct named_start {
   std::string name;
   model_point at;
+  std::optional<orbit_anchors> orbits = {};  // a fitted model's orbits (else from the data)
 };
 struct start_outcome {
   std::string name;

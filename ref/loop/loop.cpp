@@ -36,12 +36,15 @@ void exclude_uncomputable(loop_result& out, double noise, const loop_settings& s
 }
 
 // Errors, validity, spectrum and the plot dwell of the final model against the before-fit.
-void measure(loop_result& out, orbit_predictor& predictor, double noise, const loop_settings& s) {
-  const auto r_before = residual_at(predictor, out.before);
-  const auto r = residual_at(predictor, out.after);
+void measure(loop_result& out, orbit_predictor& predictor, double noise, const loop_settings& s, const trace_result& traced) {
+  // Each on its own orbits (the validity checks read the predictor's states of the last call).
+  predictor.anchor(out.before, traced.before_orbits);
+  const auto r_before = predictor.residuals(out.before);
+  if (r_before) out.validity_before = validity(out.dwells, predictor, out.before, *r_before, noise, s.orders, s.whiteness_lags);
+  predictor.anchor(out.after, traced.after_orbits);
+  const auto r = predictor.residuals(out.after);
   if (!r_before || !r) throw numerical_error("the loop's model cannot be computed at its own fit");
-  std::vector<orbit_kind> kinds = predictor.kinds();  // the final model's
-  out.validity_before = validity(out.dwells, predictor, out.before, *r_before, noise, s.orders, s.whiteness_lags);
+  const std::vector<orbit_kind> kinds = predictor.kinds();  // the final model's
   out.validity_after = validity(out.dwells, predictor, out.after, *r, noise, s.orders, s.whiteness_lags);
   out.unexplained = !out.validity_after.pass;
   const synchronous_energy sync_before = synchronous_part(out.dwells, predictor, out.before, *r_before, s.orders);
@@ -131,7 +134,7 @@ loop_result run_loop(const std::vector<std::pair<record, std::string>>& records,
              format_digits(noise * 1e6) + " um");
 
   // 3. The trace.
-  trace_result traced = trace(out.dwells, predictor, noise, out.initial, before.best.at, s);
+  trace_result traced = trace(out.dwells, predictor, noise, out.initial, before.best, s);
   out.before = traced.before;
   out.after = traced.after;
   out.effects = std::move(traced.effects);
@@ -140,7 +143,7 @@ loop_result run_loop(const std::vector<std::pair<record, std::string>>& records,
   out.notes.insert(out.notes.end(), traced.notes.begin(), traced.notes.end());
 
   // 4. Before and after, and what is claimed.
-  measure(out, predictor, noise, s);
+  measure(out, predictor, noise, s, traced);
   if (!out.effects.empty() && out.unexplained && out.explained_share < s.min_explained_share) {
     out.notes.push_back("the effects added explain " + format_digits(100.0 * out.explained_share, 3) +
                         " % of the before-fit's synchronous excess and leave a residual that is not noise: they are tentative, not claimed");

@@ -238,6 +238,24 @@ void orbit_predictor::anchor(const model_point& m) {
   }
 }
 
+void orbit_predictor::anchor(const model_point& m, const orbit_anchors& from) {
+  reset();
+  for (std::size_t k = 0; k < caches_.size() && k < from.size(); ++k)
+    if (from[k]) caches_[k].started = true, caches_[k].start = *from[k];
+  (void)residuals(m);
+  for (auto& c : caches_) {
+    c.started = c.last_ok;
+    c.start = c.last;
+  }
+}
+
+orbit_anchors orbit_predictor::last_orbits() const {
+  orbit_anchors out(caches_.size());
+  for (std::size_t k = 0; k < caches_.size(); ++k)
+    if (caches_[k].last_ok) out[k] = caches_[k].last;
+  return out;
+}
+
 std::optional<Eigen::VectorXd> orbit_predictor::residuals(const model_point& m) {
   Eigen::VectorXd r(static_cast<Eigen::Index>(rows_));
   kinds_.assign(dwells_.size(), orbit_kind::failed);

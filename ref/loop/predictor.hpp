@@ -38,6 +38,10 @@ struct model_point {
 // Time within the revolution, in [0, period): where a sample at time tau falls on the periodic orbit.
 double phase_in_period(double tau, double period);
 
+// The periodic orbits an evaluation found, as each dwell's state at t = 0 (none where the dwell
+// took a transient or failed): where the next evaluations start their Newton iterations.
+using orbit_anchors = std::vector<std::optional<std::array<double, 6>>>;
+
 // How the model's orbit in a dwell was obtained.
 enum class orbit_kind { periodic, transient, failed };
 std::string_view to_string(orbit_kind k);
@@ -67,7 +71,12 @@ class orbit_predictor {
   // data's states), so that the residual is a function of the parameters alone, not of the order
   // in which a fit visits them. anchor(m) evaluates m from the data and keeps its orbits.
   void anchor(const model_point& m);
+  // The same from given orbits (from the data where there is none): where several orbits coexist,
+  // the one a fit has followed.
+  void anchor(const model_point& m, const orbit_anchors& from);
   void reset();  // no anchor: every dwell from its data
+  // The orbits the last residuals() call found.
+  orbit_anchors last_orbits() const;
 
  private:
   struct cache {

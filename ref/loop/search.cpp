@@ -72,10 +72,15 @@ fit_result search_dips(const fit_problem& problem, std::size_t j, double base_rs
     if (r && r->squaredNorm() < start.rss) start = f, start.rss = r->squaredNorm(), start_value = value;
   }
   if (!start.ok) return start;
+  // On the better of its own orbits and those found from the data (as the trace judges a refit).
   const auto judged = [&](fit_result f) {
-    const auto r = f.ok ? residual_at(predictor, f.at) : std::nullopt;
-    f.rss = r ? r->squaredNorm() : std::numeric_limits<double>::infinity();
-    f.ok = f.ok && r.has_value();
+    if (!f.ok) return f;
+    const auto r = residual_at(predictor, f.at);
+    if (r && !(f.r.size() > 0 && f.r.squaredNorm() <= r->squaredNorm())) {
+      f.r = *r;
+      f.rss = r->squaredNorm();
+      f.orbits = predictor.last_orbits();
+    }
     return f;
   };
   fit_result at = judged(fit(problem, problem.of(start.at), max_iterations));
@@ -87,7 +92,7 @@ fit_result search_dips(const fit_problem& problem, std::size_t j, double base_rs
   if (!(at.rss < base_rss)) return at;
   const int steps = static_cast<int>(std::log(search.factor) / search.step);
   for (int hop = 0; hop < kSearchHops; ++hop) {
-    predictor.anchor(at.at);
+    predictor.anchor(at.at, at.orbits);
     const double value = coordinate.get(at.at);
     std::vector<std::pair<double, double>> scan;  // (value, residual)
     for (int i = -steps; i <= steps; ++i) {
@@ -105,7 +110,7 @@ fit_result search_dips(const fit_problem& problem, std::size_t j, double base_rs
     if (dips.empty()) break;
     model_point q = at.at;
     search.move(q, dips.front().second);
-    const fit_result next = judged(fit(problem, problem.of(q), max_iterations));
+    const fit_result next = judged(fit(problem, problem.of(q), max_iterations, &at.orbits));
     if (!(next.ok && next.rss < kHopGain * at.rss)) break;
     at = next;
     progress("      " + coordinate.name + ": hop " + std::to_string(hop + 1) + " to " + format_digits(coordinate.get(at.at)) + " (residual " +

@@ -36,18 +36,29 @@ struct round_context {
   const trace_settings& s;
 };
 
-// A model of the trace: its point, its coordinates, and its residual on its own orbits.
+// A model of the trace: its point, its coordinates, its residual and the orbits it is on.
 struct fitted_model {
   model_point at;
   std::vector<fit_coordinate> coords;
   Eigen::VectorXd r;
+  orbit_anchors orbits;
   double rss() const { return r.squaredNorm(); }
 };
 
-std::optional<fitted_model> judge(const round_context& c, const model_point& m, std::vector<fit_coordinate> coords) {
+// A model on its orbits: those found from the data, or those its fit followed (`f`) where they
+// fit better. Where orbits coexist, the data's motion is the model's orbit nearest to it, and a
+// fit that followed one must not be judged on another (a refit that can only lower the residual
+// would come out worse than its start).
+std::optional<fitted_model> judge(const round_context& c, const model_point& m, std::vector<fit_coordinate> coords,
+                                  const fit_result* f = nullptr) {
   auto r = residual_at(c.predictor, m);
+  orbit_anchors orbits = c.predictor.last_orbits();
+  if (f && f->ok && f->r.size() > 0 && (!r || f->r.squaredNorm() < r->squaredNorm())) {
+    r = f->r;
+    orbits = f->orbits;
+  }
   if (!r) return std::nullopt;
-  return fitted_model{m, std::move(coords), std::move(*r)};
+  return fitted_model{m, std::move(coords), std::move(*r), std::move(orbits)};
 }
 
 // The significance rule of `with` against `without` (trace_settings).
@@ -163,19 +174,19 @@ std::optional<fitted_model> refit(const round_context& c, const fitted_model& cu
     start_name = "dip search";
     const auto j = current.coords.size() + static_cast<std::size_t>(searched - ec.begin());
     const fit_result f = search_dips(problem, j, current.rss(), c.staged, c.dwells, c.s.max_fit_iterations, c.s.progress);
-    return f.ok ? judge(c, f.at, with) : std::nullopt;
+    return f.ok ? judge(c, f.at, with, &f) : std::nullopt;
   }
   const auto nb = static_cast<Eigen::Index>(current.coords.size()), ne = static_cast<Eigen::Index>(ec.size());
   const Eigen::VectorXd off = problem.of(current.at);
   const auto shifts = off.size() - nb - ne;
-  std::vector<named_start> starts{{"off", current.at}};
+  std::vector<named_start> starts{{"off", current.at, current.orbits}};
   if (sc.gauss_newton.size() == nb + ne + shifts) {
     // The step's columns are the base problem's (coordinates, shifts), then the effect's.
     Eigen::VectorXd gn = off;
     gn.head(nb) += sc.gauss_newton.head(nb);
     gn.segment(nb, ne) = sc.gauss_newton.tail(ne);
     gn.tail(shifts) += sc.gauss_newton.segment(nb, shifts);
-    starts.push_back({"gauss-newton", problem.at(gn)});
+    starts.push_back({"gauss-newton", problem.at(gn), current.orbits});
     // The same effect part on the staged model's base (the linear part from the dwells without
     // contact, the law from FROLS): a fit without the effect may have bent the base far from
     // where the effect's model fits (a preload record's before-fit holds k1 ~ 0.1 N/m).
@@ -201,7 +212,7 @@ std::optional<fitted_model> refit(const round_context& c, const fitted_model& cu
   // the backward elimination's job, which test every addition against the refitted base.
   const multistart_result m = fit_from_starts(problem, starts, c.s.max_fit_iterations, 0.0, 1);
   start_name = m.winner;
-  return m.best.ok ? judge(c, m.best.at, with) : std::nullopt;
+  return m.best.ok ? judge(c, m.best.at, with, &m.best) : std::nullopt;
 }
 
 // The effect's gain out of sample, in chi^2: the dwells in two folds (alternate dwells of each
@@ -221,6 +232,11 @@ double holdout_gain(const round_context& c, const fitted_model& without, const f
     for (const std::size_t k : idx) out.shift.push_back(m.shift[k]);
     return out;
   };
+  const auto orbits_of = [&](const orbit_anchors& o, const std::vector<std::size_t>& idx) {
+    orbit_anchors out;
+    for (const std::size_t k : idx) out.push_back(k < o.size() ? o[k] : std::nullopt);
+    return out;
+  };
   double gain = 0.0;
   for (int f = 0; f < 2; ++f) {
     std::vector<std::size_t> train, held;
@@ -235,10 +251,12 @@ double holdout_gain(const round_context& c, const fitted_model& without, const f
       const fitted_model& m = i == 0 ? without : with;
       const model_point start = subset(m.at, train);
       const fit_problem problem = make_problem(on_train, train_dwells, start, m.coords, c.noise);
-      const fit_result fitted = fit(problem, problem.of(start), kHoldoutIterations);
+      const orbit_anchors train_orbits = orbits_of(m.orbits, train);
+      const fit_result fitted = fit(problem, problem.of(start), kHoldoutIterations, &train_orbits);
       model_point predicted = fitted.ok ? fitted.at : start;
       predicted.shift = subset(m.at, held).shift;  // timing is the held dwells' own, from every dwell's fit
-      const auto r = residual_at(on_held, predicted);
+      on_held.anchor(predicted, orbits_of(m.orbits, held));
+      const auto r = on_held.residuals(predicted);
       rss[i] = r ? r->head(static_cast<Eigen::Index>(on_held.orbit_rows())).squaredNorm() : std::numeric_limits<double>::infinity();
     }
     if (!std::isfinite(rss[1])) return -std::numeric_limits<double>::infinity();  // the model with it cannot predict them
@@ -265,14 +283,19 @@ std::vector<std::pair<std::string, double>> effect_params(const effect_info& e, 
 }
 
 trace_result trace(const std::vector<loop_dwell>& dwells, orbit_predictor& predictor, double noise, const model_point& staged,
-                   const model_point& before, const trace_settings& s) {
+                   const fit_result& before, const trace_settings& s) {
   trace_result out;
-  out.before = before;
+  out.before = before.at;
   const round_context c{dwells, predictor, noise, static_cast<double>(predictor.orbit_rows()), staged, s};
-  auto start = judge(c, before, paper_coordinates());
+  auto start = judge(c, before.at, paper_coordinates(), &before);
   if (!start) throw numerical_error("the loop's model cannot be computed at its own before-fit");
   fitted_model current = std::move(*start);
-  const auto is_noise = [&](const fitted_model& m) { return validity(dwells, predictor, m.at, m.r, noise, s.orders, s.whiteness_lags).pass; };
+  out.before_orbits = current.orbits;
+  const auto is_noise = [&](const fitted_model& m) {
+    predictor.anchor(m.at, m.orbits);  // the states its validity checks read
+    const auto r = predictor.residuals(m.at);
+    return r && validity(dwells, predictor, m.at, *r, noise, s.orders, s.whiteness_lags).pass;
+  };
   std::vector<const effect_info*> remaining;
   for (const auto& e : effect_library()) remaining.push_back(&e);
   int base_restarts = 0, round = 0;
@@ -286,7 +309,7 @@ trace_result trace(const std::vector<loop_dwell>& dwells, orbit_predictor& predi
     ++round;
     s.progress("[2/3] trace round " + std::to_string(round) + ": scoring " + std::to_string(remaining.size()) + " effects ...");
     const fit_problem base = make_problem(predictor, dwells, current.at, current.coords, noise);
-    predictor.anchor(current.at);
+    predictor.anchor(current.at, current.orbits);
     const Eigen::MatrixXd J = base.jacobian(base.of(current.at), current.r);
     std::vector<scored> cands = score(c, current, remaining, base, J);
     s.progress("      best scores: " + cands[0].candidate.name + (cands.size() > 1 ? ", " + cands[1].candidate.name : std::string()) +
@@ -348,10 +371,10 @@ trace_result trace(const std::vector<loop_dwell>& dwells, orbit_predictor& predi
       model_point on_staged = current.at;
       on_staged.p = staged.p;
       const multistart_result b =
-          fit_from_starts(refit_base, {{"where its refit ended, without it", switched_off(with.at, *cands[i].effect)}, {"staged", on_staged}},
+          fit_from_starts(refit_base, {{"where its refit ended, without it", switched_off(with.at, *cands[i].effect), with.orbits}, {"staged", on_staged}},
                           s.max_fit_iterations, noise_level, 2);
       if (b.best.ok)
-        if (auto judged = judge(c, b.best.at, current.coords); judged && judged->rss() < current.rss()) reference = std::move(*judged);
+        if (auto judged = judge(c, b.best.at, current.coords, &b.best); judged && judged->rss() < current.rss()) reference = std::move(*judged);
       const significance fair = test(c, reference, with);
       if (!fair.pass) {
         cand.verdict = "the model without it, refitted from where its refit ended, explains its gain (BIC drop " + format_digits(fair.bic_drop) +
@@ -360,7 +383,7 @@ trace_result trace(const std::vector<loop_dwell>& dwells, orbit_predictor& predi
           ++base_restarts;
           note("the model without " + cand.name + ", refitted from where its refit ended, explains its gain: the round is scored again on it");
           current = std::move(reference);
-          if (out.effects.empty()) out.before = current.at;  // still the paper's model: its best fit is the "before"
+          if (out.effects.empty()) out.before = current.at, out.before_orbits = current.orbits;  // still the paper's model: its best fit is the "before"
           rescore = true;
           break;
         }
@@ -412,9 +435,9 @@ trace_result trace(const std::vector<loop_dwell>& dwells, orbit_predictor& predi
         const auto coords = without_effect(current.coords, e.name);
         const model_point from = switched_off(current.at, e);
         const fit_problem problem = make_problem(predictor, dwells, from, coords, noise);
-        const fit_result f = fit(problem, problem.of(from), s.max_fit_iterations);
+        const fit_result f = fit(problem, problem.of(from), s.max_fit_iterations, &current.orbits);
         if (!f.ok) continue;
-        auto judged = judge(c, f.at, coords);
+        auto judged = judge(c, f.at, coords, &f);
         if (!judged) continue;
         const significance sig = test(c, *judged, current);
         if (!sig.pass && sig.bic_drop < weakest_drop) weakest_drop = sig.bic_drop, weakest_sig = sig, weakest.emplace(a, std::move(*judged));
@@ -430,6 +453,7 @@ trace_result trace(const std::vector<loop_dwell>& dwells, orbit_predictor& predi
     }
   }
   out.after = current.at;
+  out.after_orbits = current.orbits;
   for (auto& step : out.effects) {  // the final estimates (later effects refine earlier ones)
     step.held.clear();
     step.params = effect_params(find_effect(step.effect), current.at.fx, &step.held);

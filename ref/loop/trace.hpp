@@ -67,6 +67,7 @@ struct removed_effect {
 struct trace_result {
   model_point before;  // the paper's model's best fit: a fair comparison before any effect may improve it
   model_point after;
+  orbit_anchors before_orbits, after_orbits;  // the orbits each is on
   std::vector<loop_step> effects;  // in the model at the end, in the order added
   std::vector<removed_effect> removed;
   std::vector<effect_candidate> last_round;  // the round that added nothing (if any)
@@ -75,7 +76,7 @@ struct trace_result {
 
 // The trace from the paper's model's fit `before` (its orbit computable in every dwell).
 trace_result trace(const std::vector<loop_dwell>& dwells, orbit_predictor& predictor, double noise, const model_point& staged,
-                   const model_point& before, const trace_settings& s);
+                   const fit_result& before, const trace_settings& s);
 
 // An effect's parameters in `fx` (library keys, SI), and the shape parameters the fit holds.
 std::vector<std::pair<std::string, double>> effect_params(const effect_info& e, const effect_parameters& fx, std::vector<std::string>* held);
