@@ -10,9 +10,11 @@ namespace {
 // Relative finite-difference step of the Jacobian, in scaled coordinates: orbit changes of
 // ~1e-9..1e-7 m, far above the 1e-13 m integration error and small enough to stay linear.
 constexpr double kStep = 1e-3;
-// A step that gains less than this in chi^2 (rss / noise^2) ends the fit: a fraction of one
-// degree of freedom, far below every threshold the loop compares fits with (BIC drops of 10).
+// A step that gains less than this in chi^2 (rss / noise^2), or this share of chi^2, ends the
+// fit: near the noise a fraction of one degree of freedom, far from it a fraction of the BIC
+// drops of thousands the loop then compares; both far below the smallest (10).
 constexpr double kConvergedChi2 = 1e-2;
+constexpr double kConvergedShare = 1e-5;
 // Marquardt's damping: the first value (relative to the diagonal of J'J), and where it is so
 // large that no step of useful size is left.
 constexpr double kFirstDamping = 1e-3;
@@ -135,7 +137,7 @@ fit_result fit(const fit_problem& problem, const Eigen::VectorXd& start, int max
       // A step too small to change the residual at all: nothing is left to gain.
       if (step.cwiseAbs().maxCoeff() < 1e-14 * std::max(1.0, u.cwiseAbs().maxCoeff())) break;
     }
-    if (!accepted || gain < kConvergedChi2) break;
+    if (!accepted || gain < std::max(kConvergedChi2, kConvergedShare * out.rss / chi2_unit)) break;
   }
   out.at = problem.at(u);
   // The end on the orbits the fit followed (its last evaluation may have been a rejected trial).

@@ -20,8 +20,9 @@ constexpr int kProfileIterations = 10;
 constexpr int kSearchHops = 4;
 constexpr double kHopGain = 0.9;
 // Iterations of the fit of the profiled coordinates at each envelope value: a few coordinates
-// and the shifts, from the staged model.
-constexpr int kEnvelopeIterations = 6;
+// and the shifts, from the staged model; enough to rank the values, the fit from the best one
+// goes on.
+constexpr int kEnvelopeIterations = 3;
 // A dip within this relative distance of the fit's value is the fit's own.
 constexpr double kOwnDip = 0.02;
 }  // namespace

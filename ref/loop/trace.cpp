@@ -299,6 +299,7 @@ trace_result trace(const std::vector<loop_dwell>& dwells, orbit_predictor& predi
   std::vector<const effect_info*> remaining;
   for (const auto& e : effect_library()) remaining.push_back(&e);
   int base_restarts = 0, round = 0;
+  bool polished = false;  // the current structure has been refitted from the staged start
   // A fit within the validity check's noise level needs no second start.
   const double noise_level = std::pow(1.05 * noise, 2) * c.rows;
   const auto note = [&](const std::string& text) {
@@ -307,6 +308,24 @@ trace_result trace(const std::vector<loop_dwell>& dwells, orbit_predictor& predi
   };
   while (!is_noise(current) && static_cast<int>(out.effects.size()) < s.max_effects && !remaining.empty()) {
     ++round;
+    // After an effect is added, the model is refitted once from a second start too, the staged
+    // model's base with the current effects: a base can fall into a degenerate minimum of its own
+    // (a law whose k1 went to 0 while the effect was missing) that every later refit starts from.
+    // (The before-fit has its own second start.)
+    if (!out.effects.empty() && !polished) {
+      polished = true;
+      model_point on_staged = current.at;
+      on_staged.p = staged.p;
+      const fit_problem problem = make_problem(predictor, dwells, on_staged, current.coords, noise);
+      const fit_result f = fit(problem, problem.of(on_staged), s.max_fit_iterations);
+      if (f.ok)
+        if (auto judged = judge(c, f.at, current.coords, &f); judged && judged->rss() < current.rss()) {
+          note("the model refitted from the staged model's base lands lower (residual " + format_digits(judged->rss()) + " against " +
+               format_digits(current.rss()) + " m^2): it is the base from here");
+          current = std::move(*judged);
+          if (is_noise(current)) break;
+        }
+    }
     s.progress("[2/3] trace round " + std::to_string(round) + ": scoring " + std::to_string(remaining.size()) + " effects ...");
     const fit_problem base = make_problem(predictor, dwells, current.at, current.coords, noise);
     predictor.anchor(current.at, current.orbits);
@@ -364,17 +383,11 @@ trace_result trace(const std::vector<loop_dwell>& dwells, orbit_predictor& predi
       // because the base leaves a local minimum of its own (a misorientation record's
       // before-fit, docs/loop.md). The base is refitted without the effect from where the
       // winner ended; if that lands lower, the winner must pass the rule against it too.
-      // A second start, the staged model's base with the current effects, escapes a base that
-      // has fallen into a degenerate minimum of its own (a law whose k1 went to 0).
       fitted_model reference = current;
       const fit_problem refit_base = make_problem(predictor, dwells, current.at, current.coords, noise);
-      model_point on_staged = current.at;
-      on_staged.p = staged.p;
-      const multistart_result b =
-          fit_from_starts(refit_base, {{"where its refit ended, without it", switched_off(with.at, *cands[i].effect), with.orbits}, {"staged", on_staged}},
-                          s.max_fit_iterations, noise_level, 2);
-      if (b.best.ok)
-        if (auto judged = judge(c, b.best.at, current.coords, &b.best); judged && judged->rss() < current.rss()) reference = std::move(*judged);
+      const fit_result b = fit(refit_base, refit_base.of(switched_off(with.at, *cands[i].effect)), s.max_fit_iterations, &with.orbits);
+      if (b.ok)
+        if (auto judged = judge(c, b.at, current.coords, &b); judged && judged->rss() < current.rss()) reference = std::move(*judged);
       const significance fair = test(c, reference, with);
       if (!fair.pass) {
         cand.verdict = "the model without it, refitted from where its refit ended, explains its gain (BIC drop " + format_digits(fair.bic_drop) +
@@ -423,6 +436,7 @@ trace_result trace(const std::vector<loop_dwell>& dwells, orbit_predictor& predi
     out.effects.push_back(std::move(step));
     remaining.erase(std::find(remaining.begin(), remaining.end(), cands[*chosen].effect));
     current = std::move(*chosen_fit);
+    polished = false;
 
     // Backward elimination: an earlier effect that the model no longer needs (the new one explains
     // what it did) is taken out, the weakest first, one per round.
