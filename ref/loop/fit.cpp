@@ -157,7 +157,7 @@ std::optional<Eigen::VectorXd> residual_at(orbit_predictor& predictor, const mod
 }
 
 multistart_result fit_from_starts(const fit_problem& problem, const std::vector<named_start>& starts, int max_iterations,
-                                  double good_enough, int max_fits) {
+                                  const std::function<bool(const fit_result&)>& good_enough, int max_fits) {
   multistart_result out;
   for (const auto& s : starts) {
     start_outcome o{s.name};
@@ -172,13 +172,13 @@ multistart_result fit_from_starts(const fit_problem& problem, const std::vector<
   int fits = 0;
   for (const std::size_t i : order) {
     if (fits >= max_fits || !std::isfinite(out.starts[i].rss_start)) break;
-    if (fits > 0 && out.best.rss <= good_enough) break;
     const fit_result f = fit(problem, problem.of(starts[i].at), max_iterations, starts[i].orbits ? &*starts[i].orbits : nullptr);
     ++fits;
     out.starts[i].rss_fit = f.rss;
     if (f.ok && f.rss < out.best.rss) {
       out.best = f;
       out.winner = starts[i].name;
+      if (good_enough(f)) break;
     }
   }
   return out;

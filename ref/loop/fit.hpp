@@ -8,6 +8,7 @@
 // the residual, so a failure never enters the objective as a number.
 
 #include <Eigen/Dense>
+#include <functional>
 #include <limits>
 #include <optional>
 #include <string>
@@ -63,8 +64,8 @@ fit_result fit(const fit_problem& problem, const Eigen::VectorXd& start, int max
 std::optional<Eigen::VectorXd> residual_at(orbit_predictor& predictor, const model_point& m);
 
 // Fits from several starts (named for the report): every start is evaluated, the best is fitted,
-// and while the best fit so far leaves more than `good_enough` (m^2) the next best start is
-// fitted too, `max_fits` in all. The lowest fit wins.
+// and unless the best fit so far is `good_enough` (called right after that fit, so the predictor
+// holds its states) the next best start is fitted too, `max_fits` in all. The lowest fit wins.
 struct named_start {
   std::string name;
   model_point at;
@@ -81,6 +82,6 @@ struct multistart_result {
   std::vector<start_outcome> starts;
 };
 multistart_result fit_from_starts(const fit_problem& problem, const std::vector<named_start>& starts, int max_iterations,
-                                  double good_enough, int max_fits);
+                                  const std::function<bool(const fit_result&)>& good_enough, int max_fits);
 
 }  // namespace rubref

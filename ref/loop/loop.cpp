@@ -125,7 +125,9 @@ loop_result run_loop(const std::vector<std::pair<record, std::string>>& records,
   if (!any_contact(out.dwells)) return nothing_to_fit("the model's orbit cannot be computed in any dwell with contact");
   s.progress("      every coordinate together (Levenberg-Marquardt) ...");
   orbit_predictor predictor(out.dwells, noise);
-  const multistart_result before = fit_paper_model(predictor, out.dwells, out.initial, noise, s.max_fit_iterations);
+  const multistart_result before = fit_paper_model(predictor, out.dwells, out.initial, noise, s.max_fit_iterations, [&](const fit_result& f) {
+    return validity(out.dwells, predictor, f.at, f.r, noise, s.orders, s.whiteness_lags).pass;
+  });
   if (!before.best.ok) throw numerical_error("the paper's model cannot be computed at any start of its fit");
   out.starts = before.starts;
   out.start_winner = before.winner;

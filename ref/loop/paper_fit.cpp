@@ -9,12 +9,6 @@
 
 namespace rubref {
 
-namespace {
-// The fit is good enough when its residual is within the validity check's noise level:
-// RMS / noise <= 1.05 (ref/loop/residuals.cpp).
-constexpr double kNoiseRatioLimit = 1.05;
-}  // namespace
-
 // The linear part from the dwells without contact, by harmonic balance on their 1X components
 // (steady response of Eq. 1 without contact): with X, Y the 1X phasors of x and y and
 // E = e exp(i phase),
@@ -139,10 +133,9 @@ std::vector<std::size_t> uncomputable_dwells(const std::vector<loop_dwell>& dwel
 }
 
 multistart_result fit_paper_model(orbit_predictor& predictor, const std::vector<loop_dwell>& dwells, const model_point& staged, double noise,
-                                  int max_iterations) {
+                                  int max_iterations, const std::function<bool(const fit_result&)>& is_noise) {
   const fit_problem problem = make_problem(predictor, dwells, staged, paper_coordinates(), noise);
-  const double noise_level = std::pow(kNoiseRatioLimit * noise, 2) * static_cast<double>(predictor.orbit_rows());
-  return fit_from_starts(problem, before_fit_starts(staged), max_iterations, noise_level, 2);
+  return fit_from_starts(problem, before_fit_starts(staged), max_iterations, is_noise, 2);
 }
 
 }  // namespace rubref

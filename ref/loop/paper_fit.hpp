@@ -4,6 +4,7 @@
 // paper's FROLS on the contact forces, Eq. 3-5) and the "before" fit of every coordinate together
 // on the orbits of every dwell, from several starts.
 
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -31,7 +32,8 @@ std::vector<std::size_t> uncomputable_dwells(const std::vector<loop_dwell>& dwel
 // The before-fit: every coordinate of the paper's model, Levenberg-Marquardt from the best of
 // its starts, and, while the fit leaves more than the noise, from the other start too. The lowest fit wins; it is never worse than the best
 // start (every accepted step lowers the residual).
+// `is_noise` tells a fit whose residual passes the validity checks (the predictor holds its states).
 multistart_result fit_paper_model(orbit_predictor& predictor, const std::vector<loop_dwell>& dwells, const model_point& staged, double noise,
-                                  int max_iterations);
+                                  int max_iterations, const std::function<bool(const fit_result&)>& is_noise);
 
 }  // namespace rubref

@@ -210,7 +210,7 @@ std::optional<fitted_model> refit(const round_context& c, const fitted_model& cu
   }
   // One fit, from the best start: a second one from another start is the fair comparison's and
   // the backward elimination's job, which test every addition against the refitted base.
-  const multistart_result m = fit_from_starts(problem, starts, c.s.max_fit_iterations, 0.0, 1);
+  const multistart_result m = fit_from_starts(problem, starts, c.s.max_fit_iterations, [](const fit_result&) { return true; }, 1);
   start_name = m.winner;
   return m.best.ok ? judge(c, m.best.at, with, &m.best) : std::nullopt;
 }
@@ -300,8 +300,6 @@ trace_result trace(const std::vector<loop_dwell>& dwells, orbit_predictor& predi
   for (const auto& e : effect_library()) remaining.push_back(&e);
   int base_restarts = 0, round = 0;
   bool polished = false;  // the current structure has been refitted from the staged start
-  // A fit within the validity check's noise level needs no second start.
-  const double noise_level = std::pow(1.05 * noise, 2) * c.rows;
   const auto note = [&](const std::string& text) {
     out.notes.push_back("trace: " + text);
     s.progress("      " + text);
@@ -334,10 +332,13 @@ trace_result trace(const std::vector<loop_dwell>& dwells, orbit_predictor& predi
     s.progress("      best scores: " + cands[0].candidate.name + (cands.size() > 1 ? ", " + cands[1].candidate.name : std::string()) +
                "; refitting ...");
 
-    // Refits: the best few by score, and, before a round gives up, an effect whose linear score
-    // says little (a dip-searched coordinate: at a rigid stator the compliance is a series spring
-    // that k1 absorbs), whatever its score.
+    // Refits: the best few by linear score, and, unless one of them leaves only noise, every
+    // other candidate too. A linear score can hide the right effect: one nearly collinear with the
+    // law's terms (Hertz's z^1.5 between k1 z and k3 z^3), or one whose derivative where it is off
+    // is a series spring that k1 absorbs (the stator, which its dip search refits); a weaker effect
+    // that passes first then takes its place (docs/loop.md, campaign).
     std::vector<std::pair<std::size_t, fitted_model>> passing;  // (candidate, refit), significant against the current model
+    bool settled = false;  // a passing refit leaves only noise: no other candidate can do better
     const auto try_refit = [&](std::size_t i) {
       auto& cand = cands[i].candidate;
       auto fitted = refit(c, current, cands[i], cand.start);
@@ -352,24 +353,22 @@ trace_result trace(const std::vector<loop_dwell>& dwells, orbit_predictor& predi
       cand.error_after = errors_of(dwells, predictor, fitted->r).nrmse_contact;
       s.progress("      " + cand.name + " refitted (from '" + cand.start + "'): BIC drop " + format_digits(sig.bic_drop) + ", share " +
                  format_digits(sig.excess_share) + ", error " + format_digits(cand.error_after));
-      if (sig.pass) passing.emplace_back(i, std::move(*fitted));
-      else cand.verdict = "fails the significance rule";
+      if (!sig.pass) {
+        cand.verdict = "fails the significance rule";
+        return;
+      }
+      settled = settled || is_noise(*fitted);
+      passing.emplace_back(i, std::move(*fitted));
     };
-    // A refit that leaves only noise settles the round: no other candidate can do better than
-    // the noise, and a weaker one's refit is the round's slowest (a fit far from the data).
-    const auto settled = [&] { return !passing.empty() && passing.back().second.rss() <= noise_level; };
-    for (std::size_t i = 0; i < std::min<std::size_t>(static_cast<std::size_t>(s.refit_candidates), cands.size()) && !settled(); ++i) {
+    for (std::size_t i = 0; i < std::min<std::size_t>(static_cast<std::size_t>(s.refit_candidates), cands.size()) && !settled; ++i) {
       if (cands[i].candidate.score < kRefitScoreShare * cands.front().candidate.score || !cands[i].candidate.verdict.empty()) break;
       try_refit(i);
     }
-    if (passing.empty())
-      for (std::size_t i = 0; i < cands.size(); ++i) {
-        const auto ec = effect_coordinates(*cands[i].effect);
-        if (!cands[i].candidate.refitted && dip_searched(ec) != ec.end()) {
-          s.progress("      nothing passes; searching " + cands[i].candidate.name + " ...");
-          try_refit(i);
-        }
-      }
+    if (!settled) {
+      s.progress(passing.empty() ? "      nothing passes; refitting the others ..." : "      none leaves only noise; refitting the others ...");
+      for (std::size_t i = 0; i < cands.size() && !settled; ++i)
+        if (!cands[i].candidate.refitted && cands[i].candidate.verdict.empty()) try_refit(i);
+    }
     std::stable_sort(passing.begin(), passing.end(),
                      [&](const auto& a, const auto& b) { return cands[a.first].candidate.bic_drop > cands[b.first].candidate.bic_drop; });
 
