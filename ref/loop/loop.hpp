@@ -51,6 +51,7 @@ struct loop_result {
   std::vector<start_outcome> starts;        // the before-fit's starts
   std::string start_winner;                 // the one its best fit came from
   std::vector<std::string> notes;
+  std::vector<std::string> warnings;        // estimates that are unphysical or outside the library's ranges (also on stderr)
   double error_before = 0.0, error_after = 0.0;
   std::vector<loop_step> effects;            // claimed: the explanation
   std::vector<loop_step> tentative;          // added by the trace but not claimed (min_explained_share)

@@ -60,6 +60,8 @@ json to_json(const loop_result& r) {
                             {"bic_drop", e.bic_drop},
                             {"excess_share", e.excess_share},
                             {"holdout_gain_chi2", e.holdout_gain},
+                            {"alternatives", e.alternatives},
+                            {"exchanged_for", e.exchanged_for},
                             {"candidates", candidates_json(e.candidates)}});
   }
   j["explained_share"] = r.explained_share;
@@ -71,7 +73,11 @@ json to_json(const loop_result& r) {
   }
   j["removed"] = json::array();
   for (const auto& e : r.removed)
-    j["removed"].push_back({{"name", e.effect}, {"after_adding", e.after_adding}, {"bic_drop", e.bic_drop}, {"excess_share", e.excess_share}});
+    j["removed"].push_back({{"name", e.effect},
+                            {"after_adding", e.after_adding},
+                            {"bic_drop", e.bic_drop},
+                            {"excess_share", e.excess_share},
+                            {"replaced_by", e.replaced_by}});
   j["unexplained"] = r.unexplained;
   if (!r.last_round.empty()) j["rejected_round"] = candidates_json(r.last_round);
   j["excluded"] = json::array();
@@ -100,6 +106,7 @@ json to_json(const loop_result& r) {
                             {"error_before", e.nrmse_before},
                             {"error_after", e.nrmse_after}});
   j["residual_spectrum"] = {{"orders", r.spectrum.orders}, {"before_m", r.spectrum.before}, {"after_m", r.spectrum.after}};
+  j["warnings"] = r.warnings;
   j["notes"] = r.notes;
   return j;
 }
@@ -139,8 +146,11 @@ std::string to_markdown(const loop_result& r) {
     o << "\n";
   }
   for (const auto& e : r.removed)
-    o << "Removed again: " << e.effect << " (after " << e.after_adding << " effects it gained only BIC " << fmt(e.bic_drop) << ", share "
-      << fmt(e.excess_share, 3) << " over the model refitted without it).\n\n";
+    if (e.replaced_by.empty())
+      o << "Removed again: " << e.effect << " (after " << e.after_adding << " effects it gained only BIC " << fmt(e.bic_drop) << ", share "
+        << fmt(e.excess_share, 3) << " over the model refitted without it).\n\n";
+    else
+      o << "Exchanged: " << e.replaced_by << " in place of " << e.effect << " (after " << e.after_adding << " effects, a lower BIC).\n\n";
   if (!r.start_winner.empty()) {
     o << "Before-fit starts (the best fit wins):";
     for (const auto& st : r.starts)
@@ -166,6 +176,7 @@ std::string to_markdown(const loop_result& r) {
   for (const auto& e : r.errors)
     o << "| " << e.record << " | " << e.rpm << " | " << (e.contact ? "yes" : "no") << " | " << e.samples << " | " << e.orbit << " | " << fmt(e.nrmse_before) << " | "
       << fmt(e.nrmse_after) << " | " << fmt(e.rms_before * 1e6) << " | " << fmt(e.rms_after * 1e6) << " |\n";
+  for (const auto& w : r.warnings) o << "\n**Warning:** " << w << "\n";
   for (const auto& n : r.notes) o << "\nNote: " << n << "\n";
   return o.str();
 }

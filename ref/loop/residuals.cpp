@@ -11,7 +11,12 @@ constexpr double kZ = 3.29;
 // The noise estimate (MAD of 4th differences, ~1e5 samples) is good to about 1 %; a residual
 // more than 5 % above it carries 10 % more energy than noise does.
 constexpr double kNoiseRatioLimit = 1.05;
+// The synchronous check's limit on chi^2 / dof above 1: its 0.1 % false-alarm band, and the
+// noise estimate's own error (a ratio good to kNoiseRatioLimit - 1 in RMS, twice that in energy).
+double synchronous_margin(double dof) { return kZ * std::sqrt(2.0 / dof) + 2.0 * (kNoiseRatioLimit - 1.0); }
 }  // namespace
+
+double synchronous_energy::tolerance(double noise) const { return synchronous_margin(dof) * dof * noise * noise; }
 
 error_totals errors_of(const std::vector<loop_dwell>& dwells, const orbit_predictor& pr, const Eigen::VectorXd& r) {
   error_totals out;
@@ -92,7 +97,7 @@ validity_report validity(const std::vector<loop_dwell>& dwells, const orbit_pred
     }
   }
   v.synchronous = {"synchronous chi^2 / dof (orders -" + std::to_string(orders) + ".." + std::to_string(orders) + ")", chi2 / dof,
-                   1.0 + kZ * std::sqrt(2.0 / dof) + 2.0 * (kNoiseRatioLimit - 1.0), false};
+                   1.0 + synchronous_margin(dof), false};
   v.synchronous.pass = v.synchronous.value <= v.synchronous.limit;
   v.whiteness = {"Box-Pierce Q / dof (lags 1.." + std::to_string(whiteness_lags) + ")", q / qdof, 1.0 + kZ * std::sqrt(2.0 / qdof), false};
   v.whiteness.pass = v.whiteness.value <= v.whiteness.limit;

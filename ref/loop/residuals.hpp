@@ -36,6 +36,9 @@ struct validity_report {
 struct synchronous_energy {
   double energy = 0.0, dof = 0.0;
   double excess(double noise) const { return std::max(energy - noise * noise * dof, 0.0); }
+  // The energy above sigma^2 dof that the synchronous check still calls noise (its limit, in m^2):
+  // a change of the residual smaller than this is one the check cannot see.
+  double tolerance(double noise) const;
 };
 synchronous_energy synchronous_part(const std::vector<loop_dwell>& dwells, const orbit_predictor& pr, const model_point& m,
                                     const Eigen::VectorXd& r, int orders);

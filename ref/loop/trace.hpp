@@ -6,7 +6,8 @@
 //   - a fair comparison: the model without it, refitted from where its refit ended, must not
 //     explain the same gain (a refit can gain by leaving the base's own local minimum);
 //   - out of sample: refitted on half of the dwells, it must predict the other half better.
-// After an effect is added, every earlier one is tested for removal (backward elimination).
+// After an effect is added, every earlier one is tested for removal (backward elimination) and
+// for exchange with the effects that competed with it in its round.
 
 #include <functional>
 #include <limits>
@@ -55,13 +56,17 @@ struct loop_step {
   double error_after_adding = 0.0;
   double bic_drop = 0.0, excess_share = 0.0, holdout_gain = 0.0;
   std::vector<effect_candidate> candidates;            // the round's scores, best first
+  std::vector<std::string> alternatives;               // the others that passed the significance rule in its round
+  std::string exchanged_for;                           // it took this effect's place later (its scores are then that round's)
 };
 
-// An effect taken out again: the model without it, refitted, is not significantly worse.
+// An effect taken out again: the model without it, refitted, is not significantly worse
+// (backward elimination), or the model with another in its place is better (exchange).
 struct removed_effect {
   std::string effect;
   std::size_t after_adding = 0;  // how many effects had been added when it was removed
   double bic_drop = 0.0, excess_share = 0.0;  // what it still gained over the refit without it
+  std::string replaced_by;       // the exchange's effect (empty: removed)
 };
 
 struct trace_result {
@@ -77,6 +82,10 @@ struct trace_result {
 // The trace from the paper's model's fit `before` (its orbit computable in every dwell).
 trace_result trace(const std::vector<loop_dwell>& dwells, orbit_predictor& predictor, double noise, const model_point& staged,
                    const fit_result& before, const trace_settings& s);
+
+// The first switch of the effect whose value at m lies outside the library's fit range (what a fit
+// may search: beyond it the effect is no longer the physics its row describes), or nullptr.
+const effect_parameter_info* outside_fit_range(const effect_info& e, const model_point& m);
 
 // An effect's parameters in `fx` (library keys, SI), and the shape parameters the fit holds.
 std::vector<std::pair<std::string, double>> effect_params(const effect_info& e, const effect_parameters& fx, std::vector<std::string>* held);
