@@ -124,6 +124,8 @@ expect_error "no clearance_m" identify "$work/no_clearance.csv" --linear "$work/
 # rig and loop: bad effects and records named; a record without rub is not a loop's input.
 expect_error "unknown effect 'gravity'" rig --effect gravity --out "$work/o.csv"
 expect_error "k_h = -1" rig --effect hertz_contact:k_h=-1 --out "$work/o.csv"
+expect_error "--time-base must be acquisition or shaft" rig --time-base ticks --out "$work/o.csv"
+expect_error "needs shaft-synchronous time" rig --no-keyphasor --time-base acquisition --out "$work/o.csv"
 "$rubref" rig --clearance 1 --speeds 1200,1300 --revs 4 --settle-revs 20 --out "$work/free.csv" >/dev/null || fail "rig failed"
 grep -q '^# clearance_m: 1$' "$work/free.csv" || fail "rig record lacks its clearance"
 grep -q 'effects' "$work/free.csv" && fail "rig record names its effects"

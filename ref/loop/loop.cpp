@@ -151,17 +151,24 @@ loop_result run_loop(const std::vector<std::pair<record, std::string>>& records,
     out.warnings.push_back(w);
     s.progress("warning: " + w);
   };
+  bool implausible = false;  // an estimate the library's rows do not describe
   for (const auto& e : out.effects)
-    if (const auto* q = outside_fit_range(find_effect(e.effect), out.after))
+    if (const auto* q = outside_fit_range(find_effect(e.effect), out.after)) {
+      implausible = true;
       warn(e.effect + "'s " + std::string(q->key) + " = " + format_digits(out.after.fx.*q->member) + " " + std::string(q->unit) +
            " is outside the library's range [" + format_digits(q->lo) + ", " + format_digits(q->hi) + "]");
+    }
   if (!(out.after.p.k1 > 0.0)) warn("the law's k1 is 0: the contact has no linear stiffness (an effect the library lacks may carry it)");
   if (!(out.after.p.mu > 0.0)) warn("mu is 0: no friction at the contact");
-  if (!out.effects.empty() && out.unexplained && out.explained_share < s.min_explained_share) {
-    out.notes.push_back("the effects added explain " + format_digits(100.0 * out.explained_share, 3) +
-                        " % of the before-fit's synchronous excess and leave a residual that is not noise: they are tentative, not claimed");
+  // The effects are claimed together or not at all: they were fitted together.
+  const bool too_little = out.unexplained && out.explained_share < s.min_explained_share;
+  if (!out.effects.empty() && (too_little || implausible)) {
+    out.notes.push_back(too_little ? "the effects added explain " + format_digits(100.0 * out.explained_share, 3) +
+                                         " % of the before-fit's synchronous excess and leave a residual that is not noise: they are tentative, not claimed"
+                                   : "an estimate lies outside the library's range (warnings): the effects are tentative, not claimed");
     out.tentative = std::move(out.effects);
     out.effects.clear();
+    out.unexplained = true;
   }
   return out;
 }

@@ -123,8 +123,8 @@ std::string to_markdown(const loop_result& r) {
   if (r.effects.empty()) o << " none.";
   o << "\n\n";
   if (!r.tentative.empty()) {
-    o << "Tentative (the trace added them, but together they explain only " << fmt(100.0 * r.explained_share, 3)
-      << " % of the synchronous excess and the residual is not noise, so they are not claimed):";
+    o << "Tentative (the trace added them, but together they explain " << fmt(100.0 * r.explained_share, 3)
+      << " % of the synchronous excess with a residual that is not noise, or an estimate lies outside the library's range; they are not claimed):";
     for (const auto& e : r.tentative) o << " " << e.effect;
     o << ".\n\n";
   }

@@ -23,9 +23,10 @@ constexpr double kRefitScoreShare = 0.1;
 constexpr int kMaxBaseRestarts = 3;
 // Jacobians of each out-of-sample fit: they start from the fits on every dwell, a few steps away.
 constexpr int kHoldoutIterations = 6;
-// A refit that removes this share of the synchronous excess (or leaves only noise) settles a
-// round: another candidate could gain at most the tenth that is left, so the others are not
-// refitted (as the loop's claims, which need the same share of the whole trace).
+// A refit among the best few that removes this share of the synchronous excess leaves the others
+// at most the tenth that is left to gain, so they are not refitted (the best few always are:
+// near twins such as a contact angle and turned probes both reach it, and only their refits
+// tell them apart). The loop's claims need the same share of the whole trace.
 constexpr double kSettledShare = 0.9;
 
 using progress_fn = std::function<void(const std::string&)>;
@@ -384,7 +385,9 @@ trace_result trace(const std::vector<loop_dwell>& dwells, orbit_predictor& predi
     // is a series spring that k1 absorbs (the stator, which its dip search refits); a weaker effect
     // that passes first then takes its place (docs/loop.md, campaign).
     std::vector<std::pair<std::size_t, fitted_model>> passing;  // (candidate, refit), significant against the current model
-    bool settled = false;  // a passing refit leaves (almost) only noise: no other candidate can do much better
+    // A passing refit that leaves only noise settles the round; one that removes most of the
+    // excess leaves the others beyond the best few too little to gain.
+    bool noise_left = false, most_explained = false;
     const auto try_refit = [&](std::size_t i) {
       auto& cand = cands[i].candidate;
       auto fitted = refit(c, current, cands[i], cand.start);
@@ -415,16 +418,17 @@ trace_result trace(const std::vector<loop_dwell>& dwells, orbit_predictor& predi
                        " is outside the library's range [" + format_digits(q->lo) + ", " + format_digits(q->hi) + "]";
         return;
       }
-      settled = settled || sig.excess_share >= kSettledShare || is_noise(*fitted);
+      noise_left = noise_left || is_noise(*fitted);
+      most_explained = most_explained || sig.excess_share >= kSettledShare;
       passing.emplace_back(i, std::move(*fitted));
     };
-    for (std::size_t i = 0; i < std::min<std::size_t>(static_cast<std::size_t>(s.refit_candidates), cands.size()) && !settled; ++i) {
+    for (std::size_t i = 0; i < std::min<std::size_t>(static_cast<std::size_t>(s.refit_candidates), cands.size()) && !noise_left; ++i) {
       if (cands[i].candidate.score < kRefitScoreShare * cands.front().candidate.score || !cands[i].candidate.verdict.empty()) break;
       try_refit(i);
     }
-    if (!settled) {
+    if (!noise_left && !most_explained) {
       s.progress(passing.empty() ? "      nothing passes; refitting the others ..." : "      none leaves only noise; refitting the others ...");
-      for (std::size_t i = 0; i < cands.size() && !settled; ++i)
+      for (std::size_t i = 0; i < cands.size() && !noise_left; ++i)
         if (!cands[i].candidate.refitted && cands[i].candidate.verdict.empty()) try_refit(i);
     }
     std::stable_sort(passing.begin(), passing.end(),
