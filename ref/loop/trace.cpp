@@ -29,8 +29,6 @@ constexpr int kHoldoutIterations = 6;
 // tell them apart). The loop's claims need the same share of the whole trace.
 constexpr double kSettledShare = 0.9;
 
-using progress_fn = std::function<void(const std::string&)>;
-
 // What every step of a round reads.
 struct round_context {
   const std::vector<loop_dwell>& dwells;
@@ -228,7 +226,7 @@ std::optional<fitted_model> refit(const round_context& c, const fitted_model& cu
     starts.push_back({"gauss-newton", problem.at(gn), current.orbits});
     // The same effect part on the staged model's base (the linear part from the dwells without
     // contact, the law from FROLS): a fit without the effect may have bent the base far from
-    // where the effect's model fits (a preload record's before-fit holds k1 ~ 0.1 N/m).
+    // where the effect's model fits (a before-fit without a preload bends the law to absorb it).
     model_point on_staged = current.at;
     on_staged.p = c.staged.p;
     const fit_problem staged_problem = make_problem(c.predictor, c.dwells, on_staged, with, c.noise);
