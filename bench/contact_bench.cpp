@@ -13,10 +13,10 @@
 #include <boost/numeric/odeint.hpp>
 #include <cmath>
 
-#include "ref/hybrid_integrator.hpp"
+#include "ref/integrate/hybrid_integrator.hpp"
 #include "ref/rotor_system.hpp"
 #include "ref/simulate.hpp"
-#include "ref/steppers.hpp"
+#include "ref/integrate/steppers.hpp"
 #include "ref/sweep.hpp"
 #include "variants/all_variants.hpp"
 

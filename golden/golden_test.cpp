@@ -55,6 +55,26 @@ TEST_P(golden_regression, fast_path_matches_the_golden_file) {
   EXPECT_TRUE(v.pass) << to_text(v);
 }
 
+// The exact free flight (ref/integrate/free_flight.hpp) with the files' own careful contact
+// integration reproduces every orbit case to kExactFreeFlightTol: the files were made with the
+// free flight integrated by rkf78 at rtol 1e-13, the two differ by the integrators' errors only.
+constexpr double kExactFreeFlightTol = 1e-12;  // m
+
+TEST_P(golden_regression, exact_free_flight_matches_at_the_files_own_accuracy) {
+  const golden_case g = load(GetParam());
+  if (g.comparison != comparison_kind::orbit) GTEST_SKIP() << "statistics case (not a single orbit)";
+  run_request req = g.request;
+  req.integration = golden_method();
+  ASSERT_TRUE(req.integration.exact_free_flight);
+  const orbit o = simulate(req);
+  ASSERT_EQ(o.samples.size(), g.t.size());
+  EXPECT_GT(o.counts.free_arcs, 0u);
+  double worst = 0.0;
+  for (std::size_t i = 0; i < g.t.size(); ++i)
+    worst = std::max(worst, std::hypot(o.samples[i].s[idx::x] - g.x[i], o.samples[i].s[idx::y] - g.y[i]));
+  EXPECT_LE(worst, kExactFreeFlightTol);
+}
+
 // Provenance: what made the file, with what, when, and how to compare with it.
 TEST_P(golden_regression, carries_its_provenance) {
   const std::filesystem::path path = std::filesystem::path(RUBREF_GOLDEN_DIR) / golden_file_name(GetParam());

@@ -6,6 +6,7 @@
 // Each variant is a small value type built from `parameters` by `from`, so a generic test can
 // construct it, and names itself for the CLI and the record metadata.
 
+#include <array>
 #include <concepts>
 #include <string_view>
 
@@ -23,11 +24,14 @@ concept named_law = requires(const parameters& p) {
 template <class L>
 concept compliant_law = named_law<L> && requires(const L law, double z, double z_dot) {
   { law.normal_force(z, z_dot) } noexcept -> std::same_as<double>;  // N, for z > 0
+  // (df_N/dz, df_N/dz_dot): the monodromy's variational equations (ref/integrate/shooting.hpp)
+  { law.normal_force_gradient(z, z_dot) } noexcept -> std::same_as<std::array<double, 2>>;
 };
 
 template <class L>
 concept impact_law = named_law<L> && requires(const L law, double v_normal) {
   { law.rebound_velocity(v_normal) } noexcept -> std::same_as<double>;  // m/s
+  { law.rebound_slope(v_normal) } noexcept -> std::same_as<double>;      // d rebound / d v_normal
 };
 
 template <class L>

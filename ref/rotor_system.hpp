@@ -12,9 +12,12 @@
 // phi is the unbalance angle at t = 0 (the paper's Eq. 1 has phi = 0).
 
 #include <cmath>
+#include <complex>
 #include <numbers>
+#include <optional>
 
 #include "ref/contact_law.hpp"
+#include "ref/integrate/free_flight.hpp"
 #include "ref/parameters.hpp"
 #include "ref/state.hpp"
 
@@ -119,6 +122,51 @@ class rotor_system {
   // Its time derivative along a stuck trajectory (y = delta, y' = 0): only the forcing varies.
   double free_vertical_jerk_stuck(double t) const noexcept {
     return unbalance_acc_ * omega_ * phasor_of(forcing_angle(t)).cos;
+  }
+
+  // d(ds/dt)/ds under the current phase: the variational equations of the monodromy matrix
+  // (ref/integrate/shooting.hpp). Row-major 4 x 4.
+  std::array<double, 16> jacobian(const state_type& s) const noexcept {
+    std::array<double, 16> J{};
+    const auto at = [&J](int r, int c) -> double& { return J[static_cast<std::size_t>(4 * r + c)]; };
+    at(idx::x, idx::vx) = 1.0;
+    at(idx::vx, idx::x) = -k_x_ * inv_m_;
+    at(idx::vx, idx::vx) = -c_x_ * inv_m_;
+    if (phase_ == contact_phase::stuck) return J;  // y = delta held: y and y' do not move
+    at(idx::y, idx::vy) = 1.0;
+    at(idx::vy, idx::y) = -k_y_ * inv_m_;
+    at(idx::vy, idx::vy) = -c_y_ * inv_m_;
+    if constexpr (compliant_law<Law>) {
+      const double z = penetration(s);
+      if (phase_ == contact_phase::contact || (phase_ == contact_phase::by_penetration && z > 0.0)) {
+        const auto [kz, kv] = law_.normal_force_gradient(z, s[idx::vy]);  // f_N(z = y - delta, z' = y')
+        at(idx::vx, idx::y) += friction_sign_ * mu_ * kz * inv_m_;
+        at(idx::vx, idx::vy) += friction_sign_ * mu_ * kv * inv_m_;
+        at(idx::vy, idx::y) -= kz * inv_m_;
+        at(idx::vy, idx::vy) -= kv * inv_m_;
+      }
+    }
+    return J;
+  }
+  // The gradient of the penetration z = y - delta in the state.
+  state_type penetration_gradient() const noexcept { return {0.0, 1.0, 0.0, 0.0}; }
+
+  // Out of contact Eq. 1 is linear: the exact free flight's dynamics (ref/integrate/free_flight.hpp).
+  std::optional<linear_dynamics<4>> free_dynamics() const {
+    linear_dynamics<4> d;
+    d.A(idx::x, idx::vx) = d.A(idx::y, idx::vy) = 1.0;
+    d.A(idx::vx, idx::x) = -k_x_ * inv_m_;
+    d.A(idx::vx, idx::vx) = -c_x_ * inv_m_;
+    d.A(idx::vy, idx::y) = -k_y_ * inv_m_;
+    d.A(idx::vy, idx::vy) = -c_y_ * inv_m_;
+    // e w^2 (cos, sin)(w t + phi) = Re (1, -i) e w^2 e^{i phi} e^{i w t}
+    const std::complex<double> u = unbalance_acc_ * std::polar(1.0, unbalance_phase_);
+    d.F[0][idx::vx] = u;
+    d.F[0][idx::vy] = std::complex<double>(0.0, -1.0) * u;
+    d.omega = omega_;
+    d.normal[idx::y] = 1.0;
+    d.offset = delta_;
+    return d;
   }
 
   // Angle of the unbalance force at t, rad: w t + phi.

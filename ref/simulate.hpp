@@ -5,7 +5,7 @@
 #include <string>
 #include <vector>
 
-#include "ref/hybrid_integrator.hpp"
+#include "ref/integrate/hybrid_integrator.hpp"
 #include "ref/parameters.hpp"
 
 namespace rubref {

@@ -121,6 +121,15 @@ expect_error "library term 'w2'" identify "$work/id_sw/record_up.csv" --linear "
 grep -v '^# clearance_m' "$work/id_sw/record_up.csv" >"$work/no_clearance.csv"
 expect_error "no clearance_m" identify "$work/no_clearance.csv" --linear "$work/paper.json" --out "$work/id2"
 
+# orbit: shooting writes one period and its Floquet multipliers; bad periods are refused.
+"$rubref" orbit --rpm 1600 --samples-per-rev 64 --out "$work/orb.csv" >"$work/stdout" || fail "orbit failed"
+grep -q '"method": "shooting"' "$work/orb.summary.json" || fail "orbit did not shoot: $(cat "$work/orb.summary.json")"
+grep -q '"floquet_multipliers"' "$work/orb.summary.json" || fail "orbit summary lacks the multipliers"
+grep -q '"stable": true' "$work/orb.summary.json" || fail "the paper's 1600 rpm orbit is not stable"
+[ "$(grep -vc '^#' "$work/orb.csv")" -eq 65 ] || fail "orbit.csv: expected header + 64 rows"
+expect_error "periods must be in [1, 64]" orbit --periods 0 --out "$work/o.csv"
+expect_error "shooting tolerance" orbit --tolerance -1 --out "$work/o.csv"
+
 # rig and loop: bad effects and records named; a record without rub is not a loop's input.
 expect_error "unknown effect 'gravity'" rig --effect gravity --out "$work/o.csv"
 expect_error "k_h = -1" rig --effect hertz_contact:k_h=-1 --out "$work/o.csv"

@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-#include "ref/hybrid_integrator.hpp"
+#include "ref/integrate/hybrid_integrator.hpp"
 #include "variants/all_variants.hpp"
 
 namespace rubref::testing {

@@ -1,4 +1,6 @@
 #pragma once
+#include <array>
+
 #include "ref/contact_law.hpp"
 
 namespace rubref {
@@ -18,6 +20,9 @@ struct identified {
   static identified from(const parameters& p) { return {p.k1, p.k3, p.c2}; }
   double normal_force(double z, double z_dot) const noexcept {
     return z * (k1 + k3 * z * z) + c2 * z_dot * z_dot;
+  }
+  std::array<double, 2> normal_force_gradient(double z, double z_dot) const noexcept {
+    return {k1 + 3.0 * k3 * z * z, 2.0 * c2 * z_dot};
   }
 };
 

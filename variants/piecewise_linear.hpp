@@ -1,4 +1,6 @@
 #pragma once
+#include <array>
+
 #include "ref/contact_law.hpp"
 
 namespace rubref {
@@ -12,6 +14,7 @@ struct piecewise_linear {
 
   static piecewise_linear from(const parameters& p) { return {p.k1}; }
   double normal_force(double z, double /*z_dot*/) const noexcept { return k1 * z; }
+  std::array<double, 2> normal_force_gradient(double /*z*/, double /*z_dot*/) const noexcept { return {k1, 0.0}; }
 };
 
 }  // namespace rubref

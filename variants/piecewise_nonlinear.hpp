@@ -1,4 +1,6 @@
 #pragma once
+#include <array>
+
 #include "ref/contact_law.hpp"
 
 namespace rubref {
@@ -13,6 +15,7 @@ struct piecewise_nonlinear {
 
   static piecewise_nonlinear from(const parameters& p) { return {p.k1, p.k3}; }
   double normal_force(double z, double /*z_dot*/) const noexcept { return z * (k1 + k3 * z * z); }
+  std::array<double, 2> normal_force_gradient(double z, double /*z_dot*/) const noexcept { return {k1 + 3.0 * k3 * z * z, 0.0}; }
 };
 
 }  // namespace rubref

@@ -13,6 +13,7 @@ struct restitution {
 
   static restitution from(const parameters& p) { return {p.r}; }
   double rebound_velocity(double v_normal) const noexcept { return -r * v_normal; }
+  double rebound_slope(double /*v_normal*/) const noexcept { return -r; }
 };
 
 }  // namespace rubref

@@ -9,7 +9,7 @@
 #include <sstream>
 
 #include "ref/errors.hpp"
-#include "ref/hybrid_integrator.hpp"
+#include "ref/integrate/hybrid_integrator.hpp"
 #include "ref/parallel.hpp"
 #include "variants/identified.hpp"
 

@@ -19,7 +19,7 @@
 #include <string>
 #include <vector>
 
-#include "ref/hybrid_integrator.hpp"
+#include "ref/integrate/hybrid_integrator.hpp"
 #include "ref/loop/preprocess.hpp"
 #include "ref/parameters.hpp"
 #include "ref/rig/effects.hpp"

@@ -10,7 +10,7 @@
 #include <string>
 #include <vector>
 
-#include "ref/hybrid_integrator.hpp"
+#include "ref/integrate/hybrid_integrator.hpp"
 #include "ref/parameters.hpp"
 #include "ref/record.hpp"
 #include "ref/rig/effects.hpp"

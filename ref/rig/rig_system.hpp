@@ -15,7 +15,9 @@
 
 #include <array>
 #include <cmath>
+#include <complex>
 #include <numbers>
+#include <optional>
 
 #include "ref/contact_law.hpp"
 #include "ref/parameters.hpp"
@@ -138,6 +140,110 @@ class rig_system {
     const double tangential = ny_ * s[idx::vx] - nx_ * s[idx::vy];
     const double slip = std::abs(fx_.shaft_radius * omega_ - tangential);
     return p_.mu + (fx_.mu_static - p_.mu) * std::exp(-slip / fx_.slip_decay_speed);
+  }
+
+  // d(ds/dt)/ds under the current phase (row-major 6 x 6): the variational equations of the
+  // monodromy matrix (ref/integrate/shooting.hpp). Exact for every term of operator().
+  std::array<double, 36> jacobian(const state_type& s) const noexcept {
+    std::array<double, 36> J{};
+    const auto at = [&J](int r, int c) -> double& { return J[static_cast<std::size_t>(6 * r + c)]; };
+    const double im = 1.0 / p_.m;
+    at(idx::x, idx::vx) = at(idx::y, idx::vy) = 1.0;
+    at(idx::vx, idx::x) = -p_.k_x * im;
+    at(idx::vx, idx::vx) = -p_.c_x * im;
+    at(idx::vx, idx::y) = -fx_.k_xy * im;
+    at(idx::vy, idx::y) = -p_.k_y * im;
+    at(idx::vy, idx::vy) = -p_.c_y * im;
+    at(idx::vy, idx::x) = -fx_.k_yx * im;
+    if (cubic_ != 0.0) {
+      at(idx::vx, idx::x) -= 3.0 * cubic_ * s[idx::x] * s[idx::x] * im;
+      at(idx::vy, idx::y) -= 3.0 * cubic_ * s[idx::y] * s[idx::y] * im;
+    }
+    if (fx_.stator_k > 0.0) {
+      at(rig_idx::w, rig_idx::vw) = 1.0;
+      at(rig_idx::vw, rig_idx::w) = -fx_.stator_k / fx_.stator_m;
+      at(rig_idx::vw, rig_idx::vw) = -fx_.stator_c / fx_.stator_m;
+    }
+    const double z = penetration(s);
+    if (!(phase_ == contact_phase::contact || (phase_ == contact_phase::by_penetration && z > 0.0))) return J;
+    // f_N(z, z') and its gradient in the state: grad z = (nx, ny, 0, 0, -1, 0), grad z' = (0, 0, nx, ny, 0, -1).
+    const double zd = penetration_rate(s), zp = std::max(z, 0.0);
+    auto [fz, fzd] = law_.normal_force_gradient(z, zd);
+    if (fx_.hertz_k != 0.0) fz += 1.5 * fx_.hertz_k * std::sqrt(zp);
+    if (fx_.hc_lambda != 0.0) {
+      const double zp_p = std::pow(zp, fx_.hc_exponent);
+      fzd += fx_.hc_lambda * zp_p;
+      if (zp > 0.0) fz += fx_.hc_lambda * fx_.hc_exponent * zp_p / zp * zd;
+    }
+    std::array<double, 6> gn{};  // grad f_N
+    gn[idx::x] = fz * nx_;
+    gn[idx::y] = fz * ny_;
+    gn[rig_idx::w] = -fz;
+    gn[idx::vx] = fzd * nx_;
+    gn[idx::vy] = fzd * ny_;
+    gn[rig_idx::vw] = -fzd;
+    // f_T = sgn mu(v) f_N: grad f_T = sgn (mu grad f_N + f_N grad mu).
+    const double fn = normal_force(s), mu = friction_coefficient(s);
+    std::array<double, 6> gt{};
+    for (std::size_t i = 0; i < 6; ++i) gt[i] = sign_ * mu * gn[i];
+    if (fx_.mu_static > p_.mu) {
+      const double tangential = ny_ * s[idx::vx] - nx_ * s[idx::vy];
+      const double rel = fx_.shaft_radius * omega_ - tangential;
+      const double dmu_dslip = -(fx_.mu_static - p_.mu) / fx_.slip_decay_speed *
+                               std::exp(-std::abs(rel) / fx_.slip_decay_speed);
+      const double sgn_rel = rel > 0.0 ? 1.0 : (rel < 0.0 ? -1.0 : 0.0);
+      gt[idx::vx] += sign_ * fn * dmu_dslip * sgn_rel * -ny_;
+      gt[idx::vy] += sign_ * fn * dmu_dslip * sgn_rel * nx_;
+    }
+    for (int c = 0; c < 6; ++c) {
+      const auto k = static_cast<std::size_t>(c);
+      at(idx::vx, c) += (-gn[k] * nx_ + gt[k] * ny_) * im;
+      at(idx::vy, c) += (-gn[k] * ny_ - gt[k] * nx_) * im;
+      if (fx_.stator_k > 0.0) at(rig_idx::vw, c) += gn[k] / fx_.stator_m;
+    }
+    return J;
+  }
+  // The gradient of the penetration z in the state.
+  state_type penetration_gradient() const noexcept { return {nx_, ny_, 0.0, 0.0, -1.0, 0.0}; }
+  // The states that move: a rigid stator's (w, w') never do.
+  int moving_states() const noexcept { return fx_.stator_k > 0.0 ? 6 : 4; }
+
+  // Out of contact the rotor and the stator are linear unless an effect outside the library
+  // acts (a fluctuating drive, hardening supports): the exact free flight's dynamics then.
+  std::optional<linear_dynamics<6>> free_dynamics() const {
+    if (drive_.amplitude != 0.0 || cubic_ != 0.0) return std::nullopt;
+    linear_dynamics<6> d;
+    const double im = 1.0 / p_.m;
+    d.A(idx::x, idx::vx) = d.A(idx::y, idx::vy) = 1.0;
+    d.A(idx::vx, idx::x) = -p_.k_x * im;
+    d.A(idx::vx, idx::vx) = -p_.c_x * im;
+    d.A(idx::vx, idx::y) = -fx_.k_xy * im;
+    d.A(idx::vy, idx::y) = -p_.k_y * im;
+    d.A(idx::vy, idx::vy) = -p_.c_y * im;
+    d.A(idx::vy, idx::x) = -fx_.k_yx * im;
+    if (fx_.stator_k > 0.0) {
+      d.A(rig_idx::w, rig_idx::vw) = 1.0;
+      d.A(rig_idx::vw, rig_idx::w) = -fx_.stator_k / fx_.stator_m;
+      d.A(rig_idx::vw, rig_idx::vw) = -fx_.stator_c / fx_.stator_m;
+    }
+    d.b[idx::vx] = fx_.preload_x * im;
+    d.b[idx::vy] = fx_.preload_y * im;
+    // a (cos, sin)(h w t + phi) = Re (1, -i) a e^{i phi} e^{i h w t}; bow at 1X scaled by each axis's stiffness.
+    const std::complex<double> minus_i(0.0, -1.0);
+    const auto add = [&](int order, double ax, double ay, double phase) {
+      const std::complex<double> u = std::polar(1.0, phase);
+      d.F[static_cast<std::size_t>(order - 1)][idx::vx] += ax * u;
+      d.F[static_cast<std::size_t>(order - 1)][idx::vy] += minus_i * ay * u;
+    };
+    add(1, p_.e * omega_ * omega_, p_.e * omega_ * omega_, p_.unbalance_phase);
+    if (fx_.bow != 0.0) add(1, p_.k_x * fx_.bow * im, p_.k_y * fx_.bow * im, fx_.bow_phase);
+    if (fx_.misalignment_force != 0.0) add(2, fx_.misalignment_force * im, fx_.misalignment_force * im, fx_.misalignment_phase);
+    d.omega = omega_;
+    d.normal[idx::x] = nx_;
+    d.normal[idx::y] = ny_;
+    d.normal[rig_idx::w] = -1.0;
+    d.offset = p_.delta;
+    return d;
   }
 
   double penetration(const state_type& s) const noexcept {

@@ -23,8 +23,9 @@
 #include <string>
 
 #include "ref/errors.hpp"
+#include "ref/integrate/free_flight.hpp"
+#include "ref/integrate/steppers.hpp"
 #include "ref/rotor_system.hpp"
-#include "ref/steppers.hpp"
 
 namespace rubref {
 
@@ -77,8 +78,18 @@ concept contact_system = odeint_system<S> && requires(const S sys, const state_o
   { sys.clearance() } -> std::same_as<double>;
 };
 
+// A model whose free flight is linear says so (ref/integrate/free_flight.hpp): its dynamics, or
+// nothing when a nonlinear term acts out of contact too.
+template <class S>
+concept linear_free_flight = requires(const S sys) {
+  { sys.free_dynamics() } -> std::same_as<std::optional<linear_dynamics<std::tuple_size_v<state_of<S>>>>>;
+};
+
 struct event_settings {
   double time_tolerance = 1e-13;   // s, width of the bracket around each event (issue: <= 1e-12 s)
+  // An exact free-flight arc passes over no contact episode deeper than this fraction of the
+  // clearance (ref/integrate/free_flight.hpp): 3e-16 m at the paper's 0.3 mm.
+  double min_depth_fraction = 1e-12;
   double stick_velocity = 1e-6;    // m/s, rebound speed below which chatter ends in sticking
   double max_events_per_rev = 1e3; // more is an accumulation that does not terminate: an error
 };
@@ -86,6 +97,9 @@ struct event_settings {
 struct integration_options {
   stepper_settings stepper;
   event_settings events;
+  // Free flight in closed form where the model's is linear (ref/integrate/free_flight.hpp); else,
+  // and with false, the stepper integrates it too.
+  bool exact_free_flight = true;
   std::size_t max_steps = 0;  // accepted steps per call before a numerical_error (0: no limit);
                               // a fit's trial point with a runaway law fails fast instead of crawling
 };
@@ -116,6 +130,8 @@ inline constexpr double kCoarseContactStep = 0.5;
 struct integration_counts {
   std::size_t steps = 0;   // accepted steps
   std::size_t events = 0;  // located events
+  std::size_t free_arcs = 0;        // free flights taken in closed form
+  std::size_t free_arc_points = 0;  // points of their onset searches
   // Fixed-step runs (rk4) with a compliant law: the steps in contact with rate * dt above
   // kCoarseContactStep, the first one's time, and the largest rate * dt met in contact.
   std::size_t coarse_contact_steps = 0;
@@ -187,6 +203,23 @@ std::pair<double, double> bracket_root(F&& f, double a, double b, double fa, dou
   return boost::math::tools::toms748_solve(f, a, b, fa, fb, done, max_iter);
 }
 
+// The closed-form free flight of a model whose free flight is linear (empty if not wanted or not
+// linear); a model that carries more than its state (the monodromy's) gives its own propagator.
+struct no_free_flight {};
+template <contact_system System>
+auto exact_free_flight_of(const System& sys, bool wanted) {
+  if constexpr (requires { sys.free_flight_propagator(); }) {
+    return wanted ? sys.free_flight_propagator() : decltype(sys.free_flight_propagator()){};
+  } else if constexpr (linear_free_flight<System>) {
+    std::optional<free_flight<static_cast<int>(std::tuple_size_v<state_of<System>>)>> out;
+    if (wanted)
+      if (auto d = sys.free_dynamics()) out.emplace(*d);
+    return out;
+  } else {
+    return std::optional<no_free_flight>{};
+  }
+}
+
 template <contact_system System, class Stepper, class Observer>
   requires dense_stepper<Stepper, System>
 basic_hybrid_state<state_of<System>> hybrid_loop(const System& base, Stepper& st, basic_hybrid_state<state_of<System>> hs,
@@ -251,7 +284,106 @@ basic_hybrid_state<state_of<System>> hybrid_loop(const System& base, Stepper& st
     }
   };
 
+  // Exact free flight (ref/integrate/free_flight.hpp) where the model's is linear.
+  auto exact = exact_free_flight_of(base, opt.exact_free_flight);
+  const double min_depth = opt.events.min_depth_fraction * base.clearance();
+  double step_hint = first_dt;  // the next numeric step's size
+
+  // The transition at a located exit [inside, outside] of the current phase, the state read from
+  // state_of_t; then the next phase starts (at the same time) from the state it returns.
+  const auto transit = [&](const std::pair<double, double>& bracket, const auto& state_of_t) {
+    // Transition at the located event. Onset, separation and release start the next phase from
+    // the bracket end already inside it (so its exit function starts >= 0); an impact maps the
+    // velocity at the bracket end still outside the stator.
+    basic_contact_event<state_type> ev{};
+    const system before = sys;
+    state_type pre{};  // the state before a reset (an impact's or a stick's)
+    if constexpr (System::compliant) {
+      ev.t = bracket.second;
+      ev.state = state_of_t(ev.t);
+      ev.approach_velocity = sys.penetration_rate(ev.state);
+      if (sys.phase() == contact_phase::free) {
+        ev.kind = event_kind::contact_onset;
+        hs.phase = contact_phase::contact;
+        hs.episode_peak = std::max(0.0, sys.penetration(ev.state));
+      } else {
+        ev.kind = event_kind::separation;
+        ev.max_penetration = hs.episode_peak;
+        hs.phase = contact_phase::free;
+        hs.episode_peak = 0.0;
+      }
+    } else if (sys.phase() == contact_phase::free) {
+      ev.t = bracket.first;
+      ev.state = state_of_t(ev.t);
+      pre = ev.state;
+      ev.approach_velocity = ev.state[idx::vy];
+      const double rebound = base.law().rebound_velocity(ev.approach_velocity);
+      state_type at_stator = ev.state;
+      at_stator[idx::y] = base.clearance();
+      at_stator[idx::vy] = 0.0;
+      // Chatter rule (docs/model.md): a rebound slower than stick_velocity while the rotor is
+      // still pushed up ends the accumulation of impacts in a stuck phase at y = delta.
+      if (std::abs(rebound) < opt.events.stick_velocity && sys.free_vertical_acceleration(at_stator, ev.t) > 0.0) {
+        ev.kind = event_kind::stick;
+        ev.state = at_stator;
+        hs.phase = contact_phase::stuck;
+      } else {
+        ev.kind = event_kind::impact;
+        ev.state[idx::vy] = rebound;
+      }
+    } else {  // stuck -> free
+      ev.t = bracket.second;
+      ev.state = state_of_t(ev.t);
+      ev.approach_velocity = 0.0;
+      ev.kind = event_kind::release;
+      hs.phase = contact_phase::free;
+    }
+
+    ++counts.events;
+    if (++events_here > max_events)
+      throw numerical_error("more than " + std::to_string(static_cast<long long>(max_events)) +
+                            " contact events: an accumulation of impacts that does not terminate, at " +
+                            describe_state(ev.t, ev.state));
+    stalled_events = ev.t > last_event_t ? 0 : stalled_events + 1;
+    constexpr int kMaxEventsWithoutProgress = 64;
+    if (stalled_events > kMaxEventsWithoutProgress)
+      throw numerical_error("events do not advance in time at " + describe_state(ev.t, ev.state));
+    last_event_t = ev.t;
+
+    sys = base.with_phase(hs.phase);
+    // A model that carries its sensitivity maps it across the event (ref/integrate/shooting.hpp).
+    if constexpr (requires { sys.after_event(before, ev.kind, ev.t, pre, ev.state); })
+      ev.state = sys.after_event(before, ev.kind, ev.t, System::compliant || ev.kind == event_kind::release ? ev.state : pre, ev.state);
+    obs.on_event(ev);
+    // Free and contact phases start on y = delta. A stuck phase starts where the free
+    // acceleration is > 0, not on its boundary: its exit may come within the first step.
+    entering = hs.phase != contact_phase::stuck;
+    hs.s = ev.state;
+    hs.t = ev.t;
+    st.initialize(hs.s, hs.t, step_hint);
+  };
+
   while (hs.t < t_end) {
+    if constexpr (!std::is_same_v<decltype(exact), std::optional<no_free_flight>>) {
+    if (exact && sys.phase() == contact_phase::free) {
+      // A whole free flight at once: to the first onset (or impact), or to t_end.
+      const auto arc = exact->from(hs.t, hs.s);
+      ++counts.free_arcs;
+      const auto onset = arc.first_onset(hs.t, t_end, min_depth, tol, period / 8.0, &counts.free_arc_points);
+      const double t_stop = onset ? onset->first : t_end;
+      while (next_sample < grid.count && grid.time(next_sample) <= t_stop) {
+        const double ts = grid.time(next_sample++);
+        obs.on_sample(ts, arc.at(ts), sys);
+      }
+      if (!onset) {
+        hs.s = arc.at(t_end);
+        hs.t = t_end;
+        break;
+      }
+      transit(*onset, [&](double t) { return arc.at(t); });
+      continue;
+    }
+    }
     const auto [ta, tb] = accepted_step();
     ++counts.steps;
     if (opt.max_steps > 0 && counts.steps > opt.max_steps)
@@ -351,69 +483,8 @@ basic_hybrid_state<state_of<System>> hybrid_loop(const System& base, Stepper& st
       continue;
     }
 
-    // Transition at the located event. Onset, separation and release start the next phase from
-    // the bracket end already inside it (so its exit function starts >= 0); an impact maps the
-    // velocity at the bracket end still outside the stator.
-    basic_contact_event<state_type> ev{};
-    if constexpr (System::compliant) {
-      ev.t = bracket->second;
-      ev.state = state_at(ev.t);
-      ev.approach_velocity = sys.penetration_rate(ev.state);
-      if (sys.phase() == contact_phase::free) {
-        ev.kind = event_kind::contact_onset;
-        hs.phase = contact_phase::contact;
-        hs.episode_peak = std::max(0.0, sys.penetration(ev.state));
-      } else {
-        ev.kind = event_kind::separation;
-        ev.max_penetration = hs.episode_peak;
-        hs.phase = contact_phase::free;
-        hs.episode_peak = 0.0;
-      }
-    } else if (sys.phase() == contact_phase::free) {
-      ev.t = bracket->first;
-      ev.state = state_at(ev.t);
-      ev.approach_velocity = ev.state[idx::vy];
-      const double rebound = base.law().rebound_velocity(ev.approach_velocity);
-      state_type at_stator = ev.state;
-      at_stator[idx::y] = base.clearance();
-      at_stator[idx::vy] = 0.0;
-      // Chatter rule (docs/model.md): a rebound slower than stick_velocity while the rotor is
-      // still pushed up ends the accumulation of impacts in a stuck phase at y = delta.
-      if (std::abs(rebound) < opt.events.stick_velocity && sys.free_vertical_acceleration(at_stator, ev.t) > 0.0) {
-        ev.kind = event_kind::stick;
-        ev.state = at_stator;
-        hs.phase = contact_phase::stuck;
-      } else {
-        ev.kind = event_kind::impact;
-        ev.state[idx::vy] = rebound;
-      }
-    } else {  // stuck -> free
-      ev.t = bracket->second;
-      ev.state = state_at(ev.t);
-      ev.approach_velocity = 0.0;
-      ev.kind = event_kind::release;
-      hs.phase = contact_phase::free;
-    }
-
-    ++counts.events;
-    if (++events_here > max_events)
-      throw numerical_error("more than " + std::to_string(static_cast<long long>(max_events)) +
-                            " contact events: an accumulation of impacts that does not terminate, at " +
-                            describe_state(ev.t, ev.state));
-    stalled_events = ev.t > last_event_t ? 0 : stalled_events + 1;
-    constexpr int kMaxEventsWithoutProgress = 64;
-    if (stalled_events > kMaxEventsWithoutProgress)
-      throw numerical_error("events do not advance in time at " + describe_state(ev.t, ev.state));
-    last_event_t = ev.t;
-
-    obs.on_event(ev);
-    // Free and contact phases start on y = delta. A stuck phase starts where the free
-    // acceleration is > 0, not on its boundary: its exit may come within the first step.
-    entering = hs.phase != contact_phase::stuck;
-    hs.s = ev.state;
-    hs.t = ev.t;
-    sys = base.with_phase(hs.phase);
-    st.initialize(hs.s, hs.t, std::min(next_dt, tb - ta));
+    step_hint = std::min(next_dt, tb - ta);
+    transit(*bracket, state_at);
   }
   return hs;
 }

@@ -1,0 +1,82 @@
+#include <filesystem>
+#include <iostream>
+#include <memory>
+
+#include "ref/atomic_output.hpp"
+#include "ref/cli/commands.hpp"
+#include "ref/cli/options.hpp"
+#include "ref/orbit_io.hpp"
+#include "ref/orbits/periodic_orbit.hpp"
+#include "ref/version.hpp"
+
+namespace rubref::cli {
+
+namespace {
+struct orbit_state {
+  periodic_orbit_request req;
+  parameter_options params;
+  integration_cli integration;
+  std::string out, summary;
+};
+}  // namespace
+
+void add_orbit(CLI::App& app) {
+  auto st = std::make_shared<orbit_state>();
+  auto* sub = app.add_subcommand("orbit", "steady orbit by shooting (Newton on the n-revolution map) with its Floquet multipliers "
+                                          "-> one period as a record CSV + JSON summary");
+  sub->add_option("--variant", st->req.run.variant, "contact law: " + variant_names())->capture_default_str();
+  sub->add_option("--rpm", st->req.run.rpm, "shaft speed [rev/min]")->capture_default_str();
+  sub->add_option("--periods", st->req.periods, "revolutions per period (n > 1: a subharmonic orbit)")->capture_default_str();
+  sub->add_option("--samples-per-rev", st->req.run.samples_per_rev, "output samples per revolution")->capture_default_str();
+  sub->add_option("--tolerance", st->req.tolerance, "shooting tolerance |P(s) - s| [m]")->capture_default_str();
+  sub->add_option("--out", st->out, "record CSV of one period to write (docs/data-format.md)")->required();
+  sub->add_option("--summary", st->summary, "summary JSON to write; default: <out without .csv>.summary.json");
+  st->integration.add_to(*sub);
+  st->params.add_to(*sub);
+  sub->callback([st] {
+    periodic_orbit_request req = st->req;
+    req.run.params = st->params.resolve();
+    req.run.integration = st->integration.resolve();
+    std::string summary = st->summary;
+    if (summary.empty()) {
+      std::filesystem::path p(st->out);
+      summary = (p.extension() == ".csv" ? p.replace_extension("") : p).string() + ".summary.json";
+    }
+    const periodic_orbit_result r = find_periodic_orbit(req);
+    if (!r.converged)
+      std::cerr << "warning: Newton shooting did not converge (" << r.failure << "); the orbit written is the end of a "
+                << req.fallback_settle_revs << "-revolution transient, with no Floquet multipliers\n";
+    record rec = to_record(r.samples);
+    rec.set("generator", "rubref " + std::string(version()) + " orbit");
+    rec.set("method", r.method);
+    rec.set("period_revs", static_cast<double>(req.periods));
+    nlohmann::ordered_json j = to_json(summarize(r.samples), r.samples);
+    j["method"] = r.method;
+    j["start"] = r.start;
+    j["converged"] = r.converged;
+    if (!r.converged) j["failure"] = r.failure;
+    j["period_revs"] = req.periods;
+    j["period_s"] = req.periods * 60.0 / req.run.rpm;
+    j["newton_iterations"] = r.iterations;
+    if (r.converged) {
+      j["shooting_residual_m"] = r.residual;
+      j["stable"] = r.stable;
+      j["max_floquet_modulus"] = r.max_multiplier_modulus;
+      nlohmann::ordered_json mults = nlohmann::ordered_json::array();
+      for (const auto& m : r.multipliers) mults.push_back({{"re", m.real()}, {"im", m.imag()}, {"modulus", std::abs(m)}});
+      j["floquet_multipliers"] = mults;
+      j["events_per_period"] = r.events_per_period;
+    }
+    j["initial_state"] = {r.samples.request.initial_state[0], r.samples.request.initial_state[1], r.samples.request.initial_state[2],
+                          r.samples.request.initial_state[3]};
+    atomic_output files;
+    files.stage(st->out, to_csv(rec));
+    files.stage(summary, j.dump(2) + "\n");
+    files.commit();
+    std::cout << "wrote " << st->out << " (" << r.samples.samples.size() << " samples, " << r.method;
+    if (r.converged) std::cout << ", " << (r.stable ? "stable" : "unstable") << ", max |Floquet multiplier| " << r.max_multiplier_modulus;
+    std::cout << ") and " << summary << "\n";
+  });
+}
+
+}  // namespace rubref::cli

@@ -1,0 +1,96 @@
+#include "ref/orbits/periodic_orbit.hpp"
+
+#include <cmath>
+
+#include "ref/errors.hpp"
+#include "ref/integrate/shooting.hpp"
+#include "ref/record.hpp"
+#include "variants/all_variants.hpp"
+
+namespace rubref {
+
+namespace {
+
+struct recorder {
+  std::vector<orbit_sample>* samples;
+  std::vector<contact_event>* events;
+  template <class System>
+  void on_sample(double t, const state_type& s, const System& sys) {
+    samples->push_back({t, s, sys.normal_force(s, t)});
+  }
+  void on_event(const contact_event& e) { events->push_back(e); }
+};
+
+}  // namespace
+
+periodic_orbit_result find_periodic_orbit(const periodic_orbit_request& req) {
+  require(req.periods >= 1 && req.periods <= 64, "periods must be in [1, 64] (got " + std::to_string(req.periods) + ")");
+  require(req.transient_revs >= 0, "transient revolutions must be >= 0");
+  require(req.fallback_settle_revs >= 1, "fallback settle revolutions must be >= 1");
+  require(std::isfinite(req.tolerance) && req.tolerance > 0.0, "shooting tolerance must be > 0");
+  run_request run = req.run;
+  run.settle_revs = 0;
+  run.record_revs = req.periods;
+  validate(run);
+
+  return visit_variant(run.variant, [&]<class Law>() {
+    const double omega = rpm_to_rad_s(run.rpm);
+    const rotor_system<Law> model(run.params, omega);
+    const double period = model.period();
+    shooting_settings set;
+    set.tolerance = req.tolerance;
+    set.integration.events = run.integration.events;
+    periodic_orbit_result out;
+
+    // Start 1: the contact-free steady response at t = 0 (closed form).
+    parameters free = run.params;
+    free.delta = std::numeric_limits<double>::max();
+    state_type guess = free_flight<4>(*rotor_system<Law>(free, omega).free_dynamics()).particular(0.0);
+    if constexpr (!compliant_law<Law>) {
+      if (model.penetration(guess) > 0.0) guess[idx::y] = run.params.delta;  // an impact law starts outside
+    }
+    out.start = "contact-free response";
+    auto shot = shoot_periodic_orbit(model, guess, 0.0, req.periods, set);
+    out.iterations = shot.iterations;
+    if (!shot.converged && req.transient_revs > 0) {
+      // Start 2: a short transient from there (the system is T-periodic: its state after k T is a
+      // state at t = 0).
+      null_observer none;
+      const auto settled = integrate_hybrid(model, start_state(model, guess, 0.0), req.transient_revs * period, set.integration,
+                                            sample_grid{}, none);
+      out.start = std::to_string(req.transient_revs) + "-revolution transient";
+      shot = shoot_periodic_orbit(model, settled.s, 0.0, req.periods, set);
+      out.iterations += shot.iterations;
+    }
+    state_type on_orbit = shot.state;
+    out.converged = shot.converged;
+    if (shot.converged) {
+      out.method = "shooting";
+      out.residual = shot.residual;
+      out.multipliers = shot.multipliers;
+      out.max_multiplier_modulus = shot.max_multiplier_modulus();
+      out.stable = shot.stable();
+      out.events_per_period = shot.events_per_period;
+    } else {
+      // The fallback: a long transient, as `simulate` does; said so in the result.
+      out.method = "transient";
+      out.failure = shot.failure;
+      null_observer none;
+      on_orbit = integrate_hybrid(model, start_state(model, state_type{}, 0.0), req.fallback_settle_revs * period, run.integration,
+                                  sample_grid{}, none).s;
+      out.residual = std::numeric_limits<double>::quiet_NaN();
+    }
+
+    // The recorded period, from the orbit's state at t = 0.
+    run.initial_state = on_orbit;
+    out.samples.request = run;
+    const sample_grid grid{0.0, period / run.samples_per_rev,
+                           static_cast<std::size_t>(req.periods) * static_cast<std::size_t>(run.samples_per_rev)};
+    recorder obs{&out.samples.samples, &out.samples.events};
+    out.samples.end = integrate_hybrid(model, start_state(model, on_orbit, 0.0), req.periods * period, run.integration, grid, obs,
+                                       &out.samples.counts);
+    return out;
+  });
+}
+
+}  // namespace rubref

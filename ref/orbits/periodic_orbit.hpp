@@ -1,0 +1,40 @@
+#pragma once
+// A steady orbit as a fixed point of the n-revolution map (docs/orbits.md): shooting from the
+// contact-free response, then from a short transient, and only then a long transient, which the
+// result says it is. The front door of `rubref orbit`.
+
+#include <complex>
+#include <string>
+#include <vector>
+
+#include "ref/simulate.hpp"
+
+namespace rubref {
+
+struct periodic_orbit_request {
+  run_request run;      // variant, parameters, speed, samples per revolution, integration of the recorded period
+  int periods = 1;      // revolutions per period (n > 1 for subharmonic orbits)
+  int transient_revs = 40;   // the second start: this many revolutions from the first
+  int fallback_settle_revs = 200;  // the fallback: a transient this long (today's `simulate`)
+  double tolerance = 1e-12;  // m, |P(s) - s| at convergence (velocities / |w|)
+};
+
+struct periodic_orbit_result {
+  orbit samples;  // one period from t = 0 (samples, events, counts); request.initial_state is the orbit's state
+  std::string method;  // "shooting" or "transient" (Newton failed at both starts)
+  std::string start;   // "contact-free response" or "<k>-revolution transient"
+  std::string failure; // why shooting failed (empty when it converged)
+  bool converged = false;
+  int iterations = 0;        // Newton iterations, both starts
+  double residual = 0.0;     // m
+  std::vector<std::complex<double>> multipliers;  // Floquet multipliers, largest modulus first
+  double max_multiplier_modulus = 0.0;
+  bool stable = false;
+  std::size_t events_per_period = 0;
+};
+
+// Validates (input_error), then finds the orbit. A numerical failure of the fallback is a
+// numerical_error; a failed Newton is reported in the result, never hidden.
+periodic_orbit_result find_periodic_orbit(const periodic_orbit_request& req);
+
+}  // namespace rubref
