@@ -25,6 +25,7 @@
 #include <cstdint>
 #include <limits>
 #include <optional>
+#include <string>
 #include <utility>
 
 #include "ref/errors.hpp"
@@ -203,23 +204,29 @@ class free_flight {
       // An arc starts on the boundary after an event (z = 0 to rounding): leaving it or grazing it.
       if (za > min_depth) return std::pair{from, from};
       za = std::min(za, 0.0);
+      // z is a difference of numbers of the clearance's size: a few ulps of it are rounding, not a
+      // contact (after a release on y = delta the rotor would otherwise "touch" again at once).
+      const double z_noise = 64.0 * std::numeric_limits<double>::epsilon() * std::abs(ff_->d_.offset);
       for (std::size_t k = 0; a < t_end; ++k) {
         if (k == kMaxSteps) throw numerical_error("free flight: the onset search does not advance");
         if (marching_steps) ++*marching_steps;
         const double b_max = std::min(t_end, a + window);
         const double M = curvature_bound(a, b_max);
+        if (!std::isfinite(za) || !std::isfinite(zda) || !std::isfinite(M))
+          throw numerical_error("free flight: a non-finite state at t = " + std::to_string(a) + " s (a growing mode)");
         // Largest tau with za + zda tau + M tau^2 / 2 <= 0 (za <= 0), in a cancellation-free form.
         const double disc = std::sqrt(zda * zda - 2.0 * M * za);
         double tau = zda > 0.0 ? -2.0 * za / (zda + disc) : (disc - zda) / M;
         tau = std::max(tau, std::sqrt(2.0 * min_depth / M));
+        if (!(tau > 0.0)) throw numerical_error("free flight: the onset search lost its step at t = " + std::to_string(a) + " s");
         const double b = std::min(a + tau, b_max);
         const auto [zb, zdb] = penetration(b);
-        if (zb > 0.0) {
+        if (zb > z_noise) {
           const auto f = [this](double t) { return penetration(t).first; };
           return bracket(f, a, b, za, zb, time_tol);
         }
         a = b;
-        za = zb;
+        za = std::min(zb, 0.0);  // (a rounding-level z > 0 is on the boundary)
         zda = zdb;
       }
       return std::nullopt;

@@ -13,6 +13,7 @@
 // so no step ever straddles a change of force law.
 
 #include <boost/math/tools/toms748_solve.hpp>
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -369,14 +370,22 @@ basic_hybrid_state<state_of<System>> hybrid_loop(const System& base, Stepper& st
       // A whole free flight at once: to the first onset (or impact), or to t_end.
       const auto arc = exact->from(hs.t, hs.s);
       ++counts.free_arcs;
-      const auto onset = arc.first_onset(hs.t, t_end, min_depth, tol, period / 8.0, &counts.free_arc_points);
+      std::optional<std::pair<double, double>> onset;
+      try {
+        onset = arc.first_onset(hs.t, t_end, min_depth, tol, period / 8.0, &counts.free_arc_points);
+      } catch (const numerical_error& e) {
+        throw numerical_error(std::string(e.what()) + " on the free flight from " + describe_state(hs.t, hs.s));
+      }
       const double t_stop = onset ? onset->first : t_end;
       while (next_sample < grid.count && grid.time(next_sample) <= t_stop) {
         const double ts = grid.time(next_sample++);
         obs.on_sample(ts, arc.at(ts), sys);
       }
       if (!onset) {
-        hs.s = arc.at(t_end);
+        const auto end = arc.at(t_end);
+        if (!std::all_of(end.begin(), end.end(), [](double v) { return std::isfinite(v); }))
+          throw numerical_error("non-finite state at the end of the free flight from " + describe_state(hs.t, hs.s));
+        hs.s = end;
         hs.t = t_end;
         break;
       }
