@@ -129,6 +129,24 @@ grep -q '"stable": true' "$work/orb.summary.json" || fail "the paper's 1600 rpm 
 [ "$(grep -vc '^#' "$work/orb.csv")" -eq 65 ] || fail "orbit.csv: expected header + 64 rows"
 expect_error "periods must be in [1, 64]" orbit --periods 0 --out "$work/o.csv"
 expect_error "shooting tolerance" orbit --tolerance -1 --out "$work/o.csv"
+# continuation: a branch with its special points; bad ranges and parameters refused.
+"$rubref" continuation --from 1380 --to 1460 --clearance 3e-4 --out "$work/branch" >"$work/stdout" || fail "continuation failed"
+for f in branch.csv summary.json; do [ -s "$work/branch/$f" ] || fail "continuation did not write $f"; done
+grep -q '"reached_end": true' "$work/branch/summary.json" || fail "continuation stopped early: $(cat "$work/branch/summary.json")"
+python3 -c 'import json, sys; j = json.load(open(sys.argv[1])); assert len(j["grazings"]) == 1 and j["grazings"][0]["located"]' \
+  "$work/branch/summary.json" || fail "continuation did not locate the grazing at 0.3 mm"
+head -c 3 "$work/branch/branch.csv" | grep -q '^# ' || fail "branch.csv lacks its provenance header"
+# A branch row restarts its orbit: rpm and state of the last (rubbing) point.
+read -r rpm x0 y0 vx0 vy0 < <(python3 -c 'import csv, sys
+rows = [r for r in csv.DictReader(l for l in open(sys.argv[1]) if not l.startswith("#"))]
+r = rows[-1]; print(r["speed_rpm"], r["x0_m"], r["y0_m"], r["vx0_m_s"], r["vy0_m_s"])' "$work/branch/branch.csv")
+"$rubref" orbit --rpm "$rpm" --initial "$x0" "$y0" "$vx0" "$vy0" --clearance 3e-4 --out "$work/row.csv" >/dev/null \
+  || fail "orbit from a branch row failed"
+grep -q '"start": "given state"' "$work/row.summary.json" || fail "orbit did not start from --initial"
+grep -q '"newton_iterations": 1,' "$work/row.summary.json" || fail "a branch point is not already an orbit: $(cat "$work/row.summary.json")"
+expect_error "from equals to" continuation --from 1500 --to 1500 --out "$work/o.csv"
+expect_error "unknown continuation parameter 'rpm'" continuation --parameter rpm --out "$work/o.csv"
+expect_error "clearance_m" continuation --parameter clearance --from 3e-4 --to -1e-4 --out "$work/o.csv"
 
 # rig and loop: bad effects and records named; a record without rub is not a loop's input.
 expect_error "unknown effect 'gravity'" rig --effect gravity --out "$work/o.csv"

@@ -7,6 +7,7 @@ namespace rubref::cli {
 
 void add_simulate(CLI::App& app);
 void add_orbit(CLI::App& app);
+void add_continuation(CLI::App& app);
 void add_sweep(CLI::App& app);
 void add_reproduce(CLI::App& app);
 void add_identify(CLI::App& app);

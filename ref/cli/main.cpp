@@ -22,6 +22,7 @@ int main(int argc, char** argv) {
   cli::add_reproduce(app);
   cli::add_simulate(app);
   cli::add_orbit(app);
+  cli::add_continuation(app);
   cli::add_sweep(app);
   cli::add_identify(app);
   cli::add_rig(app);

@@ -1,6 +1,7 @@
 #include <filesystem>
 #include <iostream>
 #include <memory>
+#include <vector>
 
 #include "ref/atomic_output.hpp"
 #include "ref/cli/commands.hpp"
@@ -17,6 +18,7 @@ struct orbit_state {
   parameter_options params;
   integration_cli integration;
   std::string out, summary;
+  std::vector<double> initial;
 };
 }  // namespace
 
@@ -30,6 +32,9 @@ void add_orbit(CLI::App& app) {
   sub->add_option("--samples-per-rev", st->req.run.samples_per_rev, "output samples per revolution")->capture_default_str();
   sub->add_option("--tolerance", st->req.tolerance, "shooting tolerance |P(s) - s| [m]")->capture_default_str();
   sub->add_option("--out", st->out, "record CSV of one period to write (docs/data-format.md)")->required();
+  sub->add_option("--initial", st->initial, "first Newton start x y vx vy at t = 0 [m m m/s m/s] (e.g. a row of "
+                                            "continuation's branch.csv); default: the contact-free response")
+      ->expected(4);
   sub->add_option("--summary", st->summary, "summary JSON to write; default: <out without .csv>.summary.json");
   st->integration.add_to(*sub);
   st->params.add_to(*sub);
@@ -37,6 +42,7 @@ void add_orbit(CLI::App& app) {
     periodic_orbit_request req = st->req;
     req.run.params = st->params.resolve();
     req.run.integration = st->integration.resolve();
+    if (!st->initial.empty()) req.initial_guess = state_type{st->initial[0], st->initial[1], st->initial[2], st->initial[3]};
     std::string summary = st->summary;
     if (summary.empty()) {
       std::filesystem::path p(st->out);

@@ -28,6 +28,8 @@ periodic_orbit_result find_periodic_orbit(const periodic_orbit_request& req) {
   require(req.transient_revs >= 0, "transient revolutions must be >= 0");
   require(req.fallback_settle_revs >= 1, "fallback settle revolutions must be >= 1");
   require(std::isfinite(req.tolerance) && req.tolerance > 0.0, "shooting tolerance must be > 0");
+  if (req.initial_guess)
+    for (const double v : *req.initial_guess) require(std::isfinite(v), "the initial state must be finite");
   run_request run = req.run;
   run.settle_revs = 0;
   run.record_revs = req.periods;
@@ -42,14 +44,20 @@ periodic_orbit_result find_periodic_orbit(const periodic_orbit_request& req) {
     set.integration.events = run.integration.events;
     periodic_orbit_result out;
 
-    // Start 1: the contact-free steady response at t = 0 (closed form).
-    parameters free = run.params;
-    free.delta = std::numeric_limits<double>::max();
-    state_type guess = free_flight<4>(*rotor_system<Law>(free, omega).free_dynamics()).particular(0.0);
+    // Start 1: the given state, or the contact-free steady response at t = 0 (closed form).
+    state_type guess;
+    if (req.initial_guess) {
+      guess = *req.initial_guess;
+      out.start = "given state";
+    } else {
+      parameters free = run.params;
+      free.delta = std::numeric_limits<double>::max();
+      guess = free_flight<4>(*rotor_system<Law>(free, omega).free_dynamics()).particular(0.0);
+      out.start = "contact-free response";
+    }
     if constexpr (!compliant_law<Law>) {
       if (model.penetration(guess) > 0.0) guess[idx::y] = run.params.delta;  // an impact law starts outside
     }
-    out.start = "contact-free response";
     auto shot = shoot_periodic_orbit(model, guess, 0.0, req.periods, set);
     out.iterations = shot.iterations;
     if (!shot.converged && req.transient_revs > 0) {
@@ -76,19 +84,29 @@ periodic_orbit_result find_periodic_orbit(const periodic_orbit_request& req) {
       out.method = "transient";
       out.failure = shot.failure;
       null_observer none;
-      on_orbit = integrate_hybrid(model, start_state(model, state_type{}, 0.0), req.fallback_settle_revs * period, run.integration,
+      on_orbit = integrate_hybrid(model, start_state(model, req.initial_guess.value_or(state_type{}), 0.0), req.fallback_settle_revs * period, run.integration,
                                   sample_grid{}, none).s;
       out.residual = std::numeric_limits<double>::quiet_NaN();
     }
 
-    // The recorded period, from the orbit's state at t = 0.
-    run.initial_state = on_orbit;
-    out.samples.request = run;
-    const sample_grid grid{0.0, period / run.samples_per_rev,
-                           static_cast<std::size_t>(req.periods) * static_cast<std::size_t>(run.samples_per_rev)};
-    recorder obs{&out.samples.samples, &out.samples.events};
-    out.samples.end = integrate_hybrid(model, start_state(model, on_orbit, 0.0), req.periods * period, run.integration, grid, obs,
-                                       &out.samples.counts);
+    out.samples = record_periods(run, on_orbit, req.periods);
+    return out;
+  });
+}
+
+orbit record_periods(const run_request& run, const state_type& on_orbit, int periods) {
+  return visit_variant(run.variant, [&]<class Law>() {
+    const rotor_system<Law> model(run.params, rpm_to_rad_s(run.rpm));
+    orbit out;
+    out.request = run;
+    out.request.initial_state = on_orbit;
+    out.request.settle_revs = 0;
+    out.request.record_revs = periods;
+    const sample_grid grid{0.0, model.period() / run.samples_per_rev,
+                           static_cast<std::size_t>(periods) * static_cast<std::size_t>(run.samples_per_rev)};
+    recorder obs{&out.samples, &out.events};
+    out.end = integrate_hybrid(model, start_state(model, on_orbit, 0.0), periods * model.period(), run.integration, grid, obs,
+                               &out.counts);
     return out;
   });
 }

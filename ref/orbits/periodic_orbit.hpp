@@ -4,6 +4,7 @@
 // result says it is. The front door of `rubref orbit`.
 
 #include <complex>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -17,6 +18,9 @@ struct periodic_orbit_request {
   int transient_revs = 40;   // the second start: this many revolutions from the first
   int fallback_settle_revs = 200;  // the fallback: a transient this long (today's `simulate`)
   double tolerance = 1e-12;  // m, |P(s) - s| at convergence (velocities / |w|)
+  // The first start, a state at t = 0 (e.g. a branch point of `rubref continuation`, to pick one
+  // of coexisting orbits); default: the contact-free response.
+  std::optional<state_type> initial_guess;
 };
 
 struct periodic_orbit_result {
@@ -32,6 +36,10 @@ struct periodic_orbit_result {
   bool stable = false;
   std::size_t events_per_period = 0;
 };
+
+// `periods` revolutions of the model of `run` from `on_orbit` at t = 0, sampled at
+// run.samples_per_rev (run.integration; the request of the result starts at `on_orbit`).
+orbit record_periods(const run_request& run, const state_type& on_orbit, int periods);
 
 // Validates (input_error), then finds the orbit. A numerical failure of the fallback is a
 // numerical_error; a failed Newton is reported in the result, never hidden.

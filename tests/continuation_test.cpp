@@ -1,0 +1,181 @@
+// Branches of periodic orbits (ref/orbits/continuation.hpp): the contact-free branch against the
+// closed form, every point a fixed point of the map, folds where a Floquet multiplier crosses +1
+// and where the sweeps jump, grazing where the closed-form orbit touches the stator, bad requests.
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <complex>
+
+#include "ref/closed_form.hpp"
+#include "ref/errors.hpp"
+#include "ref/orbits/continuation.hpp"
+#include "ref/orbits/periodic_orbit.hpp"
+#include "ref/sweep.hpp"
+
+namespace rubref {
+namespace {
+
+// Each point converges to |P(s) - s| <= 1e-12 m; an orbit amplitude of >= 1e-5 m then carries a
+// relative error of <= 1e-7 into its 1X coefficients (a DFT of 128 exact samples of a pure
+// harmonic, exact to rounding).
+constexpr double kClosedFormRelTol = 1e-7;
+// Re-integrating a converged point for one period with the recording integrator (dense output,
+// rtol 1e-10) returns to it within this: the shooting tolerance plus the recorder's own error.
+constexpr double kFixedPointTol = 1e-9;  // m
+
+continuation_request speed_branch(const std::string& variant, double clearance, double from, double to) {
+  continuation_request r;
+  r.variant = variant;
+  r.params.delta = clearance;
+  r.from = from;
+  r.to = to;
+  return r;
+}
+
+// det(M - I) from the multipliers: it changes sign where one real multiplier crosses +1 (a fold).
+double det_monodromy_minus_identity(const branch_point& p) {
+  std::complex<double> d = 1.0;
+  for (const auto& m : p.multipliers) d *= m - 1.0;
+  return d.real();
+}
+
+TEST(continuation, bad_requests_are_rejected) {
+  auto r = speed_branch("identified", 0.3e-3, 1500, 1500);
+  EXPECT_THROW(validate(r), input_error);  // an empty range
+  r = speed_branch("identified", 0.3e-3, 1500, 1600);
+  r.periods = 0;
+  EXPECT_THROW(validate(r), input_error);
+  r = speed_branch("identified", -0.3e-3, 1500, 1600);
+  EXPECT_THROW(validate(r), input_error);  // a parameter, checked at the ends of the range
+  r = speed_branch("identified", 0.3e-3, 1500, -5);
+  EXPECT_THROW(validate(r), input_error);  // a negative speed at the end
+  EXPECT_THROW(parse_continuation_parameter("rpm"), input_error);
+  EXPECT_EQ(parse_continuation_parameter("clearance"), continuation_parameter::clearance);
+}
+
+// Far from the stator the branch is the linear unbalance response at every speed, stable, with
+// no special point, and it covers the range in both directions.
+TEST(continuation, contact_free_branch_is_the_closed_form) {
+  for (const auto& [from, to] : {std::pair{1300.0, 2200.0}, std::pair{2200.0, 1300.0}}) {
+    const auto r = speed_branch("piecewise-linear", 5e-3, from, to);
+    const auto b = continue_branch(r);
+    ASSERT_TRUE(b.reached_end) << b.stopped;
+    EXPECT_TRUE(b.special.empty());
+    EXPECT_EQ(b.points.front().rpm, from);
+    EXPECT_EQ(b.points.back().rpm, to);
+    EXPECT_GE(b.points.size(), 20u);  // max_step 0.05 of the range
+    for (const auto& p : b.points) {
+      const unbalance_response exact(r.params, rpm_to_rad_s(p.rpm));
+      const std::complex<double> j(0.0, 1.0);
+      const auto fwd = (exact.x_phasor + j * exact.y_phasor) / 2.0;
+      const auto bwd = (std::conj(exact.x_phasor) + j * std::conj(exact.y_phasor)) / 2.0;
+      EXPECT_LE(std::abs(p.summary.forward_1x - fwd), kClosedFormRelTol * std::abs(fwd)) << p.rpm;
+      EXPECT_LE(std::abs(p.summary.backward_1x - bwd), kClosedFormRelTol * std::abs(fwd)) << p.rpm;
+      EXPECT_TRUE(p.stable) << p.rpm;
+      EXPECT_LT(p.max_z, 0.0) << p.rpm;
+    }
+  }
+}
+
+// The speed at which the contact-free orbit's top |Y(w)| equals the clearance, on the side of
+// the resonance given by [lo, hi] (|Y| monotone there), by bisection on the closed form.
+double closed_form_grazing_rpm(const parameters& p, double lo, double hi) {
+  const auto top = [&](double rpm) { return std::abs(unbalance_response(p, rpm_to_rad_s(rpm)).y_phasor) - p.delta; };
+  const bool rising = top(lo) < top(hi);
+  for (int i = 0; i < 200 && hi - lo > 1e-12 * hi; ++i) {
+    const double mid = 0.5 * (lo + hi);
+    ((top(mid) < 0.0) == rising ? lo : hi) = mid;
+  }
+  return 0.5 * (lo + hi);
+}
+
+// max_z is exact to rounding on both sides (Brent on the exact free flight; episode peaks on the
+// dense output); the zero is located to 1e-10 of arclength, which near the grazing (where the
+// rubbing states move fast with the speed) is up to ~1e-6 rpm of the parameter (3e-7 rpm seen).
+constexpr double kGrazingRpmTol = 1e-5;
+
+// Run up at 0.3 mm, the branch leaves the contact-free response where its top touches the
+// stator; run down at 0.4 mm, the contact-free branch from 2200 rpm grazes where the closed form
+// says and folds back at once (unstable, rubbing): below that speed the contact-free orbit does
+// not exist, which is the down sweep's jump (docs/sweeps.md).
+TEST(continuation, grazing_is_where_the_closed_form_orbit_touches) {
+  {
+    const auto r = speed_branch("identified", 0.3e-3, 1300, 2200);
+    const auto b = continue_branch(r);
+    ASSERT_TRUE(b.reached_end) << b.stopped;
+    const auto g = std::find_if(b.special.begin(), b.special.end(), [](const auto& s) { return s.kind == special_kind::grazing; });
+    ASSERT_NE(g, b.special.end());
+    EXPECT_TRUE(g->located);
+    EXPECT_NEAR(g->rpm, closed_form_grazing_rpm(r.params, 1300, b.points[g->after_point + 1].rpm), kGrazingRpmTol);
+  }
+  {
+    const auto r = speed_branch("identified", 0.4e-3, 2200, 1300);
+    const auto b = continue_branch(r);
+    EXPECT_FALSE(b.reached_end) << "the rubbing branch born at the grazing turns back to higher speeds";
+    const auto g = std::find_if(b.special.begin(), b.special.end(), [](const auto& s) { return s.kind == special_kind::grazing; });
+    ASSERT_NE(g, b.special.end());
+    EXPECT_TRUE(g->located);
+    EXPECT_NEAR(g->rpm, closed_form_grazing_rpm(r.params, b.points[g->after_point + 1].rpm, 2200), kGrazingRpmTol);
+  }
+}
+
+// Whether a transient from `start` at `rpm` ends rubbing (400 revolutions: the slow passage past
+// a fold's ghost takes tens of revolutions at 3 rpm from it, the damping's decay ~5 per e-fold).
+bool transient_ends_rubbing(const continuation_request& r, double rpm, const state_type& start) {
+  run_request run = request_at(r, rpm);
+  run.initial_state = start;
+  run.settle_revs = 400;
+  run.record_revs = 6;
+  return summarize(simulate(run)).contact_episodes_per_rev > 0.0;
+}
+
+// Over 1300-3500 rpm at 0.3 mm the branch is an S: contact-free, grazing, rubbing (period
+// doubled in a band), an upper fold, the unstable rubbing branch back down, a lower fold at the
+// second grazing, contact-free again. Every point is a periodic orbit; at each fold a real
+// multiplier crosses +1 (det(M - I) changes sign: the tangent test and the monodromy are
+// independent computations of one event) and stability changes; a fold is the extreme speed
+// between its neighbours. A transient started from each fold's orbit 3 rpm beyond it jumps to
+// the other branch, as the sweeps do (docs/sweeps.md).
+TEST(continuation, folds_bound_the_coexisting_branches) {
+  const auto r = speed_branch("identified", 0.3e-3, 1300, 3500);
+  const auto b = continue_branch(r);
+  ASSERT_TRUE(b.reached_end) << b.stopped;
+  for (const auto& p : b.points) {
+    const orbit o = record_periods(request_at(r, p.parameter), p.state, r.periods);
+    for (std::size_t i = 0; i < 4; ++i) {
+      const double scale = i < 2 ? 1.0 : rpm_to_rad_s(p.rpm);
+      EXPECT_LE(std::abs(o.end.s[i] - p.state[i]) / scale, kFixedPointTol) << p.rpm << " component " << i;
+    }
+  }
+  std::vector<special_point> folds;
+  for (const auto& s : b.special) {
+    if (s.kind != special_kind::fold) continue;
+    folds.push_back(s);
+    EXPECT_TRUE(s.located);
+    const auto& a = b.points[s.after_point];
+    const auto& c = b.points[s.after_point + 1];
+    EXPECT_LT(det_monodromy_minus_identity(a) * det_monodromy_minus_identity(c), 0.0) << s.rpm;
+    EXPECT_NE(a.stable, c.stable) << s.rpm;
+    const double lo = std::min(a.rpm, c.rpm), hi = std::max(a.rpm, c.rpm);
+    EXPECT_TRUE(s.rpm >= hi - 1e-9 || s.rpm <= lo + 1e-9) << s.rpm << " between " << lo << " and " << hi;
+  }
+  ASSERT_EQ(folds.size(), 2u);
+  const auto& upper = folds[0];  // traced first: the rubbing branch's end
+  const auto& lower = folds[1];  // the contact-free branch's end, at its grazing
+  ASSERT_GT(upper.rpm, lower.rpm);
+  EXPECT_FALSE(transient_ends_rubbing(r, upper.rpm + 3.0, upper.state)) << "above the upper fold only the contact-free orbit is left";
+  EXPECT_TRUE(transient_ends_rubbing(r, lower.rpm - 3.0, lower.state)) << "below the lower fold only the rubbing orbit is left";
+  // Between the folds both stable orbits exist: the branch has stable rubbing and stable
+  // contact-free points there.
+  bool rubbing_stable = false, free_stable = false;
+  for (const auto& p : b.points) {
+    if (p.rpm <= lower.rpm || p.rpm >= upper.rpm || !p.stable) continue;
+    (p.max_z > 0.0 ? rubbing_stable : free_stable) = true;
+  }
+  EXPECT_TRUE(rubbing_stable && free_stable);
+}
+
+}  // namespace
+}  // namespace rubref
