@@ -144,9 +144,11 @@ r = rows[-1]; print(r["speed_rpm"], r["x0_m"], r["y0_m"], r["vx0_m_s"], r["vy0_m
   || fail "orbit from a branch row failed"
 grep -q '"start": "given state"' "$work/row.summary.json" || fail "orbit did not start from --initial"
 grep -q '"newton_iterations": 1,' "$work/row.summary.json" || fail "a branch point is not already an orbit: $(cat "$work/row.summary.json")"
-expect_error "from equals to" continuation --from 1500 --to 1500 --out "$work/o.csv"
+expect_error "from < to" continuation --from 1500 --to 1500 --out "$work/o.csv"
+expect_error "from < to" continuation --from 2200 --to 1300 --out "$work/o.csv"
+expect_error "--direction" continuation --direction sideways --out "$work/o.csv"
 expect_error "unknown continuation parameter 'rpm'" continuation --parameter rpm --out "$work/o.csv"
-expect_error "clearance_m" continuation --parameter clearance --from 3e-4 --to -1e-4 --out "$work/o.csv"
+expect_error "clearance_m" continuation --parameter clearance --from -1e-4 --to 3e-4 --out "$work/o.csv"
 
 # rig and loop: bad effects and records named; a record without rub is not a loop's input.
 expect_error "unknown effect 'gravity'" rig --effect gravity --out "$work/o.csv"

@@ -25,12 +25,14 @@ constexpr double kClosedFormRelTol = 1e-7;
 // rtol 1e-10) returns to it within this: the shooting tolerance plus the recorder's own error.
 constexpr double kFixedPointTol = 1e-9;  // m
 
+// A speed branch traced from `from` to `to` (downward when from > to).
 continuation_request speed_branch(const std::string& variant, double clearance, double from, double to) {
   continuation_request r;
   r.variant = variant;
   r.params.delta = clearance;
-  r.from = from;
-  r.to = to;
+  r.from = std::min(from, to);
+  r.to = std::max(from, to);
+  r.downward = from > to;
   return r;
 }
 
@@ -44,13 +46,15 @@ double det_monodromy_minus_identity(const branch_point& p) {
 TEST(continuation, bad_requests_are_rejected) {
   auto r = speed_branch("identified", 0.3e-3, 1500, 1500);
   EXPECT_THROW(validate(r), input_error);  // an empty range
+  r.from = 1600;
+  EXPECT_THROW(validate(r), input_error);  // from > to (downward is a setting)
   r = speed_branch("identified", 0.3e-3, 1500, 1600);
   r.periods = 0;
   EXPECT_THROW(validate(r), input_error);
   r = speed_branch("identified", -0.3e-3, 1500, 1600);
   EXPECT_THROW(validate(r), input_error);  // a parameter, checked at the ends of the range
-  r = speed_branch("identified", 0.3e-3, 1500, -5);
-  EXPECT_THROW(validate(r), input_error);  // a negative speed at the end
+  r = speed_branch("identified", 0.3e-3, -5, 1500);
+  EXPECT_THROW(validate(r), input_error);  // a negative speed at the start
   EXPECT_THROW(parse_continuation_parameter("rpm"), input_error);
   EXPECT_EQ(parse_continuation_parameter("clearance"), continuation_parameter::clearance);
 }
@@ -175,6 +179,50 @@ TEST(continuation, folds_bound_the_coexisting_branches) {
     (p.max_z > 0.0 ? rubbing_stable : free_stable) = true;
   }
   EXPECT_TRUE(rubbing_stable && free_stable);
+}
+
+// The speed of a sweep's jump off the branch it starts on: the last grid speed on it and the
+// first off it (rubbing or not, by whether the point touches the stator).
+std::pair<double, double> sweep_jump(const sweep_branch& b) {
+  const auto touches = [](const sweep_point& p) { return p.summary.contact_episodes_per_rev > 0.0; };
+  for (std::size_t i = 1; i < b.points.size(); ++i)
+    if (touches(b.points[i]) != touches(b.points[0])) return {b.points[i - 1].rpm, b.points[i].rpm};
+  return {NAN, NAN};
+}
+
+// The brute-force check of the folds at 0.4 mm: a run-up sweep (10 rpm steps, 60 settling
+// revolutions each) leaves the rubbing branch at the upper fold, a run-down leaves the
+// contact-free branch at the lower one, each jump within one step of its fold: the slow passage
+// past a fold's ghost may carry a sweep a step beyond it, and next to a grazing fold the
+// contact-free orbit clears the stator by so little that the transient of a speed step touches
+// it a step early.
+TEST(continuation, sweeps_jump_within_one_step_of_the_folds) {
+  const auto r = speed_branch("identified", 0.4e-3, 1300, 3000);
+  const auto b = continue_branch(r);
+  ASSERT_TRUE(b.reached_end) << b.stopped;
+  std::vector<double> folds;
+  for (const auto& s : b.special)
+    if (s.kind == special_kind::fold) folds.push_back(s.rpm);
+  ASSERT_EQ(folds.size(), 2u);
+  const double upper = std::max(folds[0], folds[1]), lower = std::min(folds[0], folds[1]);
+  constexpr double step = 10.0;
+
+  sweep_settings up;
+  up.params = r.params;
+  up.from_rpm = 1500.0;  // past the period-doubled band, on the stable rubbing branch
+  up.to_rpm = std::ceil(upper / step) * step + 2.0 * step;
+  up.step_rpm = step;
+  up.first_settle_revs = 300;
+  const auto [up_last, up_first_off] = sweep_jump(run_branch(up, sweep_direction::up));
+  EXPECT_LE(up_last - step, upper);
+  EXPECT_LE(upper, up_first_off + step);
+
+  sweep_settings down = up;
+  down.from_rpm = std::floor(lower / step) * step - 3.0 * step;
+  down.to_rpm = std::ceil(lower / step) * step + 3.0 * step;  // contact-free there
+  const auto [down_last, down_first_off] = sweep_jump(run_branch(down, sweep_direction::down));
+  EXPECT_GE(down_last + step, lower);
+  EXPECT_GE(lower, down_first_off - step);
 }
 
 }  // namespace

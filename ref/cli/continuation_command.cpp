@@ -1,3 +1,4 @@
+#include <algorithm>
 #include <iostream>
 #include <memory>
 
@@ -18,6 +19,7 @@ struct continuation_state {
   parameter_options params;
   integration_cli integration;
   std::string parameter = "speed";
+  std::string direction = "up";
   std::string out;
 };
 
@@ -30,6 +32,7 @@ std::vector<std::pair<std::string, std::string>> branch_metadata(const continuat
   meta.set("continuation_parameter", std::string(to_string(req.parameter)));
   meta.set("from", req.from);
   meta.set("to", req.to);
+  meta.set("direction", std::string(req.downward ? "down" : "up"));
   if (req.parameter != continuation_parameter::speed) meta.set("speed_rpm", req.rpm);
   meta.set("period_revs", static_cast<double>(req.periods));
   meta.set("tolerance_m", req.tolerance);
@@ -41,7 +44,7 @@ table branch_table(const continuation_request& req, const continuation_result& r
   t.metadata = branch_metadata(req);
   if (req.parameter != continuation_parameter::speed) t.columns.emplace_back(column_name(req.parameter));
   for (const char* c : {"speed_rpm", "stable", "max_floquet_modulus", "period_revs", "forward_1x_m", "backward_1x_m", "max_radius_m",
-                        "peak_to_peak_x_m", "peak_to_peak_y_m", "max_z_m", "contacts_per_rev", "x0_m", "y0_m", "vx0_m_s", "vy0_m_s"})
+                        "peak_to_peak_x_m", "peak_to_peak_y_m", "max_penetration_m", "max_z_m", "contacts_per_rev", "x0_m", "y0_m", "vx0_m_s", "vy0_m_s"})
     t.columns.emplace_back(c);
   for (const auto& p : r.points) {
     std::vector<std::string> row;
@@ -55,6 +58,7 @@ table branch_table(const continuation_request& req, const continuation_result& r
     row.push_back(format_number_17(p.summary.max_radius));
     row.push_back(format_number_17(p.summary.peak_to_peak_x));
     row.push_back(format_number_17(p.summary.peak_to_peak_y));
+    row.push_back(format_number_17(std::max(p.max_z, 0.0)));
     row.push_back(format_number_17(p.max_z));
     row.push_back(format_number_17(p.summary.contact_episodes_per_rev));
     for (const double v : p.state) row.push_back(format_number_17(v));
@@ -70,6 +74,7 @@ nlohmann::ordered_json summary_json(const continuation_request& req, const conti
   j["parameter"] = std::string(to_string(req.parameter));
   j["from"] = req.from;
   j["to"] = req.to;
+  j["direction"] = req.downward ? "down" : "up";
   j["points"] = r.points.size();
   j["start"] = r.start;
   j["stopped"] = r.stopped;
@@ -106,6 +111,9 @@ void add_continuation(CLI::App& app) {
       ->capture_default_str();
   sub->add_option("--from", r.from, "start of the range (the parameter's unit)")->capture_default_str();
   sub->add_option("--to", r.to, "end of the range")->capture_default_str();
+  sub->add_option("--direction", st->direction, "up: trace from --from to --to; down: from --to to --from")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"up", "down"}));
   sub->add_option("--rpm", r.rpm, "shaft speed when the parameter is not the speed [rev/min]")->capture_default_str();
   sub->add_option("--periods", r.periods, "revolutions per period of the orbits followed")->capture_default_str();
   sub->add_option("--samples-per-rev", r.samples_per_rev, "samples per revolution of each point's recorded period")->capture_default_str();
@@ -118,6 +126,7 @@ void add_continuation(CLI::App& app) {
   sub->callback([st] {
     continuation_request req = st->req;
     req.parameter = parse_continuation_parameter(st->parameter);
+    req.downward = st->direction == "down";
     req.params = st->params.resolve();
     req.integration = st->integration.resolve();
     req.initial_step = std::min(req.initial_step, req.max_step);
@@ -130,7 +139,8 @@ void add_continuation(CLI::App& app) {
     std::cout << "wrote " << dir.target().string() << "/{branch.csv, summary.json}: " << res.points.size() << " points, "
               << res.stopped << "\n";
     if (!res.reached_end)
-      std::cerr << "warning: the branch ended before " << column_name(req.parameter) << " = " << req.to << ": " << res.stopped << "\n";
+      std::cerr << "warning: the branch ended before " << column_name(req.parameter) << " = "
+                << format_digits(req.downward ? req.from : req.to, 10) << ": " << res.stopped << "\n";
   });
 }
 

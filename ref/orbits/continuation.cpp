@@ -74,7 +74,8 @@ run_request request_at(const continuation_request& req, double parameter) {
 void validate(const continuation_request& req) {
   const std::string name(to_string(req.parameter));
   require(std::isfinite(req.from) && std::isfinite(req.to), "continuation range --from/--to must be finite");
-  require(req.from != req.to, "continuation range is empty: from equals to (" + format_digits(req.from, 10) + ")");
+  require(req.from < req.to, "continuation range must have from < to (got from " + format_digits(req.from, 10) + ", to " +
+                                 format_digits(req.to, 10) + "; to trace down, keep from < to and set the direction down)");
   require(req.periods >= 1 && req.periods <= 64, "periods must be in [1, 64] (got " + std::to_string(req.periods) + ")");
   require(std::isfinite(req.tolerance) && req.tolerance > 0.0, "shooting tolerance must be > 0");
   require(req.min_step > 0.0 && req.min_step <= req.initial_step && req.initial_step <= req.max_step && req.max_step <= 1.0,
@@ -103,7 +104,9 @@ class branch_tracer {
   using jac = Eigen::Matrix<double, N, N + 1>;
 
   explicit branch_tracer(const continuation_request& req) : req_(req) {
-    const run_request first = request_at(req, req.from);
+    start_ = req.downward ? req.to : req.from;
+    end_ = req.downward ? req.from : req.to;
+    const run_request first = request_at(req, start_);
     scale_[0] = scale_[1] = first.params.delta;
     scale_[2] = scale_[3] = first.params.delta * rpm_to_rad_s(first.rpm);
     lambda_scale_ = std::abs(req.to - req.from);
@@ -115,25 +118,25 @@ class branch_tracer {
     continuation_result out;
     // The first orbit: shooting from the contact-free response, then from a short transient.
     periodic_orbit_request first;
-    first.run = request_at(req_, req_.from);
+    first.run = request_at(req_, start_);
     first.periods = req_.periods;
     first.tolerance = req_.tolerance;
     const periodic_orbit_result start = find_periodic_orbit(first);
     if (!start.converged)
       throw numerical_error("continuation: no periodic orbit found at the start of the range (" + std::string(column_name(req_.parameter)) +
-                            " = " + format_digits(req_.from, 10) + "): " + start.failure);
+                            " = " + format_digits(start_, 10) + "): " + start.failure);
     out.start = start.start;
-    const double direction = req_.to > req_.from ? 1.0 : -1.0;
+    const double direction = req_.downward ? -1.0 : 1.0;
     vec t = vec::Zero();
     t[N] = direction;
-    const auto corrected = correct(to_unknowns(start.samples.request.initial_state, req_.from), fixed_parameter(req_.from));
+    const auto corrected = correct(to_unknowns(start.samples.request.initial_state, start_), fixed_parameter(start_));
     if (!corrected) throw numerical_error("continuation: the first orbit did not converge again at the start: " + failure_);
     vec u = corrected->u;
     t = tangent(corrected->J, t);
     out.points.push_back(make_point(u, *corrected, t));
 
     double h = req_.initial_step;
-    const double end = req_.to / lambda_scale_;
+    const double end = end_ / lambda_scale_;
     while (true) {
       if (static_cast<int>(out.points.size()) >= req_.max_points) {
         out.stopped = "the maximum of " + std::to_string(req_.max_points) + " points";
@@ -142,7 +145,7 @@ class branch_tracer {
       const vec pred = u + h * t;
       const bool past_end = direction * (pred[N] - end) >= 0.0;
       // The last point sits on the end of the range: the parameter fixed there.
-      auto c = correct(pred, past_end ? fixed_parameter(req_.to) : arclength(t, pred));
+      auto c = correct(pred, past_end ? fixed_parameter(end_) : arclength(t, pred));
       std::optional<vec> t_new;
       if (c) {
         t_new = tangent(c->J, t);
@@ -175,9 +178,9 @@ class branch_tracer {
         out.reached_end = true;
         break;
       }
-      if (direction * (c->u[N] * lambda_scale_ - req_.from) < 0.0) {
+      if (direction * (c->u[N] * lambda_scale_ - start_) < 0.0) {
         out.stopped = "the branch folded back out of the range at its start (" + std::string(column_name(req_.parameter)) + " = " +
-                      format_digits(req_.from, 10) + ")";
+                      format_digits(start_, 10) + ")";
         break;
       }
       if (c->iterations <= 3) h = std::min(1.5 * h, req_.max_step);
@@ -454,6 +457,7 @@ class branch_tracer {
   shooting_settings set_;
   std::array<double, N> scale_{};
   double lambda_scale_ = 1.0;
+  double start_ = 0.0, end_ = 0.0;  // from and to, or to and from when tracing downward
   std::string failure_;
 };
 

@@ -24,8 +24,9 @@ struct continuation_request {
   std::string variant = "identified";
   parameters params;
   continuation_parameter parameter = continuation_parameter::speed;
-  double from = 1300.0;  // the parameter's unit: rpm, m, m, 1
+  double from = 1300.0;  // the parameter's unit: rpm, m, m, 1; from < to
   double to = 2200.0;
+  bool downward = false;  // trace from `to` down to `from` (another branch where several coexist)
   double rpm = 1600.0;   // the speed when the parameter is not the speed
   int periods = 1;       // revolutions per period of the orbits followed
   int samples_per_rev = 128;  // of each point's recorded period (its summary)
@@ -75,7 +76,7 @@ struct continuation_result {
 // Throws input_error naming the first bad setting (parameters checked at both ends of the range).
 void validate(const continuation_request& req);
 
-// Traces the branch from `from` towards `to`. A failure to find the first orbit is a
+// Traces the branch from `from` towards `to` (downward: the other way). A failure to find the first orbit is a
 // numerical_error; a branch that cannot go on says why in `stopped` (reached_end false).
 continuation_result continue_branch(const continuation_request& req);
 
