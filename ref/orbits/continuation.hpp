@@ -62,7 +62,7 @@ struct special_point {
   double rpm = 0.0;
   state_type state{};
   bool located = false;      // false: only bracketed, the values are the bracket's nearer end
-  std::size_t after_point = 0;  // between points[after_point] and points[after_point + 1]
+  std::size_t after_point = 0;  // between points[after_point] and points[after_point + 1] (at the last point: where the branch ends)
 };
 
 struct continuation_result {
