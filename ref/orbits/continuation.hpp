@@ -62,7 +62,9 @@ struct special_point {
   double rpm = 0.0;
   state_type state{};
   bool located = false;      // false: only bracketed, the values are the bracket's nearer end
-  std::size_t after_point = 0;  // between points[after_point] and points[after_point + 1] (at the last point: where the branch ends)
+  // Between points[after_point] and points[after_point + 1]; a grazing that ends the branch is
+  // at points[after_point], the last.
+  std::size_t after_point = 0;
 };
 
 struct continuation_result {
