@@ -147,6 +147,7 @@ grep -q '"newton_iterations": 1,' "$work/row.summary.json" || fail "a branch poi
 expect_error "from < to" continuation --from 1500 --to 1500 --out "$work/o.csv"
 expect_error "from < to" continuation --from 2200 --to 1300 --out "$work/o.csv"
 expect_error "--direction" continuation --direction sideways --out "$work/o.csv"
+expect_error "--parameter mu needs --from and --to" continuation --parameter mu --out "$work/o.csv"
 expect_error "unknown continuation parameter 'rpm'" continuation --parameter rpm --out "$work/o.csv"
 expect_error "clearance_m" continuation --parameter clearance --from -1e-4 --to 3e-4 --out "$work/o.csv"
 

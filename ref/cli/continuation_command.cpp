@@ -5,6 +5,7 @@
 #include "ref/atomic_output.hpp"
 #include "ref/cli/commands.hpp"
 #include "ref/cli/options.hpp"
+#include "ref/errors.hpp"
 #include "ref/orbits/continuation.hpp"
 #include "ref/parameter_io.hpp"
 #include "ref/record.hpp"
@@ -123,9 +124,13 @@ void add_continuation(CLI::App& app) {
   sub->add_option("--out", st->out, "output directory (created; replaced if an earlier rubref run made it)")->required();
   st->integration.add_to(*sub);
   st->params.add_to(*sub);
-  sub->callback([st] {
+  sub->callback([st, sub] {
     continuation_request req = st->req;
     req.parameter = parse_continuation_parameter(st->parameter);
+    // The default range is in rpm: another parameter needs its own.
+    if (req.parameter != continuation_parameter::speed && (sub->count("--from") == 0 || sub->count("--to") == 0))
+      throw input_error("--parameter " + st->parameter + " needs --from and --to (in " +
+                        std::string(column_name(req.parameter)) + "'s unit)");
     req.downward = st->direction == "down";
     req.params = st->params.resolve();
     req.integration = st->integration.resolve();
