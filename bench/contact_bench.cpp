@@ -14,6 +14,8 @@
 #include <cmath>
 
 #include "ref/integrate/hybrid_integrator.hpp"
+#include "ref/orbits/continuation.hpp"
+#include "ref/orbits/periodic_orbit.hpp"
 #include "ref/rotor_system.hpp"
 #include "ref/simulate.hpp"
 #include "ref/integrate/steppers.hpp"
@@ -214,6 +216,41 @@ void steady_state(benchmark::State& state, const std::string& variant, stepper_k
                                                      benchmark::Counter::kIs1000);
 }
 
+// ---- a steady orbit by shooting, and a branch by continuation (docs/orbits.md) -------------
+// The golden case's orbit as `rubref orbit` finds it: Newton on the one-revolution map from the
+// contact-free response to 1e-12 m, its Floquet multipliers, one recorded period (128 samples).
+// Issue 21's target: <= 0.3 ms.
+void periodic_orbit_by_shooting(benchmark::State& state) {
+  periodic_orbit_request req;
+  req.run.params = paper_case();
+  req.run.rpm = kRpm;
+  int iterations = 0;
+  for (auto _ : state) {
+    const periodic_orbit_result r = find_periodic_orbit(req);
+    if (!r.converged) state.SkipWithError(("shooting failed: " + r.failure).c_str());
+    iterations = r.iterations;
+    benchmark::DoNotOptimize(r.samples.samples.data());
+  }
+  state.counters["newton_iterations"] = iterations;
+}
+
+// A whole branch 1300-2200 rpm at one clearance (0.2, 0.3, 0.4 mm), with stability and the
+// special points located. Issue 21's target: <= 50 ms per clearance.
+void branch_by_continuation(benchmark::State& state) {
+  continuation_request req;
+  req.params.delta = static_cast<double>(state.range(0)) * 1e-4;
+  req.from = 1300.0;
+  req.to = 2200.0;
+  std::size_t points = 0;
+  for (auto _ : state) {
+    const continuation_result r = continue_branch(req);
+    if (!r.reached_end) state.SkipWithError(("the branch stopped: " + r.stopped).c_str());
+    points = r.points.size();
+    benchmark::DoNotOptimize(r.points.data());
+  }
+  state.counters["points"] = static_cast<double>(points);
+}
+
 // ---- a reproduce-sized sweep ----------------------------------------------------------------
 // The paper's sweep, 1400 -> 1800 -> 1400 rpm in 5 rpm steps, default settle/record revolutions,
 // at the three clearances of Fig. 12: six independent branches on 1 or 2 threads.
@@ -259,6 +296,9 @@ BENCHMARK_CAPTURE(steady_state, identified_bulirsch_stoer_1e-10, std::string("id
 BENCHMARK_CAPTURE(steady_state, restitution_dopri5_1e-10, std::string("restitution"), stepper_kind::dopri5, 1e-10)->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(steady_state, piecewise_linear_dopri5_1e-10, std::string("piecewise-linear"), stepper_kind::dopri5, 1e-10)->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(steady_state, piecewise_nonlinear_dopri5_1e-10, std::string("piecewise-nonlinear"), stepper_kind::dopri5, 1e-10)->Unit(benchmark::kMillisecond);
+
+BENCHMARK(periodic_orbit_by_shooting)->Unit(benchmark::kMicrosecond);
+BENCHMARK(branch_by_continuation)->Arg(2)->Arg(3)->Arg(4)->Unit(benchmark::kMillisecond);
 
 // (threads, clearances): one clearance's two branches on 1 and 2 threads, all three on 2.
 BENCHMARK(paper_sweeps)->Args({1, 1})->Args({2, 1})->Args({2, 3})->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(1);

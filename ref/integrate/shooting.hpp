@@ -226,6 +226,7 @@ flow_with_monodromy<static_cast<int>(std::tuple_size_v<state_of<System>>)> flow_
 struct shooting_settings {
   integration_options integration = [] {
     integration_options o;
+    o.stepper.kind = stepper_kind::rkf78;  // 8th order: a tight tolerance at a fraction of dopri5's steps
     o.stepper.rtol = 1e-12;  // the flow to ~1e-16 m per step on a 0.3 mm orbit: below the tolerance
     o.stepper.atol = 1e-16;
     return o;
