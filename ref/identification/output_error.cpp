@@ -10,6 +10,7 @@
 
 #include "ref/errors.hpp"
 #include "ref/integrate/hybrid_integrator.hpp"
+#include "ref/integrate/shooting.hpp"
 #include "ref/parallel.hpp"
 #include "variants/identified.hpp"
 
@@ -17,11 +18,11 @@ namespace rubref {
 
 namespace {
 
-// Newton shooting for the model's periodic orbit near an averaged cycle: converged when one
-// revolution maps the state onto itself to these (m, m/s), far below probe resolution.
-constexpr double kShootPositionTol = 1e-12;
-constexpr double kShootVelocityTol = 1e-10;
+// Newton shooting for the model's periodic orbit near an averaged cycle (to the shooting's 1e-12 m,
+// far below probe resolution): from a cycle of the data it converges in a few iterations; a trial
+// law that needs more, or 10^5 steps per revolution, is far off the data.
 constexpr int kShootIterations = 12;
+constexpr std::size_t kMaxStepsPerRevolution = 100000;
 
 double parameters::*member_named(const std::string& name) {
   if (name == "k1") return &parameters::k1;
@@ -83,7 +84,7 @@ class orbit_error {
     r.setConstant(1.0);  // 1 m: a parameter set the integrator cannot follow is far off
     try {
       state_type s0{d.x[i0], d.y[i0], f.vx[i0], f.vy[i0]};
-      if (d.periodic) s0 = periodic_orbit(model, s0, t0, opt);
+      if (d.periodic) s0 = periodic_orbit(model, s0, t0);
       grid_recorder rec;
       rec.x.reserve(n);
       rec.y.reserve(n);
@@ -98,36 +99,16 @@ class orbit_error {
     return r;
   }
 
-  // The model's periodic orbit through a state near `guess` at t0 (Newton shooting on one
-  // revolution, Jacobian by finite differences). A periodic cycle is compared with this orbit:
-  // no dependence on a noisy initial velocity, and no drift onto a coexisting attractor.
-  static state_type periodic_orbit(const rotor_system<identified>& model, state_type guess, double t0,
-                                   const integration_options& opt) {
-    const double period = model.period();
-    null_observer none;
-    const auto flow = [&](const state_type& s) {
-      return integrate_hybrid(model, start_state(model, s, t0), t0 + period, opt, sample_grid{}, none).s;
-    };
-    for (int it = 0; it < kShootIterations; ++it) {
-      const state_type end = flow(guess);
-      Eigen::Vector4d f;
-      for (int k = 0; k < 4; ++k) f[k] = end[k] - guess[k];
-      if (std::abs(f[0]) < kShootPositionTol && std::abs(f[1]) < kShootPositionTol && std::abs(f[2]) < kShootVelocityTol &&
-          std::abs(f[3]) < kShootVelocityTol)
-        return guess;
-      Eigen::Matrix4d J;
-      for (int k = 0; k < 4; ++k) {
-        state_type s = guess;
-        const double h = k < 2 ? 1e-9 : 1e-7;  // m, m/s: 1e-5 of the orbit, far above integration error
-        s[k] += h;
-        const state_type e = flow(s);
-        for (int i = 0; i < 4; ++i) J(i, k) = (e[i] - end[i]) / h - (i == k ? 1.0 : 0.0);
-      }
-      const Eigen::Vector4d step = J.partialPivLu().solve(-f);
-      for (int k = 0; k < 4; ++k) guess[k] += step[k];
-      if (!is_finite(guess)) throw numerical_error("shooting diverged");
-    }
-    throw numerical_error("shooting did not converge");
+  // The model's periodic orbit through a state near `guess` at t0, by the one shooting routine
+  // (ref/integrate/shooting.hpp: Newton with the exact monodromy). A periodic cycle is compared with
+  // this orbit: no dependence on a noisy initial velocity, and no drift onto a coexisting attractor.
+  static state_type periodic_orbit(const rotor_system<identified>& model, const state_type& guess, double t0) {
+    shooting_settings set;
+    set.max_iterations = kShootIterations;
+    set.integration.max_steps = kMaxStepsPerRevolution;
+    const auto orbit = shoot_periodic_orbit(model, guess, t0, 1, set);
+    if (!orbit.converged) throw numerical_error("shooting: " + orbit.failure);
+    return orbit.state;
   }
 
   std::size_t first_sample(const dwell& d) const { return d.periodic ? 0 : static_cast<std::size_t>(first_); }

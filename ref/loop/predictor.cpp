@@ -5,6 +5,7 @@
 #include <numbers>
 
 #include "ref/errors.hpp"
+#include "ref/integrate/shooting.hpp"
 #include "ref/parallel.hpp"
 
 namespace rubref {
@@ -14,13 +15,9 @@ namespace {
 using rig_state = std::array<double, 6>;
 using model = rig_system<identified>;
 
-// Shooting converges when one revolution maps the state onto itself to these (m, m/s): far
-// below probe resolution and far below the orbit changes the fit's finite differences make
-// (>= 1e-9 m).
-constexpr double kShootPositionTol = 1e-12;
-constexpr double kShootVelocityTol = 1e-10;
+// Shooting converges to the shooting's 1e-12 m (ref/integrate/shooting.hpp): far below probe
+// resolution and far below the orbit changes the fit's finite differences make (>= 1e-9 m).
 constexpr int kShootIterations = 16;
-constexpr int kChordIterations = 4;  // chord steps with an old Jacobian before it is recomputed
 // Revolutions integrated from a first guess taken from the data before shooting starts: damps
 // what the guess gets wrong of fast motions (contact ringing) so that Newton starts close.
 constexpr int kFirstSettleRevs = 10;
@@ -138,21 +135,18 @@ orbit_kind orbit_predictor::predict(std::size_t k, const model_point& m) {
   for (std::size_t i = 0; i < ph.size(); ++i) std::tie(c.phase[i], c.order[i]) = ph[i];
   const sample_grid grid = sample_grid::at(c.phase);
 
-  const int n = m.fx.stator_k > 0.0 ? 6 : 4;  // the stator's states take part only when it moves
   // Newton from the anchor (the fit's start point's orbit), else from the data. The periodic
   // orbit is taken even where it is unstable: it stays a smooth function of the parameters, and
   // its distance from the data's (stable) orbit is what the fit must see to come back.
   c.last_ok = false;
   const bool warm = c.started;
-  shot result = shoot(k, m, sys, period, grid, n);
+  shot result = shoot(k, m, sys, period, grid);
   if (result != shot::converged && warm) {  // from the data instead (the anchor stays)
     c.started = false;
-    c.inverse_jacobian.resize(0, 0);
-    result = shoot(k, m, sys, period, grid, n);
+    result = shoot(k, m, sys, period, grid);
     c.started = true;
   }
   if (result == shot::converged) return orbit_kind::periodic;
-  c.inverse_jacobian.resize(0, 0);
   // No periodic orbit near the data (these parameters give a subharmonic, chaotic or far
   // orbit): compare the motion the model settles into from the data's state instead, so that the
   // fit still sees how far off it is and which way to go.
@@ -173,11 +167,10 @@ orbit_kind orbit_predictor::predict(std::size_t k, const model_point& m) {
 }
 
 orbit_predictor::shot orbit_predictor::shoot(std::size_t k, const model_point& m, const rig_system<identified>& sys, double period,
-                                             const sample_grid& grid, int n) {
+                                             const sample_grid& grid) {
   const dwell& d = dwells_[k].data;
   cache& c = caches_[k];
   const integration_options opt = fit_integration();
-  const auto scale = [](int i) { return (i == 0 || i == 1 || i == 4) ? 1.0 : 1e2; };  // velocities ~1e2 x positions
   try {
     rig_state guess = c.started ? c.start : guess_from_data(d, m.fx);
     if (!c.started) {
@@ -185,41 +178,20 @@ orbit_predictor::shot orbit_predictor::shoot(std::size_t k, const model_point& m
       settle.max_steps *= kFirstSettleRevs;
       guess = flow(sys, guess, kFirstSettleRevs * period, settle, sample_grid{}, nullptr);
     }
-    if (c.inverse_jacobian.rows() != n) c.inverse_jacobian.resize(0, 0);
+    // The one shooting routine (ref/integrate/shooting.hpp): Newton with the exact monodromy.
+    shooting_settings set;
+    set.max_iterations = kShootIterations;
+    set.integration.max_steps = opt.max_steps;
+    const auto orbit = shoot_periodic_orbit(sys, guess, 0.0, 1, set);
+    if (!orbit.converged) return shot::failed;
     std::vector<rig_state> sorted;
-    int chord = 0;
-    for (int it = 0; it < kShootIterations; ++it) {
-      const rig_state end = flow(sys, guess, period, opt, grid, &sorted);
-      Eigen::VectorXd f(n);
-      bool converged = true;
-      for (int i = 0; i < n; ++i) {
-        f[i] = end[i] - guess[i];
-        converged = converged && std::abs(f[i]) <= (scale(i) == 1.0 ? kShootPositionTol : kShootVelocityTol);
-      }
-      if (converged) {
-        c.last = guess;
-        c.last_ok = true;
-        c.states.resize(d.size());
-        for (std::size_t i = 0; i < sorted.size() && i < d.size(); ++i) c.states[c.order[i]] = sorted[i];
-        return sorted.size() == d.size() ? shot::converged : shot::failed;
-      }
-      if (c.inverse_jacobian.size() == 0 || chord >= kChordIterations) {
-        Eigen::MatrixXd J(n, n);
-        for (int j = 0; j < n; ++j) {
-          rig_state s = guess;
-          const double h = 1e-9 * scale(j);  // m or m/s: 1e-5 of the orbit, far above integration error
-          s[j] += h;
-          const rig_state e = flow(sys, s, period, opt, sample_grid{}, nullptr);
-          for (int i = 0; i < n; ++i) J(i, j) = (e[i] - end[i]) / h - (i == j ? 1.0 : 0.0);
-        }
-        c.inverse_jacobian = J.fullPivLu().inverse();
-        chord = 0;
-      }
-      const Eigen::VectorXd step = -c.inverse_jacobian * f;
-      for (int i = 0; i < n; ++i) guess[i] += step[i];
-      ++chord;
-      if (!is_finite(guess)) return shot::failed;
-    }
+    flow(sys, orbit.state, period, opt, grid, &sorted);
+    if (sorted.size() != d.size()) return shot::failed;
+    c.last = orbit.state;
+    c.last_ok = true;
+    c.states.resize(d.size());
+    for (std::size_t i = 0; i < sorted.size(); ++i) c.states[c.order[i]] = sorted[i];
+    return shot::converged;
   } catch (const numerical_error&) {
   }
   return shot::failed;

@@ -82,7 +82,6 @@ class orbit_predictor {
   struct cache {
     bool started = false;
     std::array<double, 6> start{};      // the anchor: a periodic orbit's state at t = 0
-    Eigen::MatrixXd inverse_jacobian;   // of the shooting map, reused while it converges (chord Newton)
     std::vector<double> phase;          // sorted sample phases (s in [0, T)) for the current shift
     std::vector<std::size_t> order;     // sample index of each sorted phase
     std::vector<std::array<double, 6>> states;  // model state at each sample (sample order)
@@ -91,7 +90,7 @@ class orbit_predictor {
   };
   orbit_kind predict(std::size_t k, const model_point& m);
   enum class shot { converged, failed };
-  shot shoot(std::size_t k, const model_point& m, const rig_system<identified>& sys, double period, const sample_grid& grid, int n);
+  shot shoot(std::size_t k, const model_point& m, const rig_system<identified>& sys, double period, const sample_grid& grid);
 
   const std::vector<loop_dwell>& dwells_;
   double noise_;
