@@ -6,6 +6,7 @@
 
 #include "ref/closed_form.hpp"
 #include "ref/errors.hpp"
+#include "ref/orbits/periodic_orbit.hpp"
 #include "ref/parallel.hpp"
 
 namespace rubref {
@@ -61,6 +62,14 @@ sweep_branch run_branch(const sweep_settings& s, sweep_direction d) {
   for (std::size_t i = 0; i < speeds.size(); ++i) {
     req.rpm = speeds[i];
     req.settle_revs = i == 0 ? s.first_settle_revs : s.settle_revs;
+    if (s.start_from_orbit) {
+      const periodic_orbit_result shot = shoot_from(req, req.initial_state, 1);
+      if (shot.stable) {  // (converged and every multiplier inside the unit circle)
+        req.initial_state = shot.samples.request.initial_state;
+        req.settle_revs = 0;
+        ++branch.orbit_starts;
+      }
+    }
     orbit o = simulate(req);
     if (o.counts.coarse_contact_steps > 0 && branch.counts.coarse_contact_steps == 0) branch.first_coarse_contact_rpm = speeds[i];
     accumulate(branch.counts, o.counts);

@@ -29,6 +29,10 @@ struct sweep_settings {
   int samples_per_rev = 128;
   integration_options integration;
   bool keep_orbits = false;     // keep every recorded orbit (memory: record_revs * samples_per_rev per speed)
+  // Start each speed on the periodic orbit continued from its neighbour (Newton shooting from the
+  // neighbour's end state, docs/orbits.md) where that orbit is found and stable, instead of
+  // settling; the settle revolutions remain where it is not (subharmonic, non-periodic, unstable).
+  bool start_from_orbit = false;
 };
 
 // Throws input_error naming the first bad setting.
@@ -51,6 +55,7 @@ struct sweep_branch {
   std::vector<sweep_point> points;  // in the order visited
   integration_counts counts;        // summed over the points (first_coarse_contact_t: within its point's run)
   double first_coarse_contact_rpm = 0.0;  // the point of the first under-resolved contact step (0: none)
+  std::size_t orbit_starts = 0;  // points started on a shot periodic orbit (start_from_orbit)
 };
 
 // One sweep direction, sequential (continuation makes each speed depend on the previous one).

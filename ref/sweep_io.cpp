@@ -37,6 +37,7 @@ std::vector<std::pair<std::string, std::string>> sweep_metadata(const sweep_sett
   meta.set("step_rpm", s.step_rpm);
   meta.set("first_settle_revs", static_cast<double>(s.first_settle_revs));
   meta.set("settle_revs", static_cast<double>(s.settle_revs));
+  if (s.start_from_orbit) meta.set("start", std::string("periodic orbit continued from the previous speed where stable"));
   meta.set("record_revs", static_cast<double>(s.record_revs));
   meta.set("samples_per_rev", static_cast<double>(s.samples_per_rev));
   meta.set("stepper", std::string(to_string(s.integration.stepper.kind)));
@@ -144,6 +145,7 @@ nlohmann::ordered_json sweep_summary_json(const sweep_settings& s, const std::ve
     jb["speeds"] = b.points.size();
     jb["steps"] = b.counts.steps;
     jb["events"] = b.counts.events;
+    if (s.start_from_orbit) jb["orbit_starts"] = b.orbit_starts;
     if (b.counts.coarse_contact_steps > 0) {
       jb["coarse_contact_steps"] = b.counts.coarse_contact_steps;
       jb["max_contact_rate_dt"] = b.counts.max_contact_rate_dt;

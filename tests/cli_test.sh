@@ -55,6 +55,10 @@ rm -f "$work/coarse.csv" "$work/coarse.summary.json"
 grep -q "^up branch, first at 1[56][0-9]0 rpm: warning: " "$work/stderr" || fail "sweep warning lacks the speed: $(cat "$work/stderr")"
 grep -q '"first_coarse_contact_rpm"' "$work/coarse_sweep/summary.json" || fail "sweep summary lacks first_coarse_contact_rpm"
 rm -rf "$work/coarse_sweep"
+# A sweep started on the shot orbits says how many of its points were.
+"$rubref" sweep --from 1580 --to 1620 --step 20 --start-from-orbit --out "$work/orbit_sweep" >/dev/null || fail "sweep --start-from-orbit failed"
+grep -q '"orbit_starts": [1-9]' "$work/orbit_sweep/summary.json" || fail "sweep --start-from-orbit started no point on an orbit"
+rm -rf "$work/orbit_sweep"
 
 # A failed run never replaces an existing result.
 echo keep >"$work/existing.csv"

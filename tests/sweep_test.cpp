@@ -99,6 +99,39 @@ TEST(sweep, coexisting_responses_give_a_band_and_its_jump) {
   EXPECT_GT(rep.jumps[0].amplitude_after, rep.jumps[0].amplitude_before);
 }
 
+// A sweep that starts each speed on the orbit shot from its neighbour's state (no settling where
+// that orbit is stable) reaches the responses the settling sweep does: the same jumps, and at every
+// point the same amplitude, to what 60 settling revolutions leave of the step's transient
+// (kSettledRelTol) plus what an irregular orbit varies by itself (its radius_spread, both sweeps).
+TEST(sweep, starting_from_the_continued_orbit_reaches_the_settled_responses) {
+  auto s = short_sweep(1400, 1800, 20);  // through the non-periodic band (1420-1495) and the jump
+  s.params.delta = 0.3e-3;
+  auto shot = s;
+  shot.start_from_orbit = true;
+  const auto b = run_branches({{s, sweep_direction::up}, {s, sweep_direction::down}, {shot, sweep_direction::up}, {shot, sweep_direction::down}}, 2);
+  for (int d = 0; d < 2; ++d) {
+    const auto& settled = b[static_cast<std::size_t>(d)];
+    const auto& from_orbit = b[static_cast<std::size_t>(d + 2)];
+    EXPECT_EQ(settled.orbit_starts, 0u);
+    EXPECT_GT(from_orbit.orbit_starts, from_orbit.points.size() / 2) << "most points are stable period-1 orbits";
+    EXPECT_LT(from_orbit.orbit_starts, from_orbit.points.size()) << "the non-periodic band must settle";
+    ASSERT_EQ(settled.points.size(), from_orbit.points.size());
+    for (std::size_t i = 0; i < settled.points.size(); ++i) {
+      const auto& a = settled.points[i].summary;
+      const auto& o = from_orbit.points[i].summary;
+      EXPECT_LE(std::abs(a.max_radius - o.max_radius), kSettledRelTol * a.max_radius + a.radius_spread + o.radius_spread)
+          << to_string(settled.direction) << " " << settled.points[i].rpm;
+      EXPECT_EQ(a.regime, o.regime) << to_string(settled.direction) << " " << settled.points[i].rpm;
+    }
+  }
+  const auto bands = [](const jump_report& r) {
+    std::vector<std::pair<double, double>> out;
+    for (const auto& band : r.bands) out.emplace_back(band.from_rpm, band.to_rpm);
+    return out;
+  };
+  EXPECT_EQ(bands(detect_jumps(b[0], b[1], s.step_rpm)), bands(detect_jumps(b[2], b[3], s.step_rpm)));
+}
+
 sweep_branch synthetic(sweep_direction d, std::vector<std::pair<double, double>> rpm_amplitude, double spread = 0.0) {
   sweep_branch b{d, {}, {}};
   for (const auto& [rpm, a] : rpm_amplitude) {

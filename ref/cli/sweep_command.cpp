@@ -33,6 +33,9 @@ void add_sweep(CLI::App& app) {
   sub->add_option("--direction", st->direction, "up, down or both")->check(CLI::IsMember({"up", "down", "both"}))->capture_default_str();
   sub->add_option("--first-settle-revs", s.first_settle_revs, "revolutions settled at the first speed")->capture_default_str();
   sub->add_option("--settle-revs", s.settle_revs, "revolutions settled at every later speed")->capture_default_str();
+  sub->add_flag("--start-from-orbit", s.start_from_orbit,
+                "start each speed on the periodic orbit shot from its neighbour's state where it is stable "
+                "(no settling there; docs/orbits.md)");
   sub->add_option("--revs", s.record_revs, "revolutions recorded per speed (a multiple of 6)")->capture_default_str();
   sub->add_option("--samples-per-rev", s.samples_per_rev, "samples per revolution")->capture_default_str();
   sub->add_option("--threads", st->threads, "threads for independent branches; 0: all cores")->capture_default_str();

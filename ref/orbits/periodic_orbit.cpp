@@ -21,7 +21,39 @@ struct recorder {
   void on_event(const contact_event& e) { events->push_back(e); }
 };
 
+template <int N>
+void take_shot(periodic_orbit_result& out, const periodic_orbit<N>& shot) {
+  out.converged = shot.converged;
+  if (!shot.converged) {
+    out.failure = shot.failure;
+    return;
+  }
+  out.method = "shooting";
+  out.residual = shot.residual;
+  out.multipliers = shot.multipliers;
+  out.max_multiplier_modulus = shot.max_multiplier_modulus();
+  out.stable = shot.stable();
+  out.events_per_period = shot.events_per_period;
+}
+
 }  // namespace
+
+periodic_orbit_result shoot_from(const run_request& run, const state_type& guess, int periods, double tolerance) {
+  return visit_variant(run.variant, [&]<class Law>() {
+    const rotor_system<Law> model(run.params, rpm_to_rad_s(run.rpm));
+    shooting_settings set;
+    set.tolerance = tolerance;
+    set.integration.events = run.integration.events;
+    periodic_orbit_result out;
+    out.start = "given state";
+    const auto shot = shoot_periodic_orbit(model, guess, 0.0, periods, set);
+    out.iterations = shot.iterations;
+    take_shot(out, shot);
+    out.samples.request = run;
+    out.samples.request.initial_state = shot.state;
+    return out;
+  });
+}
 
 periodic_orbit_result find_periodic_orbit(const periodic_orbit_request& req) {
   require(req.periods >= 1 && req.periods <= 64, "periods must be in [1, 64] (got " + std::to_string(req.periods) + ")");
@@ -71,18 +103,10 @@ periodic_orbit_result find_periodic_orbit(const periodic_orbit_request& req) {
       out.iterations += shot.iterations;
     }
     state_type on_orbit = shot.state;
-    out.converged = shot.converged;
-    if (shot.converged) {
-      out.method = "shooting";
-      out.residual = shot.residual;
-      out.multipliers = shot.multipliers;
-      out.max_multiplier_modulus = shot.max_multiplier_modulus();
-      out.stable = shot.stable();
-      out.events_per_period = shot.events_per_period;
-    } else {
+    take_shot(out, shot);
+    if (!shot.converged) {
       // The fallback: a long transient, as `simulate` does; said so in the result.
       out.method = "transient";
-      out.failure = shot.failure;
       null_observer none;
       on_orbit = integrate_hybrid(model, start_state(model, req.initial_guess.value_or(state_type{}), 0.0), req.fallback_settle_revs * period, run.integration,
                                   sample_grid{}, none).s;

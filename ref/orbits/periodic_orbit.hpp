@@ -41,6 +41,10 @@ struct periodic_orbit_result {
 // run.samples_per_rev (run.integration; the request of the result starts at `on_orbit`).
 orbit record_periods(const run_request& run, const state_type& on_orbit, int periods);
 
+// Newton alone from `guess` at t = 0, with no second start and no fallback (a sweep's start from
+// its neighbour's orbit): `samples` stays empty; `converged` says whether it found one.
+periodic_orbit_result shoot_from(const run_request& run, const state_type& guess, int periods, double tolerance = 1e-12);
+
 // Validates (input_error), then finds the orbit. A numerical failure of the fallback is a
 // numerical_error; a failed Newton is reported in the result, never hidden.
 periodic_orbit_result find_periodic_orbit(const periodic_orbit_request& req);
