@@ -257,11 +257,13 @@ void branch_by_continuation(benchmark::State& state) {
 void paper_sweeps(benchmark::State& state) {
   const auto threads = static_cast<unsigned>(state.range(0));
   const int clearances = static_cast<int>(state.range(1));
+  const bool from_orbit = state.range(2) != 0;  // sweep --start-from-orbit
   std::vector<branch_task> tasks;
   for (int c = 0; c < clearances; ++c)
     for (const auto d : {sweep_direction::up, sweep_direction::down}) {
       sweep_settings s;
       s.params.delta = (0.2 + 0.1 * c) * 1e-3;
+      s.start_from_orbit = from_orbit;
       tasks.push_back({s, d});
     }
   integration_counts counts;
@@ -300,8 +302,9 @@ BENCHMARK_CAPTURE(steady_state, piecewise_nonlinear_dopri5_1e-10, std::string("p
 BENCHMARK(periodic_orbit_by_shooting)->Unit(benchmark::kMicrosecond);
 BENCHMARK(branch_by_continuation)->Arg(2)->Arg(3)->Arg(4)->Unit(benchmark::kMillisecond);
 
-// (threads, clearances): one clearance's two branches on 1 and 2 threads, all three on 2.
-BENCHMARK(paper_sweeps)->Args({1, 1})->Args({2, 1})->Args({2, 3})->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(1);
+// (threads, clearances, start from orbit): one clearance's two branches on 1 and 2 threads, all
+// three on 2; then both settling nowhere the shot orbit is stable.
+BENCHMARK(paper_sweeps)->Args({1, 1, 0})->Args({2, 1, 0})->Args({2, 3, 0})->Args({2, 1, 1})->Args({2, 3, 1})->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(1);
 
 }  // namespace
 }  // namespace rubref
