@@ -166,5 +166,14 @@ grep -q 'effects' "$work/free.csv" && fail "rig record names its effects"
 expect_error "no dwell reaches its clearance" loop "$work/free.csv" --out "$work/loop"
 expect_error "short.csv" loop "$work/short.csv" --clearance 3e-4 --out "$work/loop"
 [ ! -e "$work/loop" ] || fail "loop left a report behind"
+# A drive that does not hold its speed: every dwell is left out with its reason, and the loop says
+# it had nothing to score (no NaN error) and that the residual is unexplained.
+"$rubref" rig --speed-fluctuation 0.01 --fluctuation-hz 3 --speeds 1550,1650 --revs 6 --settle-revs 30 --out "$work/drift.csv" >/dev/null || fail "rig (drift) failed"
+"$rubref" loop "$work/drift.csv" --out "$work/drift" >"$work/stdout" 2>"$work/stderr" || fail "loop (drift) failed: $(cat "$work/stderr")"
+grep -q "no dwell with contact was usable" "$work/stdout" || fail "loop (drift) does not say nothing was usable: $(cat "$work/stdout")"
+grep -qiw "nan" "$work/stdout" "$work/drift/report.md" && fail "loop (drift) printed a NaN"
+grep -q "residual unexplained" "$work/stdout" || fail "loop (drift) did not call the residual unexplained"
+grep -q "left out: not synchronous" "$work/stderr" || fail "loop (drift) did not say why the dwells were left out"
+rm -rf "$work/drift" "$work/drift.csv"
 
 finish "cli_test: all passed"

@@ -1,3 +1,4 @@
+#include <cmath>
 #include <iostream>
 #include <memory>
 
@@ -45,7 +46,10 @@ void add_loop(CLI::App& app) {
     dir.write("plot_data.json", plot_data(r).dump() + "\n");
     if (st->figures && !r.plot_x.empty()) run_python_script(default_python(), script_path("plot_loop.py"), dir.path());
     dir.commit();
-    std::cout << "error before " << r.error_before << ", after " << r.error_after << "; effects:";
+    if (std::isfinite(r.error_before))
+      std::cout << "error before " << r.error_before << ", after " << r.error_after << "; effects:";
+    else  // every dwell with contact was left out (the warnings above say why): nothing to score
+      std::cout << "error: none (no dwell with contact was usable, see the warnings); effects:";
     for (const auto& e : r.effects) std::cout << " " << e.effect;
     if (r.effects.empty()) std::cout << " none";
     if (!r.tentative.empty()) {

@@ -37,7 +37,7 @@ json candidates_json(const std::vector<effect_candidate>& cs) {
   return a;
 }
 
-std::string fmt(double v, int digits = 4) { return format_digits(v, digits); }
+std::string fmt(double v, int digits = 4) { return std::isfinite(v) ? format_digits(v, digits) : "—"; }
 
 // NaN (no fit: nothing synchronous with contact) as JSON null.
 json number(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
@@ -114,6 +114,8 @@ json to_json(const loop_result& r) {
 std::string to_markdown(const loop_result& r) {
   std::ostringstream o;
   o << "# rubref loop report\n\n";
+  if (!std::isfinite(r.error_before))
+    o << "No dwell with contact was usable (each one left out is listed below with why): nothing was fitted.\n\n";
   o << "| | before | after |\n|---|---|---|\n";
   o << "| orbit NRMSE (contact dwells) | " << fmt(r.error_before) << " | " << fmt(r.error_after) << " |\n";
   o << "| residual RMS | " << fmt(r.validity_before.rms * 1e6) << " um | " << fmt(r.validity_after.rms * 1e6) << " um |\n";
