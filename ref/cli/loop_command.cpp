@@ -49,7 +49,7 @@ void add_loop(CLI::App& app) {
     if (std::isfinite(r.error_before))
       std::cout << "error before " << r.error_before << ", after " << r.error_after << "; effects:";
     else  // every dwell with contact was left out (the warnings above say why): nothing to score
-      std::cout << "error: none (no dwell with contact was usable, see the warnings); effects:";
+      std::cout << "no dwell with contact was usable (see the warnings): nothing fitted; effects:";
     for (const auto& e : r.effects) std::cout << " " << e.effect;
     if (r.effects.empty()) std::cout << " none";
     if (!r.tentative.empty()) {

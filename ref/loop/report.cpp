@@ -118,7 +118,9 @@ std::string to_markdown(const loop_result& r) {
     o << "No dwell with contact was usable (each one left out is listed below with why): nothing was fitted.\n\n";
   o << "| | before | after |\n|---|---|---|\n";
   o << "| orbit NRMSE (contact dwells) | " << fmt(r.error_before) << " | " << fmt(r.error_after) << " |\n";
-  o << "| residual RMS | " << fmt(r.validity_before.rms * 1e6) << " um | " << fmt(r.validity_after.rms * 1e6) << " um |\n";
+  const bool fitted = std::isfinite(r.error_before);
+  const auto rms_um = [&](double rms) { return fitted ? fmt(rms * 1e6) + " um" : std::string("—"); };
+  o << "| residual RMS | " << rms_um(r.validity_before.rms) << " | " << rms_um(r.validity_after.rms) << " |\n";
   o << "| residual consistent with noise (" << fmt(r.noise * 1e6) << " um) | " << (r.validity_before.pass ? "yes" : "no") << " | "
     << (r.validity_after.pass ? "yes" : "no") << " |\n\n";
   o << "Effects added, in order:";
