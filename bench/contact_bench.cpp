@@ -16,7 +16,7 @@
 #include "ref/integrate/hybrid_integrator.hpp"
 #include "ref/orbits/continuation.hpp"
 #include "ref/orbits/periodic_orbit.hpp"
-#include "ref/rotor_system.hpp"
+#include "ref/rotor_model.hpp"
 #include "ref/simulate.hpp"
 #include "ref/integrate/steppers.hpp"
 #include "ref/sweep.hpp"

@@ -23,7 +23,7 @@
 #include "ref/errors.hpp"
 #include "ref/golden.hpp"
 #include "ref/record.hpp"
-#include "ref/rotor_system.hpp"
+#include "ref/rotor_model.hpp"
 #include "ref/simulate.hpp"
 #include "variants/all_variants.hpp"
 

@@ -11,7 +11,7 @@
 #include <random>
 
 #include "ref/integrate/free_flight.hpp"
-#include "ref/rig/rig_system.hpp"
+#include "ref/rotor_model.hpp"
 #include "test_support.hpp"
 
 namespace rubref {
@@ -68,7 +68,7 @@ TEST(free_flight, arc_matches_the_numeric_flow_with_linear_effects) {
   fx.stator_k = 5e6;
   fx.stator_m = 0.5;
   fx.stator_c = 100.0;
-  const rig_system<identified> sys(far_stator(), fx, rpm_to_rad_s(1550.0), {}, contact_phase::free);
+  const rotor_with_effects<identified> sys(far_stator(), fx, rpm_to_rad_s(1550.0), {}, contact_phase::free);
   const free_flight<6> ff(*sys.free_dynamics());
   const std::array<double, 6> s0{1e-4, -2e-4, 0.03, 0.05, 1e-7, -1e-4};
   const auto arc = ff.from(0.0, s0);
@@ -81,18 +81,18 @@ TEST(free_flight, arc_matches_the_numeric_flow_with_linear_effects) {
 
 // A rigid stator's (w, w') are constants of the flow, kept exactly.
 TEST(free_flight, a_rigid_stator_stays_put) {
-  const rig_system<identified> sys(far_stator(), effect_parameters{}, rpm_to_rad_s(1550.0), {}, contact_phase::free);
+  const rotor_with_effects<identified> sys(far_stator(), effect_parameters{}, rpm_to_rad_s(1550.0), {}, contact_phase::free);
   const free_flight<6> ff(*sys.free_dynamics());
   const auto s = ff.from(0.0, {1e-4, 0.0, 0.0, 0.0, 0.0, 0.0}).at(3.0 * sys.period());
-  EXPECT_EQ(s[rig_idx::w], 0.0);
-  EXPECT_EQ(s[rig_idx::vw], 0.0);
+  EXPECT_EQ(s[idx::w], 0.0);
+  EXPECT_EQ(s[idx::vw], 0.0);
 }
 
 // Models with a nonlinear term out of contact have no closed-form free flight.
 TEST(free_flight, nonlinear_free_flight_is_not_linearised) {
   unmodelled_effects hard;
   hard.cubic_stiffness = 1e9;
-  const rig_system<identified> sys(far_stator(), effect_parameters{}, rpm_to_rad_s(1550.0), hard, contact_phase::free);
+  const rotor_with_effects<identified> sys(far_stator(), effect_parameters{}, rpm_to_rad_s(1550.0), hard, contact_phase::free);
   EXPECT_FALSE(sys.free_dynamics().has_value());
 }
 

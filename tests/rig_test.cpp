@@ -7,6 +7,7 @@
 #include <cmath>
 #include <complex>
 #include <numbers>
+#include <random>
 
 #include "ref/closed_form.hpp"
 #include "ref/errors.hpp"
@@ -37,7 +38,7 @@ struct rig_trajectory {
 };
 
 template <class Law>
-rig_trajectory run_rig_model(const rig_system<Law>& model, double t_end, const sample_grid& grid) {
+rig_trajectory run_rig_model(const rotor_with_effects<Law>& model, double t_end, const sample_grid& grid) {
   rig_trajectory out;
   integrate_hybrid(model, start_state(model, rig_state{}, 0.0), t_end, reference_options(), grid, out);
   return out;
@@ -50,11 +51,11 @@ using compliant_variants = ::testing::Types<piecewise_linear, piecewise_nonlinea
 TYPED_TEST_SUITE(rig_without_effects, compliant_variants, variant_name);
 
 TYPED_TEST(rig_without_effects, is_the_papers_model) {
-  static_assert(contact_system<rig_system<TypeParam>>, "the rig's truth is a ContactSystem");
+  static_assert(contact_system<rotor_with_effects<TypeParam>>, "the rig's truth is a ContactSystem");
   const parameters p;
   const double omega = rpm_to_rad_s(1600.0), period = 2.0 * std::numbers::pi / omega;
   const sample_grid grid{20 * period, period / 64, 128};
-  const rig_trajectory rig = run_rig_model(rig_system<TypeParam>(p, effect_parameters{}, omega), 22 * period, grid);
+  const rig_trajectory rig = run_rig_model(rotor_with_effects<TypeParam>(p, effect_parameters{}, omega), 22 * period, grid);
   const trajectory paper = run(rotor_system<TypeParam>(p, omega), state_type{}, 22 * period, reference_options(), grid);
   ASSERT_EQ(rig.s.size(), paper.s.size());
   ASSERT_EQ(rig.events.size(), paper.events.size());
@@ -66,7 +67,39 @@ TYPED_TEST(rig_without_effects, is_the_papers_model) {
       scale = std::max(scale, std::abs(paper.s[i][c]));
     }
   EXPECT_LE(worst, kSameMotionRelTol * scale);
-  for (const auto& s : rig.s) EXPECT_EQ(s[rig_idx::w], 0.0);  // a rigid stator never moves
+  for (const auto& s : rig.s) EXPECT_EQ(s[idx::w], 0.0);  // a rigid stator never moves
+}
+
+// One model (ref/rotor_model.hpp): Eq. 1 is written once, so with every effect off the model
+// with effect terms evaluates the paper's right-hand side and Jacobian to the bit, in every phase
+// and at any state, time and (signed) speed. Exact equality, not a tolerance: a second Eq. 1 that
+// drifted from the first by one rounding would fail here.
+TYPED_TEST(rig_without_effects, evaluates_the_papers_equations_to_the_bit) {
+  const parameters p;
+  std::mt19937_64 rng(20261125);
+  std::uniform_real_distribution<double> pos(-4e-4, 4e-4), vel(-0.3, 0.3), time(0.0, 2.0), rpm(-2200.0, 2200.0);
+  for (int trial = 0; trial < 200; ++trial) {
+    const double omega = rpm_to_rad_s(rpm(rng)), t = time(rng);
+    const state_type s{pos(rng), pos(rng), vel(rng), vel(rng)};
+    const rig_state sw{s[0], s[1], s[2], s[3], 0.0, 0.0};
+    for (const contact_phase ph : {contact_phase::free, contact_phase::contact, contact_phase::by_penetration}) {
+      const rotor_system<TypeParam> paper(p, omega, ph);
+      const rotor_with_effects<TypeParam> with(p, effect_parameters{}, omega, {}, ph);
+      state_type d{};
+      rig_state dw{};
+      paper(s, d, t);
+      with(sw, dw, t);
+      for (std::size_t i = 0; i < 4; ++i) ASSERT_EQ(dw[i], d[i]) << "component " << i << ", trial " << trial;
+      EXPECT_EQ(dw[idx::w], 0.0);
+      EXPECT_EQ(dw[idx::vw], 0.0);
+      EXPECT_EQ(with.contact_force(sw), paper.contact_force(s));
+      EXPECT_EQ(with.penetration(sw), paper.penetration(s));
+      const auto J = paper.jacobian(s);
+      const auto Jw = with.jacobian(sw);
+      for (std::size_t r = 0; r < 4; ++r)
+        for (std::size_t c = 0; c < 4; ++c) ASSERT_EQ(Jw[6 * r + c], J[4 * r + c]) << "J(" << r << ", " << c << ")";
+    }
+  }
 }
 
 // Without contact the truth is linear: a bow b at phi_b is a 1X force (k_x b, k_y b) e^{j(wt + phi_b)}
@@ -92,7 +125,7 @@ TEST(rig_truth, bow_and_misalignment_have_closed_form_responses) {
   const auto X2 = response(p.k_x, p.c_x, fx.misalignment_force * std::exp(1i * fx.misalignment_phase), 2 * w);
   const auto Y2 = response(p.k_y, p.c_y, -1i * fx.misalignment_force * std::exp(1i * fx.misalignment_phase), 2 * w);
   const double decay = 2.0 * p.m / std::min(p.c_x, p.c_y), t0 = 40 * decay;  // e^-40 of the transient left
-  const rig_trajectory tr = run_rig_model(rig_system<identified>(p, fx, w), t0 + period, sample_grid{t0, period / 32, 32});
+  const rig_trajectory tr = run_rig_model(rotor_with_effects<identified>(p, fx, w), t0 + period, sample_grid{t0, period / 32, 32});
   const double scale = std::abs(X1) + std::abs(X2) + std::abs(Y1) + std::abs(Y2);
   for (std::size_t i = 0; i < tr.t.size(); ++i) {
     const std::complex<double> r1 = std::exp(1i * (w * tr.t[i])), r2 = r1 * r1;
@@ -116,7 +149,7 @@ TEST(rig_truth, preload_and_cross_coupling_give_the_static_deflection) {
   const double det = p.k_x * p.k_y - fx.k_xy * fx.k_yx;
   const double x = (p.k_y * fx.preload_x - fx.k_xy * fx.preload_y) / det, y = (p.k_x * fx.preload_y - fx.k_yx * fx.preload_x) / det;
   const double t_end = 60 * 2.0 * p.m / std::min(p.c_x, p.c_y);
-  const rig_trajectory tr = run_rig_model(rig_system<identified>(p, fx, rpm_to_rad_s(1500.0)), t_end, sample_grid{t_end, 0.0, 1});
+  const rig_trajectory tr = run_rig_model(rotor_with_effects<identified>(p, fx, rpm_to_rad_s(1500.0)), t_end, sample_grid{t_end, 0.0, 1});
   ASSERT_EQ(tr.s.size(), 1u);
   EXPECT_NEAR(tr.s[0][idx::x], x, kClosedFormRelTol * std::hypot(x, y));
   EXPECT_NEAR(tr.s[0][idx::y], y, kClosedFormRelTol * std::hypot(x, y));
@@ -128,7 +161,7 @@ TEST(rig_truth, contact_angle_turns_the_contact_normal) {
   parameters p;
   effect_parameters fx;
   fx.contact_angle = 0.3;
-  const rig_system<identified> model(p, fx, rpm_to_rad_s(1600.0));
+  const rotor_with_effects<identified> model(p, fx, rpm_to_rad_s(1600.0));
   const double period = model.period();
   const rig_trajectory tr = run_rig_model(model, 30 * period, sample_grid{});
   ASSERT_FALSE(tr.events.empty());
@@ -142,7 +175,7 @@ TEST(rig_truth, contact_angle_turns_the_contact_normal) {
   s[idx::y] = ny * (p.delta + z);
   s[idx::vx] = nx * zd;
   s[idx::vy] = ny * zd;
-  EXPECT_NEAR(model.with_phase(contact_phase::contact).normal_force(s), identified::from(p).normal_force(z, zd), 1e-9);
+  EXPECT_NEAR(model.with_phase(contact_phase::contact).contact_force(s), identified::from(p).normal_force(z, zd), 1e-9);
 }
 
 // Hertz and Hunt-Crossley add their terms to the law; friction falls with the sliding speed.
@@ -156,11 +189,11 @@ TEST(rig_truth, contact_effects_add_their_forces) {
   fx.slip_decay_speed = 0.5;
   fx.shaft_radius = 5e-3;
   const double omega = rpm_to_rad_s(1600.0);
-  const rig_system<identified> model(p, fx, omega, {}, contact_phase::contact);
+  const rotor_with_effects<identified> model(p, fx, omega, {}, contact_phase::contact);
   const double z = 1e-5, zd = -0.03, vx = -0.1;
   const rig_state s{vx * 0.0, p.delta + z, vx, zd, 0.0, 0.0};
   const double want = identified::from(p).normal_force(z, zd) + fx.hertz_k * std::pow(z, 1.5) + fx.hc_lambda * std::pow(z, 1.5) * zd;
-  EXPECT_NEAR(model.normal_force(s), want, 1e-12 * std::abs(want));
+  EXPECT_NEAR(model.contact_force(s), want, 1e-12 * std::abs(want));
   const double slip = fx.shaft_radius * omega - vx;  // the top moves to -x at R w; the rotor at vx
   EXPECT_NEAR(model.friction_coefficient(s), p.mu + (fx.mu_static - p.mu) * std::exp(-slip / fx.slip_decay_speed), 1e-15);
 }
@@ -177,7 +210,7 @@ TEST(rig_truth, compliant_stator_moves_and_stiffens_to_the_rigid_one) {
     fx.stator_k = k_s;
     fx.stator_m = 1.0;
     fx.stator_c = std::sqrt(k_s * fx.stator_m);  // damping ratio 1/2: rings down between contacts
-    return run_rig_model(rig_system<piecewise_nonlinear>(p, fx, omega), 22 * period, grid);
+    return run_rig_model(rotor_with_effects<piecewise_nonlinear>(p, fx, omega), 22 * period, grid);
   };
   const rig_trajectory rigid = orbit(0.0), soft = orbit(1e9), stiff = orbit(1e10);
   const auto distance = [&](const rig_trajectory& a) {
@@ -187,7 +220,7 @@ TEST(rig_truth, compliant_stator_moves_and_stiffens_to_the_rigid_one) {
     return d;
   };
   double w_max = 0.0;
-  for (const auto& s : soft.s) w_max = std::max(w_max, s[rig_idx::w]);
+  for (const auto& s : soft.s) w_max = std::max(w_max, s[idx::w]);
   EXPECT_GT(w_max, 1e-8);  // f_N ~ 100 N on 1e9 N/m: ~0.1 um
   ASSERT_EQ(soft.s.size(), rigid.s.size());
   const double ratio = distance(soft) / distance(stiff);

@@ -12,7 +12,7 @@
 #include "ref/golden.hpp"
 #include "ref/integrate/shooting.hpp"
 #include "ref/orbit_io.hpp"
-#include "ref/rig/rig_system.hpp"
+#include "ref/rotor_model.hpp"
 #include "test_support.hpp"
 
 namespace rubref {
@@ -152,7 +152,7 @@ TEST(shooting, rig_model_with_effects_matches_finite_differences) {
   fx.stator_m = 0.3;
   fx.stator_c = 200.0;
   fx.mu_static = 0.4;
-  const rig_system<identified> sys(p, fx, rpm_to_rad_s(1600.0));
+  const rotor_with_effects<identified> sys(p, fx, rpm_to_rad_s(1600.0));
   const integration_options opt = careful().integration;
   null_observer none;
   const auto settled = integrate_hybrid(sys, start_state(sys, std::array<double, 6>{}, 0.0), 60.0 * sys.period(), opt, sample_grid{}, none);

@@ -26,7 +26,7 @@
 #include "ref/errors.hpp"
 #include "ref/integrate/free_flight.hpp"
 #include "ref/integrate/steppers.hpp"
-#include "ref/rotor_system.hpp"
+#include "ref/rotor_model.hpp"
 
 namespace rubref {
 

@@ -13,7 +13,7 @@ namespace rubref {
 namespace {
 
 using rig_state = std::array<double, 6>;
-using model = rig_system<identified>;
+using model = rotor_with_effects<identified>;
 
 // Shooting converges to the shooting's 1e-12 m (ref/integrate/shooting.hpp): far below probe
 // resolution and far below the orbit changes the fit's finite differences make (>= 1e-9 m).
@@ -166,7 +166,7 @@ orbit_kind orbit_predictor::predict(std::size_t k, const model_point& m) {
   }
 }
 
-orbit_predictor::shot orbit_predictor::shoot(std::size_t k, const model_point& m, const rig_system<identified>& sys, double period,
+orbit_predictor::shot orbit_predictor::shoot(std::size_t k, const model_point& m, const rotor_with_effects<identified>& sys, double period,
                                              const sample_grid& grid) {
   const dwell& d = dwells_[k].data;
   cache& c = caches_[k];

@@ -1,7 +1,8 @@
 #pragma once
 // Stage 2 of `rubref loop` (docs/loop.md): what the model predicts the probes read. The model is
 // the paper's rotor with the identified law (Eq. 1, 2, 5) plus any set of the library's effects
-// (ref/rig/rig_system.hpp), seen through probes that may be turned and read a runout.
+// (`rotor_with_effects`, ref/rotor_model.hpp), seen through probes that may be turned and read a
+// runout (ref/rig/probes.hpp).
 //
 // Every dwell is taken as steady and synchronous: its orbit repeats each revolution. The model's
 // orbit is therefore its periodic orbit (Newton shooting on one revolution), read at each sample's
@@ -23,7 +24,8 @@
 #include "ref/loop/preprocess.hpp"
 #include "ref/parameters.hpp"
 #include "ref/rig/effects.hpp"
-#include "ref/rig/rig_system.hpp"
+#include "ref/rig/probes.hpp"
+#include "ref/rotor_model.hpp"
 #include "variants/identified.hpp"
 
 namespace rubref {
@@ -90,7 +92,7 @@ class orbit_predictor {
   };
   orbit_kind predict(std::size_t k, const model_point& m);
   enum class shot { converged, failed };
-  shot shoot(std::size_t k, const model_point& m, const rig_system<identified>& sys, double period, const sample_grid& grid);
+  shot shoot(std::size_t k, const model_point& m, const rotor_with_effects<identified>& sys, double period, const sample_grid& grid);
 
   const std::vector<loop_dwell>& dwells_;
   double noise_;

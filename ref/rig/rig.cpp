@@ -30,12 +30,12 @@ struct truth_samples {
 template <class Law>
 truth_samples run_dwell(const rig_request& req, double rpm, std::size_t count, const std::array<double, 6>& start,
                         std::array<double, 6>* end) {
-  const rig_system<Law> model(req.params, req.effects, rpm_to_rad_s(rpm), req.unmodelled);
+  const rotor_with_effects<Law> model(req.params, req.effects, rpm_to_rad_s(rpm), req.unmodelled);
   const double t0 = req.settle_revs * model.period(), dt = 1.0 / req.probes.sample_rate;
   struct keep {
-    const rig_system<Law>* model;
+    const rotor_with_effects<Law>* model;
     truth_samples* out;
-    void on_sample(double t, const std::array<double, 6>& x, const rig_system<Law>&) {
+    void on_sample(double t, const std::array<double, 6>& x, const rotor_with_effects<Law>&) {
       out->s.push_back(x);
       out->angle.push_back(model->shaft_angle(t));
     }

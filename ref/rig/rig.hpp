@@ -14,7 +14,8 @@
 #include "ref/parameters.hpp"
 #include "ref/record.hpp"
 #include "ref/rig/effects.hpp"
-#include "ref/rig/rig_system.hpp"
+#include "ref/rig/probes.hpp"
+#include "ref/rotor_model.hpp"
 
 namespace rubref {
 
