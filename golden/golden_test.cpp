@@ -93,6 +93,16 @@ TEST_P(golden_regression, carries_its_provenance) {
     EXPECT_LE(r.number("cross_check_max_difference_m"), kReproducibleRelTol * g.statistics.max_radius);
     EXPECT_EQ(g.orbit_tolerance, kGoldenOrbitRelTol * g.statistics.max_radius);
   }
+  // A periodic case is the shot fixed point of its period map (ref/golden.cpp): converged to the
+  // shooting's tolerance, stable (a transient from rest reached it), and the settled transient
+  // on it to the reproducibility share of the orbit.
+  if (g.comparison == comparison_kind::orbit && g.period_revs > 0) {
+    for (const char* key : {"shooting_residual_m", "shooting_iterations", "floquet_max_modulus", "transient_max_difference_m"})
+      ASSERT_NE(r.find(key), nullptr) << path << " lacks '" << key << "'";
+    EXPECT_LE(r.number("shooting_residual_m"), kGoldenShootingTolerance);
+    EXPECT_LT(r.number("floquet_max_modulus"), 1.0);
+    EXPECT_LE(r.number("transient_max_difference_m"), kReproducibleRelTol * g.statistics.max_radius);
+  }
   // Every cell at 17 significant digits, e.g. 7.5000000000000000e+00.
   std::ifstream in(path);
   std::string line;

@@ -5,10 +5,12 @@
 #include <cmath>
 #include <complex>
 #include <limits>
+#include <optional>
 
 #include "ref/errors.hpp"
 #include "ref/orbit_io.hpp"
 #include "ref/orbit_summary.hpp"
+#include "ref/orbits/periodic_orbit.hpp"
 #include "ref/parallel.hpp"
 #include "ref/parameter_io.hpp"
 #include "ref/version.hpp"
@@ -84,6 +86,9 @@ integration_options golden_method() {
 integration_options golden_cross_check() {
   integration_options opt = golden_method();
   opt.stepper.kind = stepper_kind::bulirsch_stoer;
+  // Independent of the careful method in the free flight too: integrated, not in closed form
+  // (else an impact law, whose contacts are instants, would be cross-checked by itself).
+  opt.exact_free_flight = false;
   return opt;
 }
 
@@ -139,13 +144,42 @@ record make_golden(const golden_spec& spec, std::string_view date, unsigned thre
   cross_req.integration = golden_cross_check();
   std::vector<orbit> pair(2);
   parallel_for(2, threads, [&](std::size_t i) { pair[i] = simulate(i == 0 ? req : cross_req); });
-  const orbit& golden = pair[0];
+  const orbit& transient = pair[0];
+  const double transient_radius = summarize(transient).max_radius;
+  const double cross_difference = largest_difference(transient, pair[1]);
+  const bool reproducible = cross_difference <= kReproducibleRelTol * transient_radius;
+  const int period = period_in_revs(transient, kReproducibleRelTol * transient_radius);
+
+  // A periodic case's orbit is the fixed point of its period map, by Newton shooting with the
+  // exact monodromy (ref/integrate/shooting.hpp) from the settled state, with the careful
+  // method's stepper; the transients from rest only pick which attractor the case is, and must
+  // agree with it. Its Floquet multipliers go into the file: a transient reaches a stable orbit.
+  std::optional<periodic_orbit_result> shot;
+  orbit fixed_point;
+  double shot_difference = 0.0;
+  if (reproducible && period > 0) {
+    shot_options so;
+    so.t0 = transient.samples.front().t;
+    so.stepper = req.integration.stepper;
+    so.tolerance = kGoldenShootingTolerance;
+    shot = shoot_from(req, transient.samples.front().s, period, so);
+    const std::string where = "golden case " + golden_file_name(spec) + ": ";
+    if (!shot->converged)
+      throw numerical_error(where + "Newton shooting from the settled state did not converge (" + shot->failure + ")");
+    if (!shot->stable)
+      throw numerical_error(where + "the shot orbit is unstable (largest Floquet multiplier modulus " +
+                            format_number(shot->max_multiplier_modulus) + "), but a transient reached it");
+    fixed_point = record_periods(req, shot->samples.request.initial_state, req.record_revs, so.t0);
+    for (std::size_t i = 0; i < fixed_point.samples.size(); ++i)
+      if (fixed_point.samples[i].t != transient.samples[i].t) throw numerical_error(where + "the shot orbit's grid is not the transient's");
+    shot_difference = largest_difference(fixed_point, transient);
+    if (!(shot_difference <= kReproducibleRelTol * transient_radius))
+      throw numerical_error(where + "the shot orbit differs from the settled transient by " + format_number(shot_difference) + " m");
+  }
+  const orbit& golden = shot ? fixed_point : transient;
   const orbit_summary summary = summarize(golden);
   const double radius = summary.max_radius;
-  const double cross_difference = largest_difference(golden, pair[1]);
   const double orbit_tol = kGoldenOrbitRelTol * radius;
-  const bool reproducible = cross_difference <= kReproducibleRelTol * radius;
-  const int period = period_in_revs(golden, kReproducibleRelTol * radius);
   const orbit_statistics stats = orbit_statistics_of(golden);
 
   // Tolerances of the statistics. Orbit cases: a candidate within the orbit tolerance moves a
@@ -193,7 +227,10 @@ record make_golden(const golden_spec& spec, std::string_view date, unsigned thre
   r.set("record_revs", static_cast<double>(req.record_revs));
   r.set("samples_per_rev", static_cast<double>(req.samples_per_rev));
   r.set("sample_rate_hz", req.samples_per_rev * spec.rpm / 60.0);
-  r.set("method", "rkf78 (Runge-Kutta-Fehlberg 7(8), odeint) with located contact events, cross-checked by Bulirsch-Stoer");
+  r.set("method", shot ? "periodic orbit by Newton shooting (exact monodromy, saltation matrices) from the settled transient, "
+                         "rkf78 (Runge-Kutta-Fehlberg 7(8), odeint) with located contact events; the transient from rest "
+                         "(rkf78) and its cross-check (Bulirsch-Stoer) agree with it"
+                       : "rkf78 (Runge-Kutta-Fehlberg 7(8), odeint) with located contact events, cross-checked by Bulirsch-Stoer");
   r.set("stepper", std::string(to_string(req.integration.stepper.kind)));
   r.set("rtol", req.integration.stepper.rtol);
   r.set("atol", req.integration.stepper.atol);
@@ -204,6 +241,12 @@ record make_golden(const golden_spec& spec, std::string_view date, unsigned thre
   r.set("cross_check_max_difference_m", cross_difference);
   r.set("comparison", std::string(to_string(reproducible ? comparison_kind::orbit : comparison_kind::statistics)));
   r.set("period_revs", static_cast<double>(period));
+  if (shot) {
+    r.set("shooting_residual_m", shot->residual);
+    r.set("shooting_iterations", static_cast<double>(shot->iterations));
+    r.set("floquet_max_modulus", shot->max_multiplier_modulus);
+    r.set("transient_max_difference_m", shot_difference);
+  }
   if (reproducible) r.set("tolerance_orbit_m", orbit_tol);
   for (const auto& info : statistic_table) {
     r.set(std::string(info.key), stats.*info.member);

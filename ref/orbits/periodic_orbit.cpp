@@ -38,15 +38,16 @@ void take_shot(periodic_orbit_result& out, const periodic_orbit<N>& shot) {
 
 }  // namespace
 
-periodic_orbit_result shoot_from(const run_request& run, const state_type& guess, int periods, double tolerance) {
+periodic_orbit_result shoot_from(const run_request& run, const state_type& guess, int periods, const shot_options& opt) {
   return visit_variant(run.variant, [&]<class Law>() {
     const rotor_system<Law> model(run.params, rpm_to_rad_s(run.rpm));
     shooting_settings set;
-    set.tolerance = tolerance;
+    set.tolerance = opt.tolerance;
+    if (opt.stepper) set.integration.stepper = *opt.stepper;
     set.integration.events = run.integration.events;
     periodic_orbit_result out;
     out.start = "given state";
-    const auto shot = shoot_periodic_orbit(model, guess, 0.0, periods, set);
+    const auto shot = shoot_periodic_orbit(model, guess, opt.t0, periods, set);
     out.iterations = shot.iterations;
     take_shot(out, shot);
     out.samples.request = run;
@@ -118,19 +119,19 @@ periodic_orbit_result find_periodic_orbit(const periodic_orbit_request& req) {
   });
 }
 
-orbit record_periods(const run_request& run, const state_type& on_orbit, int periods) {
+orbit record_periods(const run_request& run, const state_type& on_orbit, int periods, double t0) {
   return visit_variant(run.variant, [&]<class Law>() {
     const rotor_system<Law> model(run.params, rpm_to_rad_s(run.rpm));
     orbit out;
     out.request = run;
     out.request.initial_state = on_orbit;
-    out.request.settle_revs = 0;
+    out.request.settle_revs = static_cast<int>(std::lround(t0 / model.period()));
     out.request.record_revs = periods;
-    const sample_grid grid{0.0, model.period() / run.samples_per_rev,
+    const sample_grid grid{t0, model.period() / run.samples_per_rev,
                            static_cast<std::size_t>(periods) * static_cast<std::size_t>(run.samples_per_rev)};
     recorder obs{&out.samples, &out.events};
-    out.end = integrate_hybrid(model, start_state(model, on_orbit, 0.0), periods * model.period(), run.integration, grid, obs,
-                               &out.counts);
+    out.end = integrate_hybrid(model, start_state(model, on_orbit, t0), t0 + periods * model.period(), run.integration, grid,
+                               obs, &out.counts);
     return out;
   });
 }

@@ -37,13 +37,23 @@ struct periodic_orbit_result {
   std::size_t events_per_period = 0;
 };
 
-// `periods` revolutions of the model of `run` from `on_orbit` at t = 0, sampled at
-// run.samples_per_rev (run.integration; the request of the result starts at `on_orbit`).
-orbit record_periods(const run_request& run, const state_type& on_orbit, int periods);
+// `periods` revolutions of the model of `run` from `on_orbit` at t0 (s), sampled at
+// run.samples_per_rev on the grid t0 + k T / samples_per_rev (run.integration): with t0 = s T,
+// the grid of `simulate` after s settling revolutions (the result's request says s; its
+// initial_state is `on_orbit`, the state at t0).
+orbit record_periods(const run_request& run, const state_type& on_orbit, int periods, double t0 = 0.0);
 
-// Newton alone from `guess` at t = 0, with no second start and no fallback (a sweep's start from
-// its neighbour's orbit): `samples` stays empty; `converged` says whether it found one.
-periodic_orbit_result shoot_from(const run_request& run, const state_type& guess, int periods, double tolerance = 1e-12);
+// How `shoot_from` shoots: its tolerance, the map's start time, and its stepper.
+struct shot_options {
+  double tolerance = 1e-12;  // m, |P(s) - s| at convergence (velocities / |w|)
+  double t0 = 0.0;           // s: the map from t0 to t0 + periods T
+  std::optional<stepper_settings> stepper;  // default: the shooting's own (ref/integrate/shooting.hpp)
+};
+
+// Newton alone from `guess` at t0, with no second start and no fallback (a sweep's start from
+// its neighbour's orbit, a golden case's settled state): `samples` stays empty; `converged` says
+// whether it found one. Events are located as run.integration.events says.
+periodic_orbit_result shoot_from(const run_request& run, const state_type& guess, int periods, const shot_options& opt = {});
 
 // Validates (input_error), then finds the orbit. A numerical failure of the fallback is a
 // numerical_error; a failed Newton is reported in the result, never hidden.
