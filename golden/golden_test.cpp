@@ -15,9 +15,9 @@
 namespace rubref {
 namespace {
 
-// The fast path agrees with the careful method to 2.8e-13 m or better on every orbit case (the
+// The fast path agrees with the careful method to 6.8e-14 m or better on every orbit case (the
 // table of docs/validation.md, made by scripts/update-doc-validation); 1e-11 m leaves a margin
-// of 35 and is still 3000 below the tolerance the files give other codes. Statistics cases (chaotic) are held to their files' own tolerances.
+// of 150 and is still 3000 below the tolerance the files give other codes. Statistics cases (chaotic) are held to their files' own tolerances.
 constexpr double kFastPathOrbitTol = 1e-11;  // m
 
 golden_case load(const golden_spec& spec) {
