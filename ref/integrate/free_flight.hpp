@@ -64,6 +64,11 @@ class free_flight {
   using sub_vector = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, N, 1>;
   using sub_cmatrix = Eigen::Matrix<cscalar, Eigen::Dynamic, Eigen::Dynamic, 0, N, N>;
   using sub_cvector = Eigen::Matrix<cscalar, Eigen::Dynamic, 1, 0, N, 1>;
+  struct eigenbasis {
+    sub_matrix a;  // the moving components' A
+    sub_cvector lambda;
+    sub_cmatrix V, Vinv;
+  };
 
  public:
 
@@ -81,15 +86,28 @@ class free_flight {
     sub_matrix a(n_, n_);
     for (int r = 0; r < n_; ++r)
       for (int c = 0; c < n_; ++c) a(r, c) = d.A(active_[static_cast<std::size_t>(r)], active_[static_cast<std::size_t>(c)]);
-    Eigen::EigenSolver<sub_matrix> eig(a);
-    if (eig.info() != Eigen::Success) throw numerical_error("free flight: no eigendecomposition of the linear dynamics");
-    lambda_ = eig.eigenvalues();
-    V_ = eig.eigenvectors();
-    const Eigen::PartialPivLU<sub_cmatrix> lu(V_);
-    // A defective (or nearly so) A, e.g. exactly critical damping, has no usable eigenbasis.
-    const double cond = V_.cwiseAbs().colwise().sum().maxCoeff() * lu.inverse().cwiseAbs().colwise().sum().maxCoeff();
-    if (!(cond < 1e8)) throw numerical_error("free flight: the linear dynamics have no well-conditioned eigenbasis");
-    Vinv_ = lu.inverse();
+    // The eigenbasis depends on A alone, which a continuation in speed, unbalance or mu and the
+    // flows of one shooting share: the last one is kept per thread (a pure function of A, so the
+    // results are the same bits with or without it, on any number of threads).
+    thread_local std::optional<eigenbasis> last;
+    if (!(last && last->a.rows() == n_ && last->a == a)) {
+      last.reset();
+      eigenbasis e;
+      e.a = a;
+      Eigen::EigenSolver<sub_matrix> eig(a);
+      if (eig.info() != Eigen::Success) throw numerical_error("free flight: no eigendecomposition of the linear dynamics");
+      e.lambda = eig.eigenvalues();
+      e.V = eig.eigenvectors();
+      const Eigen::PartialPivLU<sub_cmatrix> lu(e.V);
+      e.Vinv = lu.inverse();
+      // A defective (or nearly so) A, e.g. exactly critical damping, has no usable eigenbasis.
+      const double cond = e.V.cwiseAbs().colwise().sum().maxCoeff() * e.Vinv.cwiseAbs().colwise().sum().maxCoeff();
+      if (!(cond < 1e8)) throw numerical_error("free flight: the linear dynamics have no well-conditioned eigenbasis");
+      last = std::move(e);
+    }
+    lambda_ = last->lambda;
+    V_ = last->V;
+    Vinv_ = last->Vinv;
     // The particular solution: constant and harmonic parts.
     p0_ = dynamics::vector::Zero();
     sub_vector bs(n_);
@@ -121,8 +139,22 @@ class free_flight {
     particular_bound_ = 0.0;
     for (int h = 0; h < dynamics::kMaxHarmonics; ++h) {
       const double w = (h + 1) * d.omega;
-      particular_bound_ += std::abs(d.normal.template cast<cscalar>().dot(P_[static_cast<std::size_t>(h)])) * w * w;
+      lP_[static_cast<std::size_t>(h)] = d.normal.template cast<cscalar>().dot(P_[static_cast<std::size_t>(h)]);
+      particular_bound_ += std::abs(lP_[static_cast<std::size_t>(h)]) * w * w;
     }
+    lp0_ = d.normal.dot(p0_);
+    // A real A's complex eigenvalues come in conjugate pairs with conjugate eigenvectors (Eigen
+    // builds them so, exactly), and a real state has conjugate modal coordinates on them: the
+    // pair's share of z is twice the real part of one term, which halves the onset search's
+    // complex exponentials.
+    weight_.resize(n_);
+    for (int j = 0; j < n_; ++j) weight_[j] = 1.0;
+    for (int j = 0; j + 1 < n_; ++j)
+      if (weight_[j] == 1.0 && lambda_[j].imag() != 0.0 && lambda_[j + 1] == std::conj(lambda_[j]) &&
+          V_.col(j + 1) == V_.col(j).conjugate()) {
+        weight_[j] = 2.0;
+        weight_[j + 1] = 0.0;
+      }
   }
 
   // The particular (periodic) solution at t.
@@ -150,7 +182,14 @@ class free_flight {
       }
       modal_.resize(ff.n_);
       q_.resize(ff.n_);
-      for (int j = 0; j < ff.n_; ++j) q_[j] = std::abs(ff.lV_[j]) * std::norm(ff.lambda_[j]) * std::abs(c_[j]);
+      lc_.resize(ff.n_);
+      for (int j = 0; j < ff.n_; ++j) {
+        q_[j] = std::abs(ff.lV_[j]) * std::norm(ff.lambda_[j]) * std::abs(c_[j]);
+        lc_[j] = ff.weight_[j] * ff.lV_[j] * c_[j];
+      }
+      z_const_ = ff.lp0_ - ff.d_.offset;
+      for (int i = 0; i < N; ++i)
+        if (!ff.is_active(i)) z_const_ += ff.d_.normal[i] * s0[static_cast<std::size_t>(i)];
     }
 
     double start_time() const noexcept { return t0_; }
@@ -170,14 +209,21 @@ class free_flight {
       return s;
     }
 
-    // z and z' at t (z = normal . s - offset; its rate from the state's derivative).
+    // z and z' at t (z = normal . s - offset), from the projections of the solution on the
+    // normal alone: z = l.p0 - offset + Re sum_h (l.P_h) e^{i h w t} + Re sum_j (l.V_j) c_j e^{lambda_j tau}.
     std::pair<double, double> penetration(double t) const {
-      const state s = at(t);
-      double z = -ff_->d_.offset, zd = 0.0;
-      const state ds = ff_->derivative(s, t);
-      for (int i = 0; i < N; ++i) {
-        z += ff_->d_.normal[i] * s[static_cast<std::size_t>(i)];
-        zd += ff_->d_.normal[i] * ds[static_cast<std::size_t>(i)];
+      const double w = ff_->d_.omega;
+      const forcing_phasor u = phasor_of(w * t);
+      const cscalar z1(u.cos, u.sin), z2 = z1 * z1;
+      const cscalar p1 = ff_->lP_[0] * z1, p2 = ff_->lP_[1] * z2;
+      double z = z_const_ + p1.real() + p2.real();
+      double zd = -w * (p1.imag() + 2.0 * p2.imag());  // d/dt Re(a e^{i w t}) = -w Im(a e^{i w t})
+      const double tau = t - t0_;
+      for (int j = 0; j < ff_->n_; ++j) {
+        if (ff_->weight_[j] == 0.0) continue;  // the conjugate of the term before
+        const cscalar m = std::exp(ff_->lambda_[j] * tau) * lc_[j];
+        z += m.real();
+        zd += (ff_->lambda_[j] * m).real();
       }
       return {z, zd};
     }
@@ -255,6 +301,8 @@ class free_flight {
     double t0_;
     state s0_;
     sub_cvector c_;               // modal coordinates of s0 - p(t0)
+    sub_cvector lc_;              // weight_j (l.V_j) c_j: each mode's share of z
+    double z_const_ = 0.0;        // l.p0 - offset + the constant components' share of z
     Eigen::Matrix<double, Eigen::Dynamic, 1, 0, N, 1> q_;  // |l.V_j| |lambda_j|^2 |c_j|
     mutable sub_cvector modal_;  // scratch
   };
@@ -313,6 +361,9 @@ class free_flight {
   typename dynamics::vector p0_;
   std::array<typename dynamics::complex_vector, dynamics::kMaxHarmonics> P_;
   sub_cvector lV_;
+  std::array<cscalar, dynamics::kMaxHarmonics> lP_{};  // l.P_h
+  double lp0_ = 0.0;                                    // l.p0
+  Eigen::Matrix<double, Eigen::Dynamic, 1, 0, N, 1> weight_;  // 2: a pair's first mode, 0: its second, 1: a real mode
   double particular_bound_ = 0.0;
 };
 

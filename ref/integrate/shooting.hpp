@@ -113,13 +113,10 @@ class sensitivity_system {
     base_state ds{};
     sys_(s, ds, t);
     std::copy(ds.begin(), ds.end(), da.begin());
-    const auto J = sys_.jacobian(s);
-    for (int c = 0; c < N; ++c)
-      for (int r = 0; r < N; ++r) {
-        double v = 0.0;
-        for (int k = 0; k < N; ++k) v += J[static_cast<std::size_t>(r * N + k)] * a[static_cast<std::size_t>(N + c * N + k)];
-        da[static_cast<std::size_t>(N + c * N + r)] = v;
-      }
+    const auto J = sys_.jacobian(s);  // row-major
+    const Eigen::Map<const Eigen::Matrix<double, N, N, Eigen::RowMajor>> Jm(J.data());
+    const Eigen::Map<const square_matrix<N>> phi(a.data() + N);  // column-major after s
+    Eigen::Map<square_matrix<N>>(da.data() + N).noalias() = Jm * phi;
   }
 
   contact_phase phase() const noexcept { return sys_.phase(); }

@@ -93,9 +93,11 @@ namespace {
 
 // Pseudo-arclength continuation of the fixed points of the n-revolution map in one parameter.
 // Unknowns u = (s / scale, lambda / lambda_scale); the residual G(u) = (P(s; lambda) - s) / scale.
-// dG/ds = D^-1 (M - I) D from the exact monodromy M; dG/dlambda by central differences of P
-// (steps of 1e-6 of the range: truncation ~1e-12, rounding ~1e-10 relative, far below what the
-// corrector needs; the converged points themselves are exact to the tolerance).
+// dG/ds = D^-1 (M - I) D from the exact monodromy M; dG/dlambda by a forward difference of P
+// from the flow the monodromy came with (a step of 1e-6 of the range: truncation and the two
+// flows' integration error each ~1e-6 relative, which costs the corrector at most an iteration,
+// not accuracy: the converged points are exact to the tolerance, and folds are located on
+// det(M - I), which uses the exact M alone).
 template <class Law>
 class branch_tracer {
  public:
@@ -267,10 +269,10 @@ class branch_tracer {
           e.J(i, j) = (f.monodromy(i, j) - (i == j ? 1.0 : 0.0)) * scale_[static_cast<std::size_t>(j)] / scale_[k];
       }
       const double h = 1e-6 * lambda_scale_;
-      const state_type up = flow(lambda + h, s), down = flow(lambda - h, s);
+      const state_type up = flow(lambda + h, s);
       for (int i = 0; i < N; ++i) {
         const auto k = static_cast<std::size_t>(i);
-        e.J(i, N) = (up[k] - down[k]) / (2.0 * h) * lambda_scale_ / scale_[k];
+        e.J(i, N) = (up[k] - f.end[k]) / h * lambda_scale_ / scale_[k];
       }
       if (!e.G.allFinite() || !e.J.allFinite()) {
         failure_ = "a non-finite map";
