@@ -23,6 +23,7 @@
 #include <cmath>
 #include <complex>
 #include <cstdint>
+#include <cstring>
 #include <limits>
 #include <optional>
 #include <string>
@@ -87,10 +88,14 @@ class free_flight {
     for (int r = 0; r < n_; ++r)
       for (int c = 0; c < n_; ++c) a(r, c) = d.A(active_[static_cast<std::size_t>(r)], active_[static_cast<std::size_t>(c)]);
     // The eigenbasis depends on A alone, which a continuation in speed, unbalance or mu and the
-    // flows of one shooting share: the last one is kept per thread (a pure function of A, so the
-    // results are the same bits with or without it, on any number of threads).
+    // flows of one shooting share: the last one is kept per thread (a pure function of A's bits,
+    // compared as bits so that even a zero's sign matches, so the results are the same bits with
+    // or without it, on any number of threads).
     thread_local std::optional<eigenbasis> last;
-    if (!(last && last->a.rows() == n_ && last->a == a)) {
+    const auto same_bits = [&](const sub_matrix& m) {
+      return m.rows() == n_ && std::memcmp(m.data(), a.data(), sizeof(double) * static_cast<std::size_t>(n_ * n_)) == 0;
+    };
+    if (!(last && same_bits(last->a))) {
       last.reset();
       eigenbasis e;
       e.a = a;
