@@ -314,19 +314,6 @@ class free_flight {
 
   arc from(double t0, const state& s0) const { return arc(*this, t0, s0); }
 
-  // ds/dt of the linear dynamics at (s, t).
-  state derivative(const state& s, double t) const {
-    const forcing_phasor u = phasor_of(d_.omega * t);
-    const cscalar z1(u.cos, u.sin), z2 = z1 * z1;
-    state ds{};
-    for (int i = 0; i < N; ++i) {
-      double v = d_.b[i] + (d_.F[0][i] * z1).real() + (d_.F[1][i] * z2).real();
-      for (int j = 0; j < N; ++j) v += d_.A(i, j) * s[static_cast<std::size_t>(j)];
-      ds[static_cast<std::size_t>(i)] = v;
-    }
-    return ds;
-  }
-
   // e^{A tau}: the state transition matrix of a free arc of length tau (exact; identity rows for
   // the constant components).
   Eigen::Matrix<double, N, N> transition(double tau) const {
