@@ -221,6 +221,26 @@ auto exact_free_flight_of(const System& sys, bool wanted) {
   }
 }
 
+// A System that carries more than its model's state (ref/integrate/shooting.hpp): its events are
+// its model's, read from the model's part of the state (`head`).
+template <class S>
+concept augmented_system = requires(const S sys, const state_of<S>& a) {
+  sys.model();
+  { S::head(a) } -> std::same_as<state_of<std::remove_cvref_t<decltype(sys.model())>>>;
+};
+
+template <class System>
+decltype(auto) probe_system(const System& sys) {
+  if constexpr (augmented_system<System>) {
+    return sys.model();
+  } else {
+    return (sys);
+  }
+}
+
+template <class System>
+using head_state_t = state_of<std::remove_cvref_t<decltype(probe_system(std::declval<const System&>()))>>;
+
 template <contact_system System, class Stepper, class Observer>
   requires dense_stepper<Stepper, System>
 basic_hybrid_state<state_of<System>> hybrid_loop(const System& base, Stepper& st, basic_hybrid_state<state_of<System>> hs,
@@ -260,8 +280,24 @@ basic_hybrid_state<state_of<System>> hybrid_loop(const System& base, Stepper& st
     }
     return tmp;
   };
-  const auto h_at = [&](double t) { return exit_value(sys, state_at(t), t); };
-  const auto hdot_at = [&](double t) { return exit_rate(sys, state_at(t), t); };
+  // What the exit functions read. A System that carries more than its model's state (the
+  // monodromy's 16 entries, ref/integrate/shooting.hpp) is probed on its model alone, and a
+  // stepper whose dense output is a step (rkf78) steps only that part for it.
+  head_state_t<System> head_tmp{};
+  const auto probe_at = [&](double t) -> head_state_t<System> {
+    if constexpr (augmented_system<System>) {
+      if constexpr (requires { st.calc_head_state(t, head_tmp); }) {
+        st.calc_head_state(t, head_tmp);
+        return head_tmp;
+      } else {
+        return System::head(state_at(t));
+      }
+    } else {
+      return state_at(t);
+    }
+  };
+  const auto h_at = [&](double t) { return exit_value(probe_system(sys), probe_at(t), t); };
+  const auto hdot_at = [&](double t) { return exit_rate(probe_system(sys), probe_at(t), t); };
 
   // One accepted step. odeint's controllers accept a trial whose error estimate is NaN, so a
   // step that overflowed (a stiff contact law's stages can, for a step sized in free flight:
@@ -463,15 +499,14 @@ basic_hybrid_state<state_of<System>> hybrid_loop(const System& base, Stepper& st
 
     // Peak penetration of an open contact episode: step end, and an interior maximum of z.
     if (sys.phase() == contact_phase::contact) {
-      const double z_lo = sys.penetration(state_at(ta));
-      const double v_lo = sys.penetration_rate(tmp);
-      const double z_hi = sys.penetration(state_at(t_stop));
-      const double v_hi = sys.penetration_rate(tmp);
-      hs.episode_peak = std::max({hs.episode_peak, z_lo, z_hi});
+      const auto& model = probe_system(sys);
+      const auto lo = probe_at(ta), hi = probe_at(t_stop);
+      const double v_lo = model.penetration_rate(lo), v_hi = model.penetration_rate(hi);
+      hs.episode_peak = std::max({hs.episode_peak, model.penetration(lo), model.penetration(hi)});
       if (v_lo > 0.0 && v_hi < 0.0) {
-        const auto rate_at = [&](double t) { return sys.penetration_rate(state_at(t)); };
+        const auto rate_at = [&](double t) { return model.penetration_rate(probe_at(t)); };
         const auto [p_lo, p_hi] = bracket_root(rate_at, ta, t_stop, v_lo, v_hi, tol);
-        hs.episode_peak = std::max(hs.episode_peak, sys.penetration(state_at(0.5 * (p_lo + p_hi))));
+        hs.episode_peak = std::max(hs.episode_peak, model.penetration(probe_at(0.5 * (p_lo + p_hi))));
       }
     }
 

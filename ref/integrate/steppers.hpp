@@ -222,13 +222,42 @@ class rkf78_dense {
       plain_.do_step(*sys_, prev_, t_prev_, out, t - t_prev_);
     }
   }
+  // The model's own state at t, for a System that carries more (the monodromy's): the step of
+  // the model alone, which gives the same bits as the head of the whole step (the model's
+  // right-hand side does not read the rest, and odeint's algebra is per component) at a fifth of
+  // the work. The event searches read only this.
+  template <class Head>
+  void calc_head_state(double t, Head& out) const
+    requires requires(const System& s, const state_type& a) { s.model(); System::head(a); }
+  {
+    if (t == t_) {
+      out = System::head(cur_);
+    } else if (t == t_prev_) {
+      out = System::head(prev_);
+    } else {
+      plain_head_.do_step(sys_->model(), System::head(prev_), t_prev_, out, t - t_prev_);
+    }
+  }
   const state_type& current_state() const { return cur_; }
   double current_time() const { return t_; }
   double current_time_step() const { return dt_; }
 
  private:
+  // The model's state when System carries more; state_type otherwise (then unused).
+  template <class S>
+  struct head_of {
+    using type = state_type;
+  };
+  template <class S>
+    requires requires(const S& s) { s.model(); }
+  struct head_of<S> {
+    using type = std::remove_cvref_t<decltype(std::declval<const S&>().model())>::state_type;
+  };
+  using head_state = typename head_of<System>::type;
+
   controlled controlled_;
   mutable error_stepper plain_;
+  mutable boost::numeric::odeint::runge_kutta_fehlberg78<head_state> plain_head_;
   std::optional<System> sys_;
   state_type cur_{}, prev_{};
   double t_ = 0.0, t_prev_ = 0.0, dt_ = 0.0;
