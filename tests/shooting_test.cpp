@@ -141,6 +141,39 @@ TEST(shooting, finds_the_golden_orbits_settled_state) {
   EXPECT_GT(checked, 5);
 }
 
+// Inexact Newton (shooting_settings::coarse_while_far) from a guess far from each period-1 golden
+// orbit lands where exact Newton does: the coarse evaluations change the path, not the fixed
+// point, and the converged evaluation is at the full tolerance (so the multipliers are the same).
+// The guess is 30 um and 30 mm/s off (Newton's residual there ~0.1 of the orbit: coarse steps).
+constexpr double kSameFixedPointTol = 5e-12;  // m: two solutions each within 1e-12 m of P(s) = s, through M - I
+constexpr double kSameMultiplierTol = 1e-8;   // both monodromies at rtol 1e-12: ~1e-10, with margin
+TEST(shooting, inexact_newton_lands_on_the_exact_newton_orbit) {
+  int compared = 0;
+  for (const golden_spec& spec : golden_matrix()) {
+    const auto path = std::filesystem::path(RUBREF_GOLDEN_DIR) / golden_file_name(spec);
+    const golden_case g = read_golden_case(read_record(path), path.filename().string());
+    if (g.comparison != comparison_kind::orbit || g.period_revs != 1) continue;
+    visit_variant(g.request.variant, [&]<class V>() {
+      const rotor_system<V> sys(g.request.params, rpm_to_rad_s(g.request.rpm));
+      const double t0 = g.t.front();
+      const state_type guess{g.x.front() + 3e-5, g.y.front() - 3e-5, g.vx.front() + 3e-2, g.vy.front() - 3e-2};
+      shooting_settings exact_newton, inexact_newton;
+      inexact_newton.coarse_while_far = true;
+      const auto a = shoot_periodic_orbit(sys, guess, t0, 1, exact_newton);
+      const auto b = shoot_periodic_orbit(sys, guess, t0, 1, inexact_newton);
+      if (!a.converged) return;  // (from this far a coexisting orbit or none: not the point here)
+      ASSERT_TRUE(b.converged) << path.filename() << ": " << b.failure;
+      EXPECT_LE(b.residual, inexact_newton.tolerance) << path.filename();
+      for (int i = 0; i < 4; ++i)
+        EXPECT_NEAR(b.state[static_cast<std::size_t>(i)], a.state[static_cast<std::size_t>(i)], kSameFixedPointTol * (i < 2 ? 1.0 : sys.omega()))
+            << path.filename() << " state " << i;
+      EXPECT_NEAR(b.max_multiplier_modulus(), a.max_multiplier_modulus(), kSameMultiplierTol) << path.filename();
+      ++compared;
+    });
+  }
+  EXPECT_GT(compared, 10);
+}
+
 // The rig's model (6 states with a compliant stator, 4 moving with a rigid one) shoots too, and
 // its monodromy matches finite differences across Hertz and Hunt-Crossley terms and a stator.
 TEST(shooting, rig_model_with_effects_matches_finite_differences) {

@@ -231,6 +231,16 @@ struct shooting_settings {
   int max_iterations = 30;
   // Converged when the map moves the state by less than this (positions in m, velocities / |w|).
   double tolerance = 1e-12;
+  // Inexact Newton, for a guess far from the orbit (a contact-free response): an evaluation far
+  // from the orbit needs only a small share of the residual that Newton's step will leave, not
+  // the tolerance. The first evaluation is then coarse, and each next one at the stepper rtol
+  // kInexactRtolFactor (r / R)^2 (r the residual, R the orbit's size; Newton leaves ~ r^2 / R),
+  // clamped to [integration's rtol, kCoarsestRtol]. Only an evaluation at integration's own
+  // tolerance can converge. Off for a guess already near the orbit (a coarse first evaluation
+  // would be wasted there).
+  bool coarse_while_far = false;
+  static constexpr double kCoarsestRtol = 1e-6;        // rkf78 errs by ~1e-8 of the orbit there (docs/orbits.md)
+  static constexpr double kInexactRtolFactor = 1e-3;  // the flow's error ~1e-2 rtol R: 1e-5 of what the step leaves
 };
 
 template <int N>
@@ -302,12 +312,25 @@ periodic_orbit<static_cast<int>(std::tuple_size_v<state_of<System>>)> shoot_peri
   double best_res = std::numeric_limits<double>::infinity();
   dyn_vector step;
   double damping = 1.0;
+  // The stepper's rtol for the next evaluation (set.coarse_while_far); R, the orbit's size, is
+  // at least the clearance.
+  const double final_rtol = set.integration.stepper.rtol;
+  double rtol = set.coarse_while_far ? std::max(final_rtol, shooting_settings::kCoarsestRtol) : final_rtol;
+  const auto orbit_size = [&](const std::array<double, N>& x) {
+    double r = sys.clearance();
+    for (int i = 0; i < n; ++i) r = std::max(r, std::abs(x[static_cast<std::size_t>(i)]) * scale[static_cast<std::size_t>(i)]);
+    return r;
+  };
   for (int it = 0; it < set.max_iterations; ++it) {
     out.iterations = it + 1;
     std::optional<flow_with_monodromy<N>> f;
     double res = std::numeric_limits<double>::infinity();
+    const bool coarse = rtol > final_rtol;
+    integration_options opt = set.integration;
+    opt.stepper.rtol = rtol;
+    opt.stepper.atol = set.integration.stepper.atol * (rtol / final_rtol);
     try {
-      f = flow_and_monodromy(sys, s, t0, t1, set.integration);
+      f = flow_and_monodromy(sys, s, t0, t1, opt);
       res = residual_of(s, f->end);
       if (!std::isfinite(res)) f.reset();
     } catch (const numerical_error& e) {
@@ -328,6 +351,16 @@ periodic_orbit<static_cast<int>(std::tuple_size_v<state_of<System>>)> shoot_peri
     best_res = res;
     at_best = f;
     out.failure.clear();
+    if (coarse) {
+      const double relative = res / orbit_size(s);
+      rtol = std::clamp(shooting_settings::kInexactRtolFactor * relative * relative, final_rtol, rtol);
+      if (res <= set.tolerance) {
+        // Converged to a coarse evaluation's accuracy: the same point again, at the tolerance.
+        rtol = final_rtol;
+        best_res = std::numeric_limits<double>::infinity();
+        continue;
+      }
+    }
     if (res <= set.tolerance) {
       out.converged = true;
       break;

@@ -91,6 +91,9 @@ periodic_orbit_result find_periodic_orbit(const periodic_orbit_request& req) {
     if constexpr (!compliant_law<Law>) {
       if (model.penetration(guess) > 0.0) guess[idx::y] = run.params.delta;  // an impact law starts outside
     }
+    // A contact-free response or a short transient is far from a rubbing orbit: coarse
+    // evaluations until Newton is close (inexact Newton, ref/integrate/shooting.hpp).
+    set.coarse_while_far = !req.initial_guess;
     auto shot = shoot_periodic_orbit(model, guess, 0.0, req.periods, set);
     out.iterations = shot.iterations;
     if (!shot.converged && req.transient_revs > 0) {
@@ -100,6 +103,7 @@ periodic_orbit_result find_periodic_orbit(const periodic_orbit_request& req) {
       const auto settled = integrate_hybrid(model, start_state(model, guess, 0.0), req.transient_revs * period, set.integration,
                                             sample_grid{}, none);
       out.start = std::to_string(req.transient_revs) + "-revolution transient";
+      set.coarse_while_far = true;
       shot = shoot_periodic_orbit(model, settled.s, 0.0, req.periods, set);
       out.iterations += shot.iterations;
     }
