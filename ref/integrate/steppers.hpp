@@ -181,11 +181,42 @@ class rk4_dense {
 #pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
 #pragma GCC diagnostic ignored "-Wuninitialized"
 #endif
+// odeint's error checker, with the components past the model's own state (a sensitivity flow's
+// Phi, ref/integrate/shooting.hpp) held to kSensitivityToleranceFactor times looser tolerances:
+// Newton and the Floquet multipliers need Phi to ~1e-9, not to the state's 1e-12, and without
+// this Phi sets ~1/4 of the steps. The state's own components are checked exactly as before.
+inline constexpr double kSensitivityToleranceFactor = 1e3;
+template <class State, std::size_t Head>
+class head_error_checker : public boost::numeric::odeint::default_error_checker<double, boost::numeric::odeint::array_algebra,
+                                                                                   boost::numeric::odeint::default_operations> {
+  using base = boost::numeric::odeint::default_error_checker<double, boost::numeric::odeint::array_algebra,
+                                                             boost::numeric::odeint::default_operations>;
+
+ public:
+  using base::base;
+  template <class S, class Deriv, class Err, class Time>
+  double error(algebra_type& algebra, const S& x_old, const Deriv& dxdt_old, Err& x_err, Time dt) const {
+    base::error(algebra, x_old, dxdt_old, x_err, dt);  // x_err_i / tol_i, in place
+    for (std::size_t i = Head; i < x_err.size(); ++i) x_err[i] *= 1.0 / kSensitivityToleranceFactor;
+    return algebra.norm_inf(x_err);
+  }
+};
+
 template <class System>
 class rkf78_dense {
   using state_type = state_of<System>;
   using error_stepper = boost::numeric::odeint::runge_kutta_fehlberg78<state_type>;
-  using controlled = boost::numeric::odeint::controlled_runge_kutta<error_stepper>;
+  template <class S>
+  struct checker_of {
+    using type = boost::numeric::odeint::default_error_checker<double, boost::numeric::odeint::array_algebra,
+                                                               boost::numeric::odeint::default_operations>;
+  };
+  template <class S>
+    requires requires(const S& s) { s.model(); }
+  struct checker_of<S> {
+    using type = head_error_checker<state_type, std::tuple_size_v<typename std::remove_cvref_t<decltype(std::declval<const S&>().model())>::state_type>>;
+  };
+  using controlled = boost::numeric::odeint::controlled_runge_kutta<error_stepper, typename checker_of<System>::type>;
 
  public:
   rkf78_dense(double atol, double rtol, double max_dt)

@@ -139,12 +139,15 @@ class branch_tracer {
 
     double h = req_.initial_step;
     const double end = end_ / lambda_scale_;
+    // The branch's curvature dt/ds from the last two points: the predictor u + h t + h^2/2 dt/ds
+    // errs by O(h^3) instead of O(h^2), which saves most points' third corrector evaluation.
+    vec curvature = vec::Zero();
     while (true) {
       if (static_cast<int>(out.points.size()) >= req_.max_points) {
         out.stopped = "the maximum of " + std::to_string(req_.max_points) + " points";
         break;
       }
-      const vec pred = u + h * t;
+      const vec pred = u + h * t + (0.5 * h * h) * curvature;
       const bool past_end = direction * (pred[N] - end) >= 0.0;
       // The last point sits on the end of the range: the parameter fixed there.
       auto c = correct(pred, past_end ? fixed_parameter(end_) : arclength(t, pred));
@@ -173,6 +176,8 @@ class branch_tracer {
       branch_point next = make_point(c->u, *c, *t_new);
       detect(out, out.points.back(), u, t, next);
       out.points.push_back(std::move(next));
+      const double ds = (c->u - u).dot(t);
+      curvature = ds > 0.0 ? vec((*t_new - t) / ds) : vec::Zero();
       u = c->u;
       t = *t_new;
       if (past_end) {
