@@ -146,7 +146,7 @@ TEST(shooting, finds_the_golden_orbits_settled_state) {
 // point, and the converged evaluation is at the full tolerance (so the multipliers are the same).
 // The guess is 30 um and 30 mm/s off (Newton's residual there ~0.1 of the orbit: coarse steps).
 constexpr double kSameFixedPointTol = 5e-12;  // m: two solutions each within 1e-12 m of P(s) = s, through M - I
-constexpr double kSameMultiplierTol = 1e-8;   // both monodromies at rtol 1e-12: ~1e-10, with margin
+constexpr double kSameMultiplierTol = 1e-8;   // both monodromies' Phi held to ~1e-9 (steppers.hpp), with margin
 TEST(shooting, inexact_newton_lands_on_the_exact_newton_orbit) {
   int compared = 0;
   for (const golden_spec& spec : golden_matrix()) {

@@ -186,7 +186,7 @@ class rk4_dense {
 // Newton and the Floquet multipliers need Phi to ~1e-9, not to the state's 1e-12, and without
 // this Phi sets ~1/4 of the steps. The state's own components are checked exactly as before.
 inline constexpr double kSensitivityToleranceFactor = 1e3;
-template <class State, std::size_t Head>
+template <std::size_t Head>
 class head_error_checker : public boost::numeric::odeint::default_error_checker<double, boost::numeric::odeint::array_algebra,
                                                                                    boost::numeric::odeint::default_operations> {
   using base = boost::numeric::odeint::default_error_checker<double, boost::numeric::odeint::array_algebra,
@@ -214,7 +214,7 @@ class rkf78_dense {
   template <class S>
     requires requires(const S& s) { s.model(); }
   struct checker_of<S> {
-    using type = head_error_checker<state_type, std::tuple_size_v<typename std::remove_cvref_t<decltype(std::declval<const S&>().model())>::state_type>>;
+    using type = head_error_checker<std::tuple_size_v<typename std::remove_cvref_t<decltype(std::declval<const S&>().model())>::state_type>>;
   };
   using controlled = boost::numeric::odeint::controlled_runge_kutta<error_stepper, typename checker_of<System>::type>;
 
@@ -282,7 +282,7 @@ class rkf78_dense {
   template <class S>
     requires requires(const S& s) { s.model(); }
   struct head_of<S> {
-    using type = std::remove_cvref_t<decltype(std::declval<const S&>().model())>::state_type;
+    using type = typename std::remove_cvref_t<decltype(std::declval<const S&>().model())>::state_type;
   };
   using head_state = typename head_of<System>::type;
 
