@@ -8,6 +8,7 @@
 #include <cmath>
 #include <complex>
 #include <filesystem>
+#include <string>
 
 #include "ref/golden.hpp"
 #include "ref/integrate/shooting.hpp"
@@ -114,30 +115,37 @@ TEST(shooting, linear_rotor_in_closed_form) {
   EXPECT_TRUE(orbit.stable());
 }
 
+// Calls f.template operator()<Law>(sys, golden case, file name) for each period-1 golden orbit.
+template <class F>
+void for_each_period_one_golden_orbit(F&& f) {
+  for (const golden_spec& spec : golden_matrix()) {
+    const auto path = std::filesystem::path(RUBREF_GOLDEN_DIR) / golden_file_name(spec);
+    const golden_case g = read_golden_case(read_record(path), path.string());
+    if (g.comparison != comparison_kind::orbit || g.period_revs != 1) continue;
+    visit_variant(g.request.variant, [&]<class V>() {
+      f.template operator()<V>(rotor_system<V>(g.request.params, rpm_to_rad_s(g.request.rpm)), g, path.string());
+    });
+  }
+}
+
 // Shooting from near a golden file's settled state (1 um and 1 mm/s off) lands on the orbit a
 // 200-revolution run settles on (the golden files of period 1), and finds it stable. (From far
 // away Newton may land on a coexisting orbit: above the jump the contact-free one.)
 TEST(shooting, finds_the_golden_orbits_settled_state) {
   int checked = 0;
-  for (const golden_spec& spec : golden_matrix()) {
-    const auto path = std::filesystem::path(RUBREF_GOLDEN_DIR) / golden_file_name(spec);
-    const golden_case g = read_golden_case(read_record(path), path.filename().string());
-    if (g.comparison != comparison_kind::orbit || g.period_revs != 1) continue;
-    visit_variant(g.request.variant, [&]<class V>() {
-      const rotor_system<V> sys(g.request.params, rpm_to_rad_s(g.request.rpm));
+  for_each_period_one_golden_orbit([&]<class V>(const rotor_system<V>& sys, const golden_case& g, const std::string& path) {
       const double t0 = g.t.front();
       const state_type guess{g.x.front() + 1e-6, g.y.front() - 1e-6, g.vx.front() + 1e-3, g.vy.front() - 1e-3};
       const auto orbit = shoot_periodic_orbit(sys, guess, t0, 1, careful());
       if (!orbit.converged) {
-        ADD_FAILURE() << path.filename() << ": " << orbit.failure;
+        ADD_FAILURE() << path << ": " << orbit.failure;
         return;
       }
-      EXPECT_NEAR(orbit.state[idx::x], g.x.front(), kGoldenStateTol) << path.filename();
-      EXPECT_NEAR(orbit.state[idx::y], g.y.front(), kGoldenStateTol) << path.filename();
-      EXPECT_TRUE(orbit.stable()) << path.filename() << ": largest multiplier " << orbit.max_multiplier_modulus();
+      EXPECT_NEAR(orbit.state[idx::x], g.x.front(), kGoldenStateTol) << path;
+      EXPECT_NEAR(orbit.state[idx::y], g.y.front(), kGoldenStateTol) << path;
+      EXPECT_TRUE(orbit.stable()) << path << ": largest multiplier " << orbit.max_multiplier_modulus();
       ++checked;
-    });
-  }
+  });
   EXPECT_GT(checked, 5);
 }
 
@@ -149,12 +157,7 @@ constexpr double kSameFixedPointTol = 5e-12;  // m: two solutions each within 1e
 constexpr double kSameMultiplierTol = 1e-8;   // both monodromies' Phi held to ~1e-9 (steppers.hpp), with margin
 TEST(shooting, inexact_newton_lands_on_the_exact_newton_orbit) {
   int compared = 0;
-  for (const golden_spec& spec : golden_matrix()) {
-    const auto path = std::filesystem::path(RUBREF_GOLDEN_DIR) / golden_file_name(spec);
-    const golden_case g = read_golden_case(read_record(path), path.filename().string());
-    if (g.comparison != comparison_kind::orbit || g.period_revs != 1) continue;
-    visit_variant(g.request.variant, [&]<class V>() {
-      const rotor_system<V> sys(g.request.params, rpm_to_rad_s(g.request.rpm));
+  for_each_period_one_golden_orbit([&]<class V>(const rotor_system<V>& sys, const golden_case& g, const std::string& path) {
       const double t0 = g.t.front();
       const state_type guess{g.x.front() + 3e-5, g.y.front() - 3e-5, g.vx.front() + 3e-2, g.vy.front() - 3e-2};
       shooting_settings exact_newton, inexact_newton;
@@ -162,15 +165,14 @@ TEST(shooting, inexact_newton_lands_on_the_exact_newton_orbit) {
       const auto a = shoot_periodic_orbit(sys, guess, t0, 1, exact_newton);
       const auto b = shoot_periodic_orbit(sys, guess, t0, 1, inexact_newton);
       if (!a.converged) return;  // (from this far a coexisting orbit or none: not the point here)
-      ASSERT_TRUE(b.converged) << path.filename() << ": " << b.failure;
-      EXPECT_LE(b.residual, inexact_newton.tolerance) << path.filename();
+      ASSERT_TRUE(b.converged) << path << ": " << b.failure;
+      EXPECT_LE(b.residual, inexact_newton.tolerance) << path;
       for (int i = 0; i < 4; ++i)
         EXPECT_NEAR(b.state[static_cast<std::size_t>(i)], a.state[static_cast<std::size_t>(i)], kSameFixedPointTol * (i < 2 ? 1.0 : sys.omega()))
-            << path.filename() << " state " << i;
-      EXPECT_NEAR(b.max_multiplier_modulus(), a.max_multiplier_modulus(), kSameMultiplierTol) << path.filename();
+            << path << " state " << i;
+      EXPECT_NEAR(b.max_multiplier_modulus(), a.max_multiplier_modulus(), kSameMultiplierTol) << path;
       ++compared;
-    });
-  }
+  });
   EXPECT_GT(compared, 10);
 }
 
