@@ -142,6 +142,7 @@ class branch_tracer {
     // The branch's curvature dt/ds from the last two points: the predictor u + h t + h^2/2 dt/ds
     // errs by O(h^3) instead of O(h^2), which saves most points' third corrector evaluation.
     vec curvature = vec::Zero();
+    bool after_failure = false;
     while (true) {
       if (static_cast<int>(out.points.size()) >= req_.max_points) {
         out.stopped = "the maximum of " + std::to_string(req_.max_points) + " points";
@@ -158,17 +159,9 @@ class branch_tracer {
       }
       if (!c) {
         h *= 0.5;
+        after_failure = true;
         if (h < req_.min_step) {
-          const branch_point& last = out.points.back();
-          const std::string where = std::string(column_name(req_.parameter)) + " = " + format_digits(last.parameter, 10);
-          if (std::abs(last.max_z) <= kGrazingGap * request_at(req_, last.parameter).params.delta) {
-            // A branch that cannot go on at the stator's face ends at a grazing (for the impact
-            // law the impacting branch leaves it with an unbounded slope: docs/orbits.md).
-            out.special.push_back({special_kind::grazing, last.parameter, last.rpm, last.state, true, out.points.size() - 1});
-            out.stopped = "the branch ends at a grazing at " + where + " (" + failure_ + ")";
-          } else {
-            out.stopped = "the step fell below the minimum at " + where + ": " + failure_;
-          }
+          end_below_min_step(out);
           break;
         }
         continue;
@@ -178,6 +171,7 @@ class branch_tracer {
       out.points.push_back(std::move(next));
       const double ds = (c->u - u).dot(t);
       curvature = ds > 0.0 ? vec((*t_new - t) / ds) : vec::Zero();
+      const double turn = std::acos(std::clamp(t.dot(*t_new), -1.0, 1.0));
       u = c->u;
       t = *t_new;
       if (past_end) {
@@ -190,16 +184,54 @@ class branch_tracer {
                       format_digits(start_, 10) + ")";
         break;
       }
-      if (c->iterations <= 3) h = std::min(1.5 * h, req_.max_step);
-      if (c->iterations >= 6) h *= 0.7;
+      h = next_step(h, turn, c->iterations, after_failure);
+      after_failure = false;
+      if (h < req_.min_step) {
+        failure_ = "the corrector slowed down (" + std::to_string(c->iterations) + " iterations) or the tangent turned by " +
+                   format_digits(turn * 180.0 / 3.14159265358979323846, 3) + " degrees at the minimum step";
+        end_below_min_step(out);
+        break;
+      }
     }
     return out;
   }
 
  private:
+  // The branch cannot be followed further with steps of min_step: at the stator's face that is a
+  // grazing where the branch ends (for the impact law the impacting branch leaves it with an
+  // unbounded slope: docs/orbits.md); elsewhere the step fell below the minimum.
+  void end_below_min_step(continuation_result& out) const {
+    const branch_point& last = out.points.back();
+    const std::string where = std::string(column_name(req_.parameter)) + " = " + format_digits(last.parameter, 10);
+    if (std::abs(last.max_z) <= kGrazingGap * request_at(req_, last.parameter).params.delta) {
+      out.special.push_back({special_kind::grazing, last.parameter, last.rpm, last.state, true, out.points.size() - 1});
+      out.stopped = "the branch ends at a grazing at " + where + " (" + failure_ + ")";
+    } else {
+      out.stopped = "the step fell below the minimum at " + where + ": " + failure_;
+    }
+  }
+
   // Two successive unit tangents closer than this are one smooth branch; a sharper turn in one
   // step is taken as a jump to another branch and the step is halved.
   static constexpr double kMinTangentCosine = 0.9;
+  // Step control by the branch's turning (as COCO's atlas algorithms do, with their 10-degree
+  // maximum angle between tangents): each step aims at a 5-degree turn of the tangent, growing or
+  // shrinking by at most 2x. A step does not grow right after a failed step (else growing by 2
+  // and halving on failure could alternate forever at a branch's end), and shrinks x0.7 after a
+  // corrector of more than 3 iterations: one that slows down (near the singular slope of an
+  // impacting branch at its grazing) must not let the branch creep on at a constant step. The turn, not a small max_step, sets the resolution, so folds and fast
+  // phase changes get short steps and straight stretches long ones. A step below min_step, after
+  // a failure or a success, ends the branch there.
+  static constexpr double kTargetTurn = 5.0 * 3.14159265358979323846 / 180.0;  // rad
+  static constexpr double kMaxStepFactor = 2.0;
+
+  double next_step(double h, double turn, int iterations, bool after_failure) const {
+    double factor = turn > 0.0 ? kTargetTurn / turn : kMaxStepFactor;
+    factor = std::clamp(factor, 1.0 / kMaxStepFactor, kMaxStepFactor);
+    if (after_failure) factor = std::min(factor, 1.0);
+    if (iterations > 3) factor = std::min(factor, 0.7);
+    return std::min(h * factor, req_.max_step);
+  }
   static constexpr int kMaxCorrectorIterations = 10;
   // A last point closer to the stator than this share of the clearance is at a grazing (the
   // corrector's tolerance is 1e-12 m, so points may approach the face to ~1e-10 m).
@@ -408,10 +440,15 @@ class branch_tracer {
       if (kind == special_kind::neimark_sacker && (fa == -1.0 || fb == -1.0)) return;  // a pair appeared or vanished, not a crossing
       out.special.push_back(locate(kind, test, a, ua, ta, b, after));
     };
+    const std::size_t first = out.special.size();
     check(special_kind::fold, fold_test);
     check(special_kind::grazing, grazing_test);
     check(special_kind::period_doubling, period_doubling_test);
     check(special_kind::neimark_sacker, torus_test);
+    // Several in one step are listed in their order along the branch.
+    const auto along = [&](const special_point& sp) { return (to_unknowns(sp.state, sp.parameter) - ua).dot(ta); };
+    std::stable_sort(out.special.begin() + static_cast<std::ptrdiff_t>(first), out.special.end(),
+                     [&](const special_point& x, const special_point& y) { return along(x) < along(y); });
   }
 
   // The zero of `test` between a and b on the arclength along a's tangent (each trial point

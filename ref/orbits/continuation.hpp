@@ -32,8 +32,10 @@ struct continuation_request {
   int samples_per_rev = 128;  // of each point's recorded period (its summary)
   // Arclength in the scaled unknowns: states over the clearance (velocities also over |w|), the
   // parameter over |to - from|; one unit spans the range.
+  // The step follows the branch's turning (ref/orbits/continuation.cpp, next_step); max_step
+  // only caps it on nearly straight stretches.
   double initial_step = 0.01;
-  double max_step = 0.05;
+  double max_step = 0.25;
   double min_step = 1e-10;
   int max_points = 5000;
   double tolerance = 1e-12;  // m, |P(s) - s| at each point (velocities / |w|)
