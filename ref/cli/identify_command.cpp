@@ -14,7 +14,7 @@ namespace {
 struct identify_state {
   identify_settings settings;
   std::vector<std::string> files;
-  std::string linear_file, stop = "err", reid_fit = "k1,k3,c2,mu", out;
+  std::string linear_file, linear_method = "harmonic", stop = "err", reid_fit = "k1,k3,c2,mu", out;
 };
 
 std::vector<std::string> split_commas(const std::string& s) {
@@ -36,6 +36,9 @@ void add_identify(CLI::App& app) {
   sub->add_option("records", st->files, "measurement records (docs/data-format.md)")->required()->check(CLI::ExistingFile);
   sub->add_option("--linear", st->linear_file, "JSON parameter file with the linear part (m, c, k, e, unbalance_phase_rad); default: fit it on dwells without contact")
       ->check(CLI::ExistingFile);
+  sub->add_option("--linear-method", st->linear_method, "how the linear part is fitted: harmonic (1X balance, noise-robust) or equation-error (Savitzky-Golay derivatives)")
+      ->check(CLI::IsMember({"harmonic", "equation-error"}))
+      ->capture_default_str();
   sub->add_option("--mass", s.mass, "rotor mass when the linear part is fitted [kg] (not identifiable from displacements)")->capture_default_str();
   sub->add_option("--clearance", s.clearance, "clearance for records without clearance_m metadata [m]");
   sub->add_option("--library", s.library, "candidate terms, e.g. z1..4,zd1..4,abszd1*zd1,z1.5,const")->capture_default_str();
@@ -63,6 +66,7 @@ void add_identify(CLI::App& app) {
       s.linear = p;
     }
     s.reid.fit = split_commas(st->reid_fit);
+    s.linear_route = parse_linear_method(st->linear_method);
     staged_directory dir(st->out);
     std::vector<std::pair<record, std::string>> records;
     for (const auto& f : st->files) records.emplace_back(read_record(f), f);
@@ -70,6 +74,7 @@ void add_identify(CLI::App& app) {
     dir.write("identification.json", to_json(id, s).dump(2) + "\n");
     dir.write("identification.md", to_markdown(id));
     dir.commit();
+    for (const auto& w : id.warnings) std::cerr << "warning: " << w << "\n";
     std::cout << "kept:";
     for (const auto& e : id.estimates) std::cout << " " << e.name << " = " << e.value;
     std::cout << "; mu = " << id.mu_mean << "\nwrote " << dir.target().string() << "/{identification.json, identification.md}\n";

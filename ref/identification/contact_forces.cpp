@@ -78,38 +78,90 @@ friction_estimate estimate_friction(const dwell_forces& f) {
   return e;
 }
 
-linear_fit fit_linear_part(const std::vector<const dwell*>& no_contact, double m, const derivative_settings& ds) {
+std::string_view to_string(linear_method m) { return m == linear_method::harmonic ? "harmonic" : "equation-error"; }
+
+linear_method parse_linear_method(const std::string& name) {
+  if (name == "harmonic") return linear_method::harmonic;
+  if (name == "equation-error") return linear_method::equation_error;
+  throw input_error("unknown linear-part method '" + name + "' (harmonic, equation-error)");
+}
+
+namespace {
+
+// A row of the linear part's regression; unknowns c_x/m, k_x/m, c_y/m, k_y/m, p = e cos(phase),
+// q = e sin(phase):
+//   x'' + (c_x/m) x' + (k_x/m) x = w^2 (p cos wt - q sin wt)
+//   y'' + (c_y/m) y' + (k_y/m) y = w^2 (p sin wt + q cos wt)
+struct linear_rows {
+  std::vector<std::array<double, 6>> rows;
+  std::vector<double> rhs;
+  void add(const std::array<double, 6>& row, double r) { rows.push_back(row), rhs.push_back(r); }
+};
+
+// Eq. 1 at every sample, with Savitzky-Golay derivatives.
+void equation_error_rows(const dwell& d, const derivative_settings& ds, linear_rows& out) {
+  const derivatives dx = differentiate(d.x, d.dt, ds), dy = differentiate(d.y, d.dt, ds);
+  const double w = d.omega(), w2 = w * w;
+  for (std::size_t i = 0; i < d.size(); ++i) {
+    const double c = std::cos(w * d.t[i]), s = std::sin(w * d.t[i]);
+    out.add({dx.d1[i], d.x[i], 0.0, 0.0, -w2 * c, w2 * s}, -dx.d2[i]);
+    out.add({0.0, 0.0, dy.d1[i], d.y[i], -w2 * s, -w2 * c}, -dy.d2[i]);
+  }
+}
+
+// Eq. 1 balanced at 1X: with x = a0 + ac cos wt + as sin wt (a0 a probe offset or a static sag,
+// which the stiffness carries and the balance ignores), x' = w (as cos - ac sin), x'' = -w^2 (x - a0):
+//   cos: (c_x/m) w as + (k_x/m) ac - w^2 p = w^2 ac      sin: -(c_x/m) w ac + (k_x/m) as + w^2 q = w^2 as
+//   cos: (c_y/m) w bs + (k_y/m) bc - w^2 q = w^2 bc      sin: -(c_y/m) w bc + (k_y/m) bs - w^2 p = w^2 bs
+// Returns the RMS of the samples minus their mean and 1X.
+double harmonic_rows(const dwell& d, linear_rows& out) {
+  const double w = d.omega(), w2 = w * w;
+  const Eigen::Index n = static_cast<Eigen::Index>(d.size());
+  Eigen::MatrixXd B(n, 3);
+  Eigen::MatrixXd xy(n, 2);
+  for (Eigen::Index i = 0; i < n; ++i) {
+    const double t = d.t[static_cast<std::size_t>(i)];
+    B(i, 0) = 1.0, B(i, 1) = std::cos(w * t), B(i, 2) = std::sin(w * t);
+    xy(i, 0) = d.x[static_cast<std::size_t>(i)], xy(i, 1) = d.y[static_cast<std::size_t>(i)];
+  }
+  const Eigen::MatrixXd a = B.colPivHouseholderQr().solve(xy);  // columns: x, y; rows: mean, cos, sin
+  const double ac = a(1, 0), as = a(2, 0), bc = a(1, 1), bs = a(2, 1);
+  out.add({w * as, ac, 0.0, 0.0, -w2, 0.0}, w2 * ac);
+  out.add({-w * ac, as, 0.0, 0.0, 0.0, w2}, w2 * as);
+  out.add({0.0, 0.0, w * bs, bc, 0.0, -w2}, w2 * bc);
+  out.add({0.0, 0.0, -w * bc, bs, -w2, 0.0}, w2 * bs);
+  return std::sqrt((xy - B * a).squaredNorm() / static_cast<double>(2 * n));
+}
+
+}  // namespace
+
+linear_fit fit_linear_part(const std::vector<const dwell*>& no_contact, double m, const derivative_settings& ds,
+                           linear_method method) {
   std::set<double> speeds;
   for (const auto* d : no_contact) speeds.insert(d->rpm);
   if (speeds.size() < 2)
     throw input_error("the linear part needs dwells without contact at 2 or more speeds (found " + std::to_string(speeds.size()) +
                       "); give it with --linear instead");
-  // Unknowns: c_x/m, k_x/m, c_y/m, k_y/m, p = e cos(phase), q = e sin(phase).
-  //   x'' = -(c_x/m) x' - (k_x/m) x + w^2 (p cos wt - q sin wt)
-  //   y'' = -(c_y/m) y' - (k_y/m) y + w^2 (p sin wt + q cos wt)
-  std::vector<std::array<double, 6>> rows;
-  std::vector<double> rhs;
+  linear_fit out;
+  out.method = method;
+  linear_rows lr;
   for (const auto* d : no_contact) {
-    const derivatives dx = differentiate(d->x, d->dt, ds), dy = differentiate(d->y, d->dt, ds);
-    const double w = d->omega(), w2 = w * w;
-    for (std::size_t i = 0; i < d->size(); ++i) {
-      const double c = std::cos(w * d->t[i]), s = std::sin(w * d->t[i]);
-      rows.push_back({-dx.d1[i], -d->x[i], 0.0, 0.0, w2 * c, -w2 * s});
-      rhs.push_back(dx.d2[i]);
-      rows.push_back({0.0, 0.0, -dy.d1[i], -d->y[i], w2 * s, w2 * c});
-      rhs.push_back(dy.d2[i]);
+    out.samples += d->size();
+    if (method == linear_method::harmonic) {
+      out.beyond_1x_rms.push_back(harmonic_rows(*d, lr));
+    } else {
+      equation_error_rows(*d, ds, lr);
     }
   }
-  Eigen::MatrixXd P(rows.size(), 6);
-  Eigen::VectorXd y(rows.size());
-  for (std::size_t i = 0; i < rows.size(); ++i) {
-    for (int j = 0; j < 6; ++j) P(i, j) = rows[i][j];
-    y[i] = rhs[i];
+  Eigen::MatrixXd P(static_cast<Eigen::Index>(lr.rows.size()), 6);
+  Eigen::VectorXd y(static_cast<Eigen::Index>(lr.rows.size()));
+  for (std::size_t i = 0; i < lr.rows.size(); ++i) {
+    for (int j = 0; j < 6; ++j) P(static_cast<Eigen::Index>(i), j) = lr.rows[i][static_cast<std::size_t>(j)];
+    y[static_cast<Eigen::Index>(i)] = lr.rhs[i];
   }
   const least_squares_fit ls = least_squares(P, y, {0, 1, 2, 3, 4, 5});
   const auto& b = ls.coefficients;
   const auto& se = ls.standard_errors;
-  linear_fit out;
   out.value = {m, b[0] * m, b[2] * m, b[1] * m, b[3] * m, std::hypot(b[4], b[5]), std::atan2(b[5], b[4])};
   const double e = out.value.e;
   // First-order propagation to e and phase from p, q (covariance between them neglected).
@@ -117,8 +169,7 @@ linear_fit fit_linear_part(const std::vector<const dwell*>& no_contact, double m
                         e > 0 ? std::hypot(b[4] * se[4], b[5] * se[5]) / e : 0.0,
                         e > 0 ? std::hypot(b[5] * se[4], b[4] * se[5]) / (e * e) : 0.0};
   out.dwells = no_contact.size();
-  out.samples = rows.size() / 2;
-  out.residual_rms = std::sqrt(ls.residual.squaredNorm() / static_cast<double>(rows.size()));
+  out.residual_rms = std::sqrt(ls.residual.squaredNorm() / static_cast<double>(lr.rows.size()));
   return out;
 }
 

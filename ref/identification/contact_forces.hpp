@@ -6,6 +6,7 @@
 
 #include <array>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "ref/identification/derivatives.hpp"
@@ -39,15 +40,29 @@ struct friction_estimate {
 };
 friction_estimate estimate_friction(const dwell_forces& f);
 
-// Least squares on Eq. 1 divided by m over dwells without contact (§3 from data). The unknowns
-// c/m, k/m, e cos(phase), e sin(phase) are found; m itself is not identifiable from displacements
-// alone (Eq. 1 scales with it) and is taken as given. Needs dwells at >= 2 speeds.
+// The linear part from dwells without contact (§3 from data). Eq. 1 divided by m is linear in
+// c/m, k/m, e cos(phase), e sin(phase); m itself is not identifiable from displacements alone
+// (Eq. 1 scales with it) and is taken as given. Needs dwells at >= 2 speeds. Two routes:
+//  - harmonic (default): each steady dwell's 1X Fourier coefficients (and its mean, a probe
+//    offset) by least squares on the samples, then Eq. 1 balanced at 1X, where a derivative is a
+//    factor i w. No derivative of data is taken, and every sample averages the probe noise, so the
+//    estimate survives micrometre noise (docs/identification.md). Assumes steady dwells: each
+//    dwell's content beyond 1X is reported (`beyond_1x_rms`) to check it against the noise.
+//  - equation_error: Eq. 1 at every sample with Savitzky-Golay derivatives (the paper's §4 route
+//    applied to §3), exact on clean data, noise-dominated at micrometre noise.
+enum class linear_method { harmonic, equation_error };
+std::string_view to_string(linear_method m);
+linear_method parse_linear_method(const std::string& name);  // input_error if unknown
+
 struct linear_fit {
   linear_part value;
   std::array<double, 6> standard_error;  // c_x, c_y, k_x, k_y, e, phase
+  linear_method method = linear_method::harmonic;
   std::size_t dwells = 0, samples = 0;
-  double residual_rms = 0.0;             // m/s^2
+  double residual_rms = 0.0;             // m/s^2, of Eq. 1 / m (harmonic: of its 1X balance)
+  std::vector<double> beyond_1x_rms;     // m, per dwell (harmonic): samples minus mean and 1X, RMS
 };
-linear_fit fit_linear_part(const std::vector<const dwell*>& no_contact, double m, const derivative_settings& ds);
+linear_fit fit_linear_part(const std::vector<const dwell*>& no_contact, double m, const derivative_settings& ds,
+                           linear_method method = linear_method::harmonic);
 
 }  // namespace rubref

@@ -108,4 +108,15 @@ averaged_dwell synchronous_average(const dwell& d) {
   return out;
 }
 
+double estimate_probe_noise(const std::vector<const dwell*>& dwells) {
+  std::vector<double> a;
+  for (const auto* d : dwells)
+    for (const auto* v : {&d->x, &d->y})
+      for (std::size_t i = 4; i < v->size(); ++i)
+        a.push_back(std::abs((*v)[i] - 4 * (*v)[i - 1] + 6 * (*v)[i - 2] - 4 * (*v)[i - 3] + (*v)[i - 4]));
+  if (a.empty()) return 0.0;
+  std::nth_element(a.begin(), a.begin() + static_cast<std::ptrdiff_t>(a.size() / 2), a.end());
+  return 1.4826 * a[a.size() / 2] / std::sqrt(70.0);
+}
+
 }  // namespace rubref

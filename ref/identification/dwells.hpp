@@ -34,6 +34,11 @@ struct averaged_dwell {
 };
 averaged_dwell synchronous_average(const dwell& d);
 
+// Probe noise (m) from the data: 4th differences remove a sampled orbit (its 4th difference at
+// 10 kHz is ~1e-10 m) and leave white noise with variance 70 sigma^2; their median absolute value
+// over x and y of every dwell, scaled for Gaussian noise, ignores impacts. 0 without samples.
+double estimate_probe_noise(const std::vector<const dwell*>& dwells);
+
 // Splits every record into its dwells. input_error (naming the file and line) if a dwell is
 // shorter than `min_samples`, its sampling is not uniform, or its speed is not positive.
 std::vector<dwell> split_dwells(const record& r, const std::string& source, std::size_t min_samples = 16);

@@ -44,6 +44,25 @@ double percentile(std::vector<double> v, double q) {
   return v[lo] + (pos - lo) * (v[hi] - v[lo]);
 }
 
+// The checks behind identification::warnings (docs/identification.md, "Warnings").
+// A 95 % interval that contains 0 (value within 1.96 standard errors, or a bootstrap interval
+// across 0) leaves the sign, let alone the size, undetermined.
+constexpr double kInterval95 = 1.96;
+// A steady contact-free dwell is its mean and 1X plus noise, whose RMS is the noise itself;
+// content beyond 3 sigma is not noise (a transient, a nonlinearity, a second frequency). 1 nm
+// floor: below any probe's resolution, so noise-free records are not flagged for rounding.
+constexpr double kBeyond1xNoiseFactor = 3.0;
+constexpr double kBeyond1xFloor = 1e-9;  // m
+// A contact force cannot pull: an identified law whose f_N over the contact samples falls below
+// -10 % of its peak pulls the rotor into the stator (a few per cent below 0 is the noise of f_N
+// at onset and separation, where the law is near 0).
+constexpr double kPullShare = 0.1;
+
+std::string format_value(double v) { return format_digits(v, 4); }
+
+void add_warnings(identification& id, const identify_settings& s);
+identification identify_law(const std::vector<dwell>& dwells, const identify_settings& s);
+
 }  // namespace
 
 identification identify(const std::vector<std::pair<record, std::string>>& records, const identify_settings& s) {
@@ -60,11 +79,23 @@ identification identify(const std::vector<std::pair<record, std::string>>& recor
 }
 
 identification identify(const std::vector<dwell>& dwells, const identify_settings& s) {
+  identification id = identify_law(dwells, s);
+  add_warnings(id, s);
+  return id;
+}
+
+namespace {
+identification identify_law(const std::vector<dwell>& dwells, const identify_settings& s) {
   if (dwells.empty()) throw input_error("identify needs at least one dwell");
   const std::vector<candidate_term> library = parse_library(s.library);
   const auto touches = [](const dwell& d) { return std::any_of(d.y.begin(), d.y.end(), [&](double y) { return y > d.clearance; }); };
 
   identification id;
+  {
+    std::vector<const dwell*> all;
+    for (const auto& d : dwells) all.push_back(&d);
+    id.probe_noise = estimate_probe_noise(all);
+  }
   if (s.linear) {
     const parameters& p = *s.linear;
     id.linear = {p.m, p.c_x, p.c_y, p.k_x, p.k_y, p.e, p.unbalance_phase};
@@ -73,7 +104,7 @@ identification identify(const std::vector<dwell>& dwells, const identify_setting
     std::vector<const dwell*> free;
     for (const auto& d : dwells)
       if (!touches(d)) free.push_back(&d);
-    id.linear_fitted = fit_linear_part(free, s.mass, s.derivative);
+    id.linear_fitted = fit_linear_part(free, s.mass, s.derivative, s.linear_route);
     id.linear = id.linear_fitted->value;
     id.linear_source = "fitted";
   }
@@ -213,6 +244,18 @@ identification identify(const std::vector<dwell>& dwells, const identify_setting
     id.dwells[k].identified_shares = shares(kept_terms, kept_coef, per_dwell[k]);
   }
 
+  {
+    double peak = 0.0, least = 0.0;
+    for (const auto& c : pooled) {
+      double f = 0.0;
+      for (std::size_t j = 0; j < kept_terms.size(); ++j) f += kept_coef[j] * kept_terms[j](c.z, c.zd);
+      peak = std::max(peak, f), least = std::min(least, f);
+    }
+    if (!kept_terms.empty() && least < -kPullShare * peak)
+      id.warnings.push_back("the identified law pulls the rotor into the stator: its f_N falls to " + format_value(least) +
+                            " N over the contact samples (peak " + format_value(peak) + " N); a contact force cannot pull");
+  }
+
   if (s.reidentify) {
     parameters start = s.reference;
     start.m = id.linear.m;
@@ -241,6 +284,71 @@ identification identify(const std::vector<dwell>& dwells, const identify_setting
   return id;
 }
 
+void add_warnings(identification& id, const identify_settings& s) {
+  auto& w = id.warnings;
+  if (id.linear_fitted) {
+    const auto& L = id.linear;
+    const auto& se = id.linear_fitted->standard_error;
+    const std::array<std::pair<const char*, double>, 4> values{{{"c_x", L.c_x}, {"c_y", L.c_y}, {"k_x", L.k_x}, {"k_y", L.k_y}}};
+    for (std::size_t i = 0; i < values.size(); ++i) {
+      const auto& [name, v] = values[i];
+      if (!(v > 0.0))
+        w.push_back(std::string("linear part: ") + name + " = " + format_value(v) + " is unphysical (damping and stiffness are > 0)");
+      else if (v <= kInterval95 * se[i])
+        w.push_back(std::string("linear part: ") + name + " = " + format_value(v) + " ± " + format_value(se[i]) +
+                    " (standard error) is not determined by the contact-free dwells");
+    }
+    const auto& beyond = id.linear_fitted->beyond_1x_rms;
+    const double limit = std::max(kBeyond1xNoiseFactor * id.probe_noise, kBeyond1xFloor);
+    for (std::size_t k = 0; k < beyond.size(); ++k)
+      if (beyond[k] > limit)
+        w.push_back("linear part: contact-free dwell " + std::to_string(k + 1) + " has " + format_value(beyond[k]) +
+                    " m RMS beyond its 1X response, above 3x the probe noise (" + format_value(id.probe_noise) +
+                    " m): not a steady linear response (a transient, a nonlinearity or a second frequency)");
+  }
+  for (const auto& e : id.estimates) {
+    if (e.name == "z1" && !(e.value > 0.0))
+      w.push_back("term " + e.name + ": k1 = " + format_value(e.value) + " N/m is unphysical (a contact stiffness is > 0)");
+    const bool bootstrap_across_zero = std::isfinite(e.ci_low) && std::isfinite(e.ci_high) && e.ci_low <= 0.0 && e.ci_high >= 0.0;
+    if (bootstrap_across_zero || std::abs(e.value) <= kInterval95 * e.standard_error)
+      w.push_back("term " + e.name + " = " + format_value(e.value) + ": its 95 % interval contains 0 (standard error " +
+                  format_value(e.standard_error) + (std::isfinite(e.ci_low) ? ", bootstrap [" + format_value(e.ci_low) + ", " +
+                  format_value(e.ci_high) + "]" : std::string()) + "): the data do not determine it");
+  }
+  if (!(id.mu_mean >= 0.0 && id.mu_mean <= 1.0))
+    w.push_back("friction: mu = " + format_value(id.mu_mean) + " is outside [0, 1]: implausible for a rub");
+  else if (id.dwells.size() > 1 && id.mu_spread > id.mu_mean)
+    w.push_back("friction: the per-speed means of mu scatter by " + format_value(id.mu_spread) + " around " + format_value(id.mu_mean) +
+                ": not determined by the data");
+  std::string failed;
+  for (const auto& t : id.validity)
+    if (!t.pass) failed += (failed.empty() ? "" : ", ") + t.name;
+  // Residual structure matters only where the residual does: when the kept terms leave more than
+  // rho of the force's variance unexplained (FROLS's own stopping share). On clean records the
+  // residual is the derivatives' truncation error, correlated but ~1e-6 of the force.
+  const double unexplained = id.force_rms > 0.0 ? std::pow(id.residual_rms / id.force_rms, 2) : 0.0;
+  if (!failed.empty() && unexplained > s.frols.rho)
+    w.push_back("residual tests failed (" + failed + ") with " + format_value(100.0 * unexplained) +
+                " % of the force's variance unexplained: the law leaves structure in the residual, or noise dominates the forces");
+  if (id.reid) {
+    const auto& r = *id.reid;
+    if (r.final_failed)
+      w.push_back("re-identification: the model's orbit could not be computed at the final parameters (" + r.failure +
+                  "): its estimates are not valid");
+    else if (r.failed_evaluations > 0)
+      w.push_back("re-identification: " + std::to_string(r.failed_evaluations) + " of " + std::to_string(r.evaluations) +
+                  " evaluations could not compute the model's orbit (" + r.failure + ")");
+    if (r.initial_failed)
+      w.push_back("re-identification: the start (FROLS's law) does not simulate (" + r.failure + ")");
+    for (const auto& p : r.parameters) {
+      if (p.at_bound)
+        w.push_back("re-identification: " + p.name + " = " + format_value(p.value) + " is at its bound (0 or 10x its start " +
+                    format_value(p.initial) + ")");
+    }
+  }
+}
+}  // namespace
+
 nlohmann::ordered_json to_json(const identification& id, const identify_settings& s) {
   using json = nlohmann::ordered_json;
   const auto num = [](double v) { return std::isfinite(v) ? json(v) : json(nullptr); };
@@ -254,7 +362,8 @@ nlohmann::ordered_json to_json(const identification& id, const identify_settings
                    {"bootstrap_resamples", s.bootstrap},
                    {"friction_force_share", kFrictionForceShare}};
   const auto& L = id.linear;
-  j["linear"] = {{"source", id.linear_source}, {"m_kg", L.m}, {"c_x_kg_s", L.c_x}, {"c_y_kg_s", L.c_y}, {"k_x_N_m", L.k_x},
+  j["linear"] = {{"source", id.linear_source}, {"method", id.linear_fitted ? std::string(to_string(id.linear_fitted->method)) : "given"},
+                 {"m_kg", L.m}, {"c_x_kg_s", L.c_x}, {"c_y_kg_s", L.c_y}, {"k_x_N_m", L.k_x},
                  {"k_y_N_m", L.k_y}, {"e_m", L.e}, {"unbalance_phase_rad", L.phase}};
   if (id.linear_fitted) {
     const auto& se = id.linear_fitted->standard_error;
@@ -262,6 +371,7 @@ nlohmann::ordered_json to_json(const identification& id, const identify_settings
                                      {"e_m", se[4]}, {"unbalance_phase_rad", se[5]}};
     j["linear"]["dwells"] = id.linear_fitted->dwells;
     j["linear"]["residual_rms_m_s2"] = id.linear_fitted->residual_rms;
+    if (!id.linear_fitted->beyond_1x_rms.empty()) j["linear"]["beyond_1x_rms_m"] = id.linear_fitted->beyond_1x_rms;
     j["linear"]["note"] = "m is not identifiable from displacements (Eq. 1 scales with it); it is taken as given";
   }
   j["friction"] = {{"mu_mean", id.mu_mean}, {"mu_spread", id.mu_spread}, {"mu_slope", id.mu_slope}};
@@ -296,11 +406,15 @@ nlohmann::ordered_json to_json(const identification& id, const identify_settings
                              {"outside_fraction", t.outside_fraction}, {"pass", t.pass}});
   if (id.reid) {
     j["reidentification"] = {{"algorithm", id.reid->algorithm}, {"evaluations", id.reid->evaluations},
-                             {"initial_rms_m", id.reid->initial_rms}, {"final_rms_m", id.reid->final_rms}};
+                             {"failed_evaluations", id.reid->failed_evaluations}, {"final_failed", id.reid->final_failed},
+                             {"initial_rms_m", num(id.reid->initial_rms)}, {"final_rms_m", num(id.reid->final_rms)}};
     for (const auto& p : id.reid->parameters)
       j["reidentification"]["parameters"].push_back({{"name", p.name}, {"initial", p.initial}, {"value", p.value},
-                                                     {"standard_error", num(p.standard_error)}, {"identifiable", p.identifiable}});
+                                                     {"standard_error", num(p.standard_error)}, {"identifiable", p.identifiable},
+                                                     {"at_bound", p.at_bound}});
   }
+  j["probe_noise_m"] = id.probe_noise;
+  j["warnings"] = id.warnings;
   return j;
 }
 
@@ -308,6 +422,12 @@ std::string to_markdown(const identification& id) {
   std::ostringstream md;
   md.precision(4);
   md << "# Identification\n\n";
+  if (!id.warnings.empty()) {
+    md << "## Warnings\n\n";
+    for (const auto& w : id.warnings) md << "- " << w << "\n";
+    md << "\n";
+  }
+  md << "Probe noise (from the data): " << id.probe_noise << " m.\n\n";
   md << "Linear part (" << id.linear_source << "): m = " << id.linear.m << " kg, c_x = " << id.linear.c_x << " kg/s, c_y = "
      << id.linear.c_y << " kg/s, k_x = " << id.linear.k_x << " N/m, k_y = " << id.linear.k_y << " N/m, e = " << id.linear.e
      << " m, unbalance phase = " << id.linear.phase << " rad.\n\n";

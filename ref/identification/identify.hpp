@@ -25,6 +25,7 @@ struct identify_settings {
   std::optional<parameters> linear;      // the linear part (m, c, k, e, unbalance phase) if known; else fitted
   double mass = parameters{}.m;          // kg, when the linear part is fitted (m is not identifiable)
   double clearance = 0.0;                // m, for records without clearance_m metadata (0: required there)
+  linear_method linear_route = linear_method::harmonic;  // how a fitted linear part is found
   derivative_settings derivative;
   bool average_revolutions = false;      // synchronous averaging of each dwell before differentiating
   std::string library = "z1..4,zd1..4";  // Eq. 4, L = 4
@@ -77,6 +78,10 @@ struct identification {
   std::size_t contact_samples = 0, episodes = 0;
   std::vector<correlation_test> validity;
   std::optional<reid_result> reid;
+  double probe_noise = 0.0;               // m, from the data (estimate_probe_noise)
+  // Every estimate that is unphysical, undetermined or failed a check, one line each; the CLI
+  // prints them as `warning:` lines and identification.json lists them. Never silent.
+  std::vector<std::string> warnings;
 };
 
 // Records with their names (for messages). Throws input_error on anything unusable.

@@ -53,22 +53,31 @@ class orbit_error {
     for (const auto& d : dwells_) samples_ += d.source->size() - first_sample(*d.source);
   }
 
-  // Residuals (x then y per sample, dwell after dwell) of the model with parameters p.
-  Eigen::VectorXd residuals(const parameters& p) const {
+  // Residuals (x then y per sample, dwell after dwell) of the model with parameters p. Where a
+  // dwell's orbit cannot be computed its residuals are 1 m (far off, for the optimiser) and
+  // `failure` names the first such dwell; empty when every orbit was computed.
+  struct evaluation {
+    Eigen::VectorXd r;
+    std::string failure;
+  };
+  evaluation residuals(const parameters& p) const {
     std::vector<Eigen::VectorXd> parts(dwells_.size());
-    parallel_for(dwells_.size(), 0, [&](std::size_t k) { parts[k] = dwell_residuals(dwells_[k], p); });
-    Eigen::VectorXd r(2 * samples_);
+    std::vector<std::string> failures(dwells_.size());
+    parallel_for(dwells_.size(), 0, [&](std::size_t k) { parts[k] = dwell_residuals(dwells_[k], p, failures[k]); });
+    evaluation out;
+    out.r.resize(static_cast<Eigen::Index>(2 * samples_));
     Eigen::Index at = 0;
-    for (const auto& part : parts) {
-      r.segment(at, part.size()) = part;
-      at += part.size();
+    for (std::size_t k = 0; k < parts.size(); ++k) {
+      out.r.segment(at, parts[k].size()) = parts[k];
+      at += parts[k].size();
+      if (out.failure.empty() && !failures[k].empty()) out.failure = dwells_[k].source->source + ": " + failures[k];
     }
-    return r;
+    return out;
   }
   std::size_t samples() const { return samples_; }
 
  private:
-  Eigen::VectorXd dwell_residuals(const dwell_forces& f, const parameters& p) const {
+  Eigen::VectorXd dwell_residuals(const dwell_forces& f, const parameters& p, std::string& failure) const {
     const dwell& d = *f.source;
     parameters q = p;
     if (!fit_delta_ && d.clearance > 0.0) q.delta = d.clearance;  // each record keeps its own clearance
@@ -90,11 +99,13 @@ class orbit_error {
       rec.y.reserve(n);
       integrate_hybrid(model, start_state(model, s0, t0), t0 + static_cast<double>(n - 1) * d.dt, opt,
                        sample_grid{t0, d.dt, n}, rec);
+      if (rec.x.size() < n) failure = "the simulated orbit ended after " + std::to_string(rec.x.size()) + " of " + std::to_string(n) + " samples";
       for (std::size_t i = 0; i < n && i < rec.x.size(); ++i) {
-        r[2 * i] = rec.x[i] - d.x[i0 + i];
-        r[2 * i + 1] = rec.y[i] - d.y[i0 + i];
+        r[static_cast<Eigen::Index>(2 * i)] = rec.x[i] - d.x[i0 + i];
+        r[static_cast<Eigen::Index>(2 * i + 1)] = rec.y[i] - d.y[i0 + i];
       }
-    } catch (const numerical_error&) {
+    } catch (const numerical_error& e) {
+      failure = e.what();
     }
     return r;
   }
@@ -149,15 +160,26 @@ reid_result reidentify(const std::vector<dwell_forces>& dwells, const parameters
     return p;
   };
   // Minimise the mean square, smooth at a perfect fit (its square root, the RMS, is a cone there
-  // and stalls BOBYQA's quadratic models); report the RMS.
-  const auto mean_square = [&](const std::vector<double>& u) {
-    return err.residuals(at(u)).squaredNorm() / static_cast<double>(2 * err.samples());
-  };
-  const auto rms = [&](const std::vector<double>& u) { return std::sqrt(mean_square(u)); };
-
+  // and stalls BOBYQA's quadratic models); report the RMS. Failed orbits are counted: the
+  // optimiser sees their 1 m penalty, the result never reports it as an orbit error.
   reid_result out;
+  const auto mean_square = [&](const std::vector<double>& u) {
+    const auto e = err.residuals(at(u));
+    if (!e.failure.empty()) {
+      ++out.failed_evaluations;
+      if (out.failure.empty()) out.failure = e.failure;
+    }
+    return e.r.squaredNorm() / static_cast<double>(2 * err.samples());
+  };
+  const auto rms_or_nan = [&](const std::vector<double>& u, bool& failed) {
+    const auto e = err.residuals(at(u));
+    failed = !e.failure.empty();
+    if (failed && out.failure.empty()) out.failure = e.failure;
+    return failed ? std::numeric_limits<double>::quiet_NaN() : std::sqrt(e.r.squaredNorm() / static_cast<double>(2 * err.samples()));
+  };
+
   std::vector<double> u(members.size(), 1.0);
-  out.initial_rms = rms(u);
+  out.initial_rms = rms_or_nan(u, out.initial_failed);
   struct context {
     const decltype(mean_square)* f;
     int calls = 0;
@@ -197,17 +219,17 @@ reid_result reidentify(const std::vector<dwell_forces>& dwells, const parameters
     // The objective stopped improving at rounding level: u holds the best point.
   }
   out.evaluations = ctx.calls;
-  out.final_rms = rms(u);
+  out.final_rms = rms_or_nan(u, out.final_failed);
 
   // Standard errors from the Jacobian of the residuals (central differences in u).
-  const Eigen::VectorXd r0 = err.residuals(at(u));
+  const Eigen::VectorXd r0 = err.residuals(at(u)).r;
   Eigen::MatrixXd J(r0.size(), static_cast<Eigen::Index>(u.size()));
   constexpr double kStep = 1e-4;  // relative: well above the 1e-9 integration tolerance
   for (std::size_t i = 0; i < u.size(); ++i) {
     auto up = u, down = u;
     up[i] += kStep;
     down[i] -= kStep;
-    J.col(static_cast<Eigen::Index>(i)) = (err.residuals(at(up)) - err.residuals(at(down))) / (2 * kStep);
+    J.col(static_cast<Eigen::Index>(i)) = (err.residuals(at(up)).r - err.residuals(at(down)).r) / (2 * kStep);
   }
   const double dof = std::max(1.0, static_cast<double>(r0.size()) - static_cast<double>(u.size()));
   const double sigma = std::max(std::sqrt(r0.squaredNorm() / dof), kOrbitNoiseFloor);
@@ -221,8 +243,10 @@ reid_result reidentify(const std::vector<dwell_forces>& dwells, const parameters
     const double se = std::sqrt(std::max(0.0, cov(i, i))) * scale[i];
     const double value = u[i] * scale[i];
     const bool felt = solvable && cov(i, i) > 0.0 && std::isfinite(se);
+    // On a bound: within 1e-9 of 0 or 10 in the scaled unknown (BOBYQA ends exactly on an active bound).
+    const bool at_bound = u[i] <= lower[i] + 1e-9 || u[i] >= upper[i] - 1e-9;
     out.parameters.push_back({s.fit[i], scale[i], value, felt ? se : std::numeric_limits<double>::infinity(),
-                              felt && value > 1.96 * se});
+                              felt && value > 1.96 * se && !out.final_failed, at_bound});
   }
   return out;
 }

@@ -31,13 +31,20 @@ struct reid_parameter {
   double initial, value;
   double standard_error;  // from the Jacobian of the orbit residuals (docs/identification.md)
   bool identifiable;      // value > 1.96 standard errors
+  bool at_bound = false;  // the optimiser ended on a bound (0 or 10x the start)
 };
 
 struct reid_result {
   std::string algorithm;
   int evaluations = 0;
-  double initial_rms = 0.0, final_rms = 0.0;  // m, orbit error
+  double initial_rms = 0.0, final_rms = 0.0;  // m, orbit error (NaN where the orbit failed)
   std::vector<reid_parameter> parameters;
+  // Evaluations whose orbit could not be computed (the optimiser saw a 1 m penalty there), and
+  // whether the start or the final parameters were among them: then the RMS is NaN, never the
+  // penalty, and identify warns.
+  int failed_evaluations = 0;
+  bool initial_failed = false, final_failed = false;
+  std::string failure;  // the first failure's message
 };
 
 // The smallest orbit error the identifiability judgement takes as noise: 10 nm, a decade below

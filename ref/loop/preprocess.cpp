@@ -20,17 +20,10 @@ constexpr double kSpreadLimit = 2.0;
 constexpr double kContactDistortion = 5.0;
 }  // namespace
 
-// 4th differences remove the orbit (its 4th difference at 10 kHz is ~1e-10 m) and leave noise
-// with variance 70 sigma^2; the median absolute value ignores impacts.
 double estimate_noise(const std::vector<loop_dwell>& dwells) {
-  std::vector<double> a;
-  for (const auto& ld : dwells)
-    for (const auto* v : {&ld.data.x, &ld.data.y})
-      for (std::size_t i = 4; i < v->size(); ++i)
-        a.push_back(std::abs((*v)[i] - 4 * (*v)[i - 1] + 6 * (*v)[i - 2] - 4 * (*v)[i - 3] + (*v)[i - 4]));
-  if (a.empty()) return 0.0;
-  std::nth_element(a.begin(), a.begin() + static_cast<std::ptrdiff_t>(a.size() / 2), a.end());
-  return 1.4826 * a[a.size() / 2] / std::sqrt(70.0);
+  std::vector<const dwell*> all;
+  for (const auto& ld : dwells) all.push_back(&ld.data);
+  return estimate_probe_noise(all);
 }
 
 // The notch passes between the sample before a pulse and the pulse, so every pulse brackets the

@@ -40,7 +40,7 @@ struct prepared_dwells {
   std::string mass_source;
 };
 
-// Probe noise (m) from the data: median absolute 4th difference, scaled for Gaussian noise.
+// Probe noise (m) from the data: estimate_probe_noise (ref/identification/dwells.hpp) over every dwell.
 double estimate_noise(const std::vector<loop_dwell>& dwells);
 // Re-bases a dwell's times on its keyphasor (t = 0 at a notch passage) and sets its timing
 // uncertainty; notes what it cannot do.
