@@ -140,6 +140,7 @@ void reproduce(const reproduce_settings& s) {
     identify_settings is;
     is.linear = paper;
     is.reference = paper;
+    is.law_route = law_method::samples;  // the paper's route, on a noise-free record (Table 1's ERRs)
     is.reidentify = true;
     const identification id = identify({{rec, "identified_0.3mm.csv"}}, is);
     dir.write("data/identification_record_0.3mm.csv", to_csv(rec));

@@ -14,7 +14,7 @@ namespace {
 struct identify_state {
   identify_settings settings;
   std::vector<std::string> files;
-  std::string linear_file, linear_method = "harmonic", stop = "err", reid_fit = "k1,k3,c2,mu", out;
+  std::string linear_file, linear_method = "harmonic", law_method = "auto", stop = "err", reid_fit = "k1,k3,c2,mu", out;
 };
 
 std::vector<std::string> split_commas(const std::string& s) {
@@ -38,6 +38,9 @@ void add_identify(CLI::App& app) {
       ->check(CLI::ExistingFile);
   sub->add_option("--linear-method", st->linear_method, "how the linear part is fitted: harmonic (1X balance, noise-robust) or equation-error (Savitzky-Golay derivatives)")
       ->check(CLI::IsMember({"harmonic", "equation-error"}))
+      ->capture_default_str();
+  sub->add_option("--law-method", st->law_method, "how the contact law is regressed: auto (from the probe noise), samples (the paper's, on second derivatives) or weak-form (integrals, noise-robust)")
+      ->check(CLI::IsMember({"auto", "samples", "weak-form"}))
       ->capture_default_str();
   sub->add_option("--mass", s.mass, "rotor mass when the linear part is fitted [kg] (not identifiable from displacements)")->capture_default_str();
   sub->add_option("--clearance", s.clearance, "clearance for records without clearance_m metadata [m]");
@@ -67,6 +70,7 @@ void add_identify(CLI::App& app) {
     }
     s.reid.fit = split_commas(st->reid_fit);
     s.linear_route = parse_linear_method(st->linear_method);
+    s.law_route = parse_law_method(st->law_method);
     staged_directory dir(st->out);
     std::vector<std::pair<record, std::string>> records;
     for (const auto& f : st->files) records.emplace_back(read_record(f), f);
@@ -77,7 +81,7 @@ void add_identify(CLI::App& app) {
     for (const auto& w : id.warnings) std::cerr << "warning: " << w << "\n";
     std::cout << "kept:";
     for (const auto& e : id.estimates) std::cout << " " << e.name << " = " << e.value;
-    std::cout << "; mu = " << id.mu_mean << "\nwrote " << dir.target().string() << "/{identification.json, identification.md}\n";
+    std::cout << "; mu = " << id.mu << " (" << to_string(id.law_route) << ")" << "\nwrote " << dir.target().string() << "/{identification.json, identification.md}\n";
   });
 }
 

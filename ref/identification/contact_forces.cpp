@@ -25,7 +25,7 @@ std::pair<derivatives, derivatives> differentiate_xy(const dwell& d, double delt
   for (std::size_t i = 0; i < y.size(); ++i) side[i] = (i ? side[i - 1] : 0) + (i && (y[i] > delta) != (y[i - 1] > delta));
   derivatives dx = differentiate(x, d.dt, ds, side), dy = differentiate(y, d.dt, ds, side);
   if (d.periodic) {
-    for (auto* v : {&dx.d1, &dx.d2, &dy.d1, &dy.d2}) *v = std::vector<double>(v->begin() + n, v->begin() + 2 * n);
+    for (auto* v : {&dx.d1, &dx.d2, &dy.d1, &dy.d2, &dy.d1_gain}) *v = std::vector<double>(v->begin() + n, v->begin() + 2 * n);
   }
   return {std::move(dx), std::move(dy)};
 }
@@ -40,6 +40,7 @@ dwell_forces contact_forces(const dwell& d, const linear_part& lin, double delta
   f.ax = dx.d2;
   f.vy = dy.d1;
   f.ay = dy.d2;
+  f.vy_gain = dy.d1_gain;
   f.z.resize(n);
   f.fx.resize(n);
   f.fn.resize(n);

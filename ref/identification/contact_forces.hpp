@@ -22,6 +22,7 @@ struct linear_part {
 struct dwell_forces {
   const dwell* source = nullptr;
   std::vector<double> vx, vy, ax, ay;  // m/s, m/s^2 (NaN where a segment is too short)
+  std::vector<double> vy_gain;         // 1/s: standard deviation of vy per metre of white probe noise
   std::vector<double> z, fx, fn;       // m, N, N
   std::vector<bool> contact;           // y > delta and every derivative available
 };

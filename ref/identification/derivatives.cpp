@@ -38,6 +38,7 @@ derivatives differentiate(std::span<const double> v, double dt, const derivative
   if (!segment.empty() && segment.size() != v.size()) throw input_error("segment labels and samples differ in length");
   const std::size_t n = v.size();
   derivatives out{std::vector<double>(n, std::numeric_limits<double>::quiet_NaN()),
+                  std::vector<double>(n, std::numeric_limits<double>::quiet_NaN()),
                   std::vector<double>(n, std::numeric_limits<double>::quiet_NaN())};
   const auto label = [&](std::size_t i) { return segment.empty() ? 0 : segment[i]; };
   std::map<std::tuple<int, int, int>, weights> cache;  // (first offset, length, degree)
@@ -63,6 +64,7 @@ derivatives differentiate(std::span<const double> v, double dt, const derivative
         }
         out.d1[i] = a / dt;
         out.d2[i] = b / (dt * dt);
+        out.d1_gain[i] = it->second.d1.norm() / dt;
       }
     }
     lo = hi + 1;

@@ -20,6 +20,9 @@ struct derivative_settings {
 
 struct derivatives {
   std::vector<double> d1, d2;  // first and second derivative; NaN where a segment has < 3 samples
+  // Standard deviation of d1 per unit white noise on v (1/s): sqrt(sum of squared weights) / dt.
+  // What the probe noise puts into a velocity (the weak form's noise-bias correction).
+  std::vector<double> d1_gain;
 };
 
 // `segment[i]` labels the smooth stretch sample i belongs to (empty: one segment).

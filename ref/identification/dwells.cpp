@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "ref/errors.hpp"
 #include "ref/state.hpp"
@@ -65,7 +66,9 @@ averaged_dwell synchronous_average(const dwell& d) {
   const double per_rev = period / d.dt;
   const auto n = static_cast<std::size_t>(std::lround(per_rev));
   const bool on_grid = std::abs(per_rev - static_cast<double>(n)) < 1e-6 * per_rev;
-  const int revs = static_cast<int>(std::floor((d.t.back() - d.t.front()) / period + 1e-9));
+  // Whole revolutions whose resampled points all lie on the record: the last one's final point,
+  // one phase step before its end, must not pass the last sample.
+  const int revs = static_cast<int>(std::floor((d.t.back() - d.t.front() + period / static_cast<double>(n)) / period + 1e-9));
   if (n < 8 || revs < 1)
     throw input_error(d.source + ": synchronous averaging needs at least one whole revolution of 8 or more samples");
   // Catmull-Rom cubic interpolation of v at time t (only when the grid does not land on samples).
@@ -106,6 +109,42 @@ averaged_dwell synchronous_average(const dwell& d) {
   out.spread = std::sqrt(sq / (2.0 * n * revs));
   for (std::size_t k = 0; k < n; ++k) c.t[k] = d.t.front() + static_cast<double>(k) * c.dt;
   return out;
+}
+
+// The notch passes between the sample before a pulse and the pulse, so every pulse brackets the
+// passage time to one sample; revolutions apart, the brackets of all pulses intersect in a much
+// narrower one.
+double align_by_keyphasor(dwell& d, std::vector<std::string>& notes) {
+  constexpr double kNone = std::numeric_limits<double>::infinity();
+  if (d.keyphasor.empty()) return kNone;
+  const double period = 60.0 / d.rpm;
+  std::vector<std::size_t> pulses;
+  for (std::size_t i = 1; i < d.size(); ++i)
+    if (d.keyphasor[i] > 0.5 && !(d.keyphasor[i - 1] > 0.5)) pulses.push_back(i);
+  if (pulses.empty()) {
+    notes.push_back(d.source + ": no keyphasor pulse; times taken as recorded");
+    return kNone;
+  }
+  const double first = d.t[pulses.front()];
+  double lo = -kNone, hi = kNone, mean = 0.0;
+  // Closed brackets, widened by a hair: with a sample rate that is a whole multiple of the speed
+  // the notch can pass exactly at a sample, and rounding puts that pulse on either side of it.
+  const double hair = 1e-6 * d.dt;
+  for (const std::size_t i : pulses) {
+    const double revs = std::round((d.t[i] - first) / period);
+    const double t = d.t[i] - revs * period;
+    lo = std::max(lo, t - d.dt - hair);
+    hi = std::min(hi, t + hair);
+    mean += t / static_cast<double>(pulses.size());
+  }
+  double t0 = 0.5 * (lo + hi), width = hi - lo;
+  if (!(hi > lo)) {  // the brackets disagree: the speed is not what the record states
+    notes.push_back(d.source + ": keyphasor pulses are not one revolution of " + format_digits(d.rpm) + " rpm apart");
+    t0 = mean - 0.5 * d.dt;
+    width = d.dt;
+  }
+  for (double& t : d.t) t -= t0;
+  return width / std::sqrt(12.0);  // uniform within the bracket
 }
 
 double estimate_probe_noise(const std::vector<const dwell*>& dwells) {

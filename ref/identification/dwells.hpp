@@ -39,6 +39,12 @@ averaged_dwell synchronous_average(const dwell& d);
 // over x and y of every dwell, scaled for Gaussian noise, ignores impacts. 0 without samples.
 double estimate_probe_noise(const std::vector<const dwell*>& dwells);
 
+// Re-bases a dwell's times on its keyphasor (t = 0 at a notch passage), so that w t is the shaft
+// angle from the notch in every dwell, whatever clock the record was taken on; returns the timing
+// uncertainty (s; infinity without a keyphasor column or pulse, times then as recorded) and notes
+// what it cannot do.
+double align_by_keyphasor(dwell& d, std::vector<std::string>& notes);
+
 // Splits every record into its dwells. input_error (naming the file and line) if a dwell is
 // shorter than `min_samples`, its sampling is not uniform, or its speed is not positive.
 std::vector<dwell> split_dwells(const record& r, const std::string& source, std::size_t min_samples = 16);

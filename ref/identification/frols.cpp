@@ -1,5 +1,6 @@
 #include "ref/identification/frols.hpp"
 
+#include <boost/math/distributions/fisher_f.hpp>
 #include <cmath>
 #include <limits>
 
@@ -105,7 +106,18 @@ frols_result frols(const Eigen::MatrixXd& P, const Eigen::VectorXd& y, const fro
 
   // How many steps the stopping rule takes.
   std::size_t steps = out.order.size();
-  if (s.stop == frols_stop::err_sum) {
+  if (s.stop == frols_stop::significance) {
+    steps = 0;
+    const double yy = y.squaredNorm();
+    for (std::size_t i = 0; i < out.order.size(); ++i) {
+      const double k = static_cast<double>(i + 1), dof = static_cast<double>(n) - k;
+      if (!(dof >= 1.0) || out.order[i].err < s.err_floor) break;
+      const double residual_variance = std::max(0.0, 1.0 - out.order[i].err_sum) * yy / dof;
+      const double f = boost::math::quantile(boost::math::fisher_f(1.0, dof), 0.999);
+      if (!(out.order[i].err * yy > f * std::max(s.noise_variance, residual_variance))) break;
+      steps = i + 1;
+    }
+  } else if (s.stop == frols_stop::err_sum) {
     for (std::size_t i = 0; i < out.order.size(); ++i)
       if (1.0 - out.order[i].err_sum <= s.rho) {
         steps = i + 1;
@@ -123,7 +135,7 @@ frols_result frols(const Eigen::MatrixXd& P, const Eigen::VectorXd& y, const fro
   }
   out.steps_selected = steps;
   for (std::size_t i = 0; i < steps; ++i)
-    if (out.order[i].err >= s.err_threshold) {
+    if (s.stop == frols_stop::significance || out.order[i].err >= s.err_threshold) {
       out.kept.push_back(out.order[i].candidate);
       out.err_sum_kept += out.order[i].err;
     }

@@ -15,12 +15,19 @@
 
 namespace rubref {
 
-enum class frols_stop { err_sum, aic, bic };
+// err_sum: the paper's rule. significance: a step is taken while its term (a) explains at least
+// `err_floor` of y'y and (b) passes an F-test at 99.9 %: the sum of squares it removes exceeds the
+// F(1, N - k) quantile times the larger of the rows' known noise variance and the residual
+// variance after it (N rows, k terms). (b) stops at the noise on noisy rows, (a) at the
+// structured, non-random residual of noise-free ones; every step taken is kept.
+enum class frols_stop { err_sum, aic, bic, significance };
 
 struct frols_settings {
   double rho = 0.01;            // stop when 1 - sum ERR <= rho
   double err_threshold = 0.01;  // keep terms whose ERR >= this
   frols_stop stop = frols_stop::err_sum;
+  double noise_variance = 0.0;  // significance: the rows' known noise variance (0: unknown)
+  double err_floor = 1e-5;      // significance: the least share of y'y a kept term explains
 };
 
 struct frols_step {

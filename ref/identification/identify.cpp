@@ -1,6 +1,8 @@
 #include "ref/identification/identify.hpp"
 
 #include <algorithm>
+#include <boost/math/distributions/chi_squared.hpp>
+#include <boost/math/distributions/students_t.hpp>
 #include <cmath>
 #include <limits>
 #include <random>
@@ -60,22 +62,67 @@ constexpr double kPullShare = 0.1;
 
 std::string format_value(double v) { return format_digits(v, 4); }
 
+// law_method::automatic: the samples route serves while its f_N's noise is below this share of
+// f_N's variance: a tenth of the paper's rho (1 %), so that noise can never pass for a term.
+constexpr double kNoiseShareLimit = 1e-3;
+// A dwell is steady (its revolutions repeat) when they differ from their mean by at most twice
+// the probe noise (noise alone gives ~1x; the loop's rule, docs/loop.md); the floor keeps
+// noise-free records, whose noise estimate is their rounding, from being judged unsteady by it.
+constexpr double kSteadySpread = 2.0;
+constexpr double kSteadyFloor = 1e-8;  // m
+// The weak form's residual is flagged when it exceeds the noise (chi^2 test) and also leaves more
+// than this share of the integrals' variance unexplained: on noise-free records the residual is
+// the quadrature's, far above the ~0 noise but ~1e-6 of the signal.
+constexpr double kWeakUnexplained = 1e-4;
+
+// Noise gain of the centred second-derivative filter (per unit sample noise, dt = 1): its
+// response at the centred windows to a unit impulse.
+double second_derivative_gain(const derivative_settings& ds) {
+  const int h = ds.half_width;
+  std::vector<double> v(static_cast<std::size_t>(4 * h + 1), 0.0);
+  v[static_cast<std::size_t>(2 * h)] = 1.0;
+  const derivatives d = differentiate(v, 1.0, ds);
+  double sq = 0.0;
+  for (int i = h; i <= 3 * h; ++i) sq += d.d2[static_cast<std::size_t>(i)] * d.d2[static_cast<std::size_t>(i)];
+  return std::sqrt(sq);
+}
+
 void add_warnings(identification& id, const identify_settings& s);
 identification identify_law(const std::vector<dwell>& dwells, const identify_settings& s);
 
 }  // namespace
 
+std::string_view to_string(law_method m) {
+  switch (m) {
+    case law_method::automatic: return "auto";
+    case law_method::samples: return "samples";
+    case law_method::weak_form: return "weak-form";
+  }
+  return "?";
+}
+
+law_method parse_law_method(const std::string& name) {
+  for (const auto m : {law_method::automatic, law_method::samples, law_method::weak_form})
+    if (name == to_string(m)) return m;
+  throw input_error("unknown law method '" + name + "' (auto, samples, weak-form)");
+}
+
 identification identify(const std::vector<std::pair<record, std::string>>& records, const identify_settings& s) {
   if (records.empty()) throw input_error("identify needs at least one record");
   std::vector<dwell> dwells;
+  std::vector<std::string> notes;
   for (const auto& [r, name] : records) {
     for (auto& d : split_dwells(r, name)) {
       if (!(d.clearance > 0.0)) d.clearance = s.clearance;
       if (!(d.clearance > 0.0)) throw input_error(name + ": no clearance_m metadata; give --clearance");
+      // Dwell times on the shaft's angle (the unbalance phase and Eq. 1's forcing need it).
+      align_by_keyphasor(d, notes);
       dwells.push_back(std::move(d));
     }
   }
-  return identify(dwells, s);
+  identification id = identify(dwells, s);
+  id.notes.insert(id.notes.begin(), notes.begin(), notes.end());
+  return id;
 }
 
 identification identify(const std::vector<dwell>& dwells, const identify_settings& s) {
@@ -109,21 +156,69 @@ identification identify_law(const std::vector<dwell>& dwells, const identify_set
     id.linear_source = "fitted";
   }
 
-  std::vector<dwell_forces> forces;
-  std::vector<averaged_dwell> averaged;  // kept alive: forces point at their cycles
-  averaged.reserve(dwells.size());
-  for (const auto& d : dwells) {
-    if (!touches(d)) continue;
-    if (s.average_revolutions) {
-      averaged.push_back(synchronous_average(d));
-      forces.push_back(contact_forces(averaged.back().cycle, id.linear, d.clearance, s.derivative));
-    } else {
-      forces.push_back(contact_forces(d, id.linear, d.clearance, s.derivative));
+  std::vector<const dwell*> touching;
+  for (const auto& d : dwells)
+    if (touches(d)) touching.push_back(&d);
+  if (touching.empty()) throw input_error("no dwell reaches its clearance: there is no contact to identify");
+  const double sigma = id.probe_noise;
+
+  // Synchronous averages (dwells with at least one whole revolution).
+  std::vector<std::optional<averaged_dwell>> averages(touching.size());
+  for (std::size_t k = 0; k < touching.size(); ++k) {
+    try {
+      averages[k] = synchronous_average(*touching[k]);
+    } catch (const input_error&) {
     }
   }
-  if (forces.empty()) throw input_error("no dwell reaches its clearance: there is no contact to identify");
+  // Noise of a sample: the probe's, or an average's, measured by its revolutions' spread around
+  // their mean (spread^2 = s^2 (R - 1) / R for R revolutions of noise s, the average's variance
+  // is s^2 / R). Measured rather than sigma / sqrt(R): resampling off-grid revolutions by cubic
+  // interpolation lowers the noise by up to ~30 %, and the weak form's z_dot^2 correction
+  // needs the true level.
+  const auto sample_noise = [&](std::size_t k, bool averaged) {
+    if (!averaged) return sigma;
+    const auto& a = *averages[k];
+    return a.revolutions >= 2 ? a.spread / std::sqrt(static_cast<double>(a.revolutions - 1)) : sigma;
+  };
 
-  // Friction per speed (Fig. 5) and the pooled contact samples for FROLS.
+  // The route (law_method::automatic): the samples route's f_N carries m sigma g2 / dt^2 of noise
+  // per sample (g2: the second-derivative filter's gain); it serves while that is a negligible
+  // share of f_N's variance.
+  id.law_route = s.law_route;
+  if (id.law_route == law_method::automatic) {
+    const double g2 = second_derivative_gain(s.derivative);
+    double noise_sq = 0.0, force_sq = 0.0;
+    for (std::size_t k = 0; k < touching.size(); ++k) {
+      const bool avg = s.average_revolutions && averages[k];
+      const dwell& d = avg ? averages[k]->cycle : *touching[k];
+      const dwell_forces f = contact_forces(d, id.linear, d.clearance, s.derivative);
+      const double fn_noise = id.linear.m * sample_noise(k, avg) * g2 / (d.dt * d.dt);
+      for (std::size_t i = 0; i < f.fn.size(); ++i)
+        if (f.contact[i]) noise_sq += fn_noise * fn_noise, force_sq += f.fn[i] * f.fn[i];
+    }
+    const double share = force_sq > 0.0 ? noise_sq / force_sq : 1.0;
+    id.law_route = share > kNoiseShareLimit ? law_method::weak_form : law_method::samples;
+    id.law_route_reason = "probe noise " + format_value(sigma) + " m is " + format_value(100.0 * share) +
+                          " % of f_N's variance on the samples route (limit " + format_value(100.0 * kNoiseShareLimit) + " %)";
+  } else {
+    id.law_route_reason = "chosen (--law-method)";
+  }
+  const bool weak = id.law_route == law_method::weak_form;
+
+  // Which dwells are averaged: all on request; for the weak form, every steady one.
+  std::vector<bool> averaged(touching.size(), false);
+  for (std::size_t k = 0; k < touching.size(); ++k)
+    averaged[k] = averages[k] && (s.average_revolutions || (weak && averages[k]->revolutions >= 2 &&
+                                                           averages[k]->spread <= kSteadySpread * sigma + kSteadyFloor));
+  derivative_settings velocity = s.derivative;  // the weak form takes only z_dot: a wider window
+  if (weak) velocity.half_width = std::max(velocity.half_width, s.weak.velocity_half_width);
+  std::vector<dwell_forces> forces;
+  for (std::size_t k = 0; k < touching.size(); ++k) {
+    const dwell& d = averaged[k] ? averages[k]->cycle : *touching[k];
+    forces.push_back(contact_forces(d, id.linear, d.clearance, velocity));
+  }
+
+  // Friction per speed (Fig. 5) and the pooled contact samples.
   std::vector<contact_sample> pooled;
   std::vector<std::vector<contact_sample>> per_dwell(forces.size());
   double fxfn = 0.0, fnfn = 0.0;
@@ -131,14 +226,16 @@ identification identify_law(const std::vector<dwell>& dwells, const identify_set
   for (std::size_t k = 0; k < forces.size(); ++k) {
     const auto& f = forces[k];
     dwell_report rep{f.source->rpm, f.source->clearance, 0, 0.0, f.source->size(), 0, 0, 0.0, std::nullopt, {}, {}};
-    if (s.average_revolutions) {
-      rep.averaged_revolutions = averaged[k].revolutions;
-      rep.average_spread = averaged[k].spread;
+    if (averaged[k]) {
+      rep.averaged_revolutions = averages[k]->revolutions;
+      rep.average_spread = averages[k]->spread;
     }
-    const friction_estimate fe = estimate_friction(f);
-    if (fe.samples > 0) {
-      rep.friction = fe;
-      mu_means.push_back(fe.mean);
+    if (!weak) {
+      const friction_estimate fe = estimate_friction(f);
+      if (fe.samples > 0) {
+        rep.friction = fe;
+        mu_means.push_back(fe.mean);
+      }
     }
     for (std::size_t i = 0; i < f.fn.size(); ++i) {
       if (!f.contact[i]) continue;
@@ -153,22 +250,49 @@ identification identify_law(const std::vector<dwell>& dwells, const identify_set
     pooled.insert(pooled.end(), per_dwell[k].begin(), per_dwell[k].end());
     id.dwells.push_back(std::move(rep));
   }
-  for (double m : mu_means) id.mu_mean += m / mu_means.size();
-  for (double m : mu_means) id.mu_spread += (m - id.mu_mean) * (m - id.mu_mean);
-  id.mu_spread = mu_means.size() > 1 ? std::sqrt(id.mu_spread / (mu_means.size() - 1)) : 0.0;
-  id.mu_slope = fnfn > 0.0 ? fxfn / fnfn : 0.0;
-
-  // FROLS over the pooled contact samples.
-  const Eigen::Index n = static_cast<Eigen::Index>(pooled.size()), m = static_cast<Eigen::Index>(library.size());
-  Eigen::MatrixXd P(n, m);
-  Eigen::VectorXd y(n);
-  for (Eigen::Index i = 0; i < n; ++i) {
-    for (Eigen::Index j = 0; j < m; ++j) P(i, j) = library[j](pooled[i].z, pooled[i].zd);
-    y[i] = pooled[i].fn;
+  if (!weak) {
+    for (double m : mu_means) id.mu_mean += m / mu_means.size();
+    for (double m : mu_means) id.mu_spread += (m - id.mu_mean) * (m - id.mu_mean);
+    id.mu_spread = mu_means.size() > 1 ? std::sqrt(id.mu_spread / (mu_means.size() - 1)) : 0.0;
+    id.mu_slope = fnfn > 0.0 ? fxfn / fnfn : 0.0;
+    id.mu = id.mu_mean;
+    if (mu_means.size() > 1) id.mu_standard_error = id.mu_spread / std::sqrt(static_cast<double>(mu_means.size()));
   }
+
+  // The regression: contact samples (the paper's) or the weak form's integrals.
+  const Eigen::Index m = static_cast<Eigen::Index>(library.size());
+  Eigen::MatrixXd P;
+  Eigen::VectorXd y;
+  weak_form_system sys;
+  if (weak) {
+    std::vector<weak_form_input> in;
+    for (std::size_t k = 0; k < forces.size(); ++k) in.push_back({&forces[k], sample_noise(k, averaged[k])});
+    sys = weak_form(in, id.linear, library, s.weak);
+    if (sys.A.rows() <= static_cast<Eigen::Index>(library.size()))
+      throw input_error("weak form: " + std::to_string(sys.A.rows()) + " rows from " + std::to_string(sys.episodes) +
+                        " contact episodes cannot rank " + std::to_string(library.size()) +
+                        " candidate terms (record more dwells or revolutions, or use --law-method samples)");
+    P = sys.A;
+    y = sys.b;
+  } else {
+    P.resize(static_cast<Eigen::Index>(pooled.size()), m);
+    y.resize(static_cast<Eigen::Index>(pooled.size()));
+    for (Eigen::Index i = 0; i < P.rows(); ++i) {
+      for (Eigen::Index j = 0; j < m; ++j) P(i, j) = library[j](pooled[i].z, pooled[i].zd);
+      y[i] = pooled[i].fn;
+    }
+  }
+  const Eigen::Index n = P.rows();
   id.contact_samples = pooled.size();
-  id.force_rms = std::sqrt(y.squaredNorm() / std::max<Eigen::Index>(1, n));
-  id.frols = frols(P, y, s.frols);
+  // The weak form's rows carry a known noise: its terms are selected by significance (the
+  // paper's rho and 1 % threshold are shares of per-sample variance, not of the integrals').
+  frols_settings fs = s.frols;
+  if (weak) {
+    if (fs.stop == frols_stop::err_sum) fs.stop = frols_stop::significance;
+    fs.noise_variance = sys.noise * sys.noise;
+  }
+  id.stop = fs.stop;
+  id.frols = frols(P, y, fs);
   for (const auto& t : library) {
     id.candidates.push_back(t.name());
     id.candidates_pretty.push_back(t.pretty());
@@ -177,7 +301,6 @@ identification identify_law(const std::vector<dwell>& dwells, const identify_set
     const double pp = P.col(j).squaredNorm();
     id.first_step_err.push_back(pp > 0.0 ? std::pow(P.col(j).dot(y), 2) / (pp * y.squaredNorm()) : 0.0);
   }
-  id.residual_rms = std::sqrt(id.frols.residual.squaredNorm() / std::max<Eigen::Index>(1, n));
   {
     // The paper's Table 1 ranks z^3 (0.568) above z (0.392): its values in that order.
     const std::vector<std::string> paper_order{"z3", "z1", "zd2", "z2", "zd1", "zd3", "z4", "zd4"};
@@ -191,11 +314,95 @@ identification identify_law(const std::vector<dwell>& dwells, const identify_set
       for (std::size_t k = 0; k < order.size(); ++k) id.paper_order_err[order[k]] = err[k];
     }
   }
+  const auto& kept = id.frols.kept;
+  std::vector<candidate_term> kept_terms;
+  std::vector<double> kept_coef;
+  for (std::size_t j = 0; j < kept.size(); ++j) {
+    kept_terms.push_back(library[kept[j]]);
+    kept_coef.push_back(id.frols.coefficients[j]);
+  }
+  const auto law = [&](double z, double zd) {
+    double f = 0.0;
+    for (std::size_t j = 0; j < kept_terms.size(); ++j) f += kept_coef[j] * kept_terms[j](z, zd);
+    return f;
+  };
+  {
+    // Per contact sample: what the law leaves of the measured f_N (on the weak route that f_N is
+    // noise-dominated; the fit's own residual is weak_form_report's).
+    double sq = 0.0, fsq = 0.0;
+    for (const auto& c : pooled) sq += std::pow(c.fn - law(c.z, c.zd), 2), fsq += c.fn * c.fn;
+    id.residual_rms = std::sqrt(sq / std::max<std::size_t>(1, pooled.size()));
+    id.force_rms = std::sqrt(fsq / std::max<std::size_t>(1, pooled.size()));
+  }
+
+  if (weak) {
+    // Intervals on the whitened rows: the residual variance, but never below the noise's (few
+    // rows can fit the noise by chance), with Student's t for the rows left.
+    const Eigen::Index p = static_cast<Eigen::Index>(kept.size());
+    const Eigen::Index dof = std::max<Eigen::Index>(1, n - p);
+    const double s2 = id.frols.residual.squaredNorm() / static_cast<double>(dof), noise2 = sys.noise * sys.noise;
+    const double var = std::max(s2, noise2);
+    const double tq = boost::math::quantile(boost::math::students_t(static_cast<double>(dof)), 0.975);
+    Eigen::MatrixXd Ak(n, p);
+    for (Eigen::Index j = 0; j < p; ++j) Ak.col(j) = P.col(static_cast<Eigen::Index>(kept[j]));
+    const Eigen::MatrixXd cov = p > 0 ? Eigen::MatrixXd(var * (Ak.transpose() * Ak).completeOrthogonalDecomposition().pseudoInverse())
+                                      : Eigen::MatrixXd();
+    for (std::size_t j = 0; j < kept.size(); ++j) {
+      const double se = std::sqrt(cov(static_cast<Eigen::Index>(j), static_cast<Eigen::Index>(j)));
+      id.estimates.push_back({library[kept[j]].name(), library[kept[j]].pretty(), kept_coef[j], se, kept_coef[j] - tq * se,
+                              kept_coef[j] + tq * se});
+    }
+    weak_form_report wr;
+    wr.rows = static_cast<std::size_t>(n);
+    wr.episodes = sys.episodes;
+    wr.noise = sys.noise;
+    wr.residual_rms = std::sqrt(id.frols.residual.squaredNorm() / static_cast<double>(std::max<Eigen::Index>(1, n)));
+    wr.chi2_per_dof = noise2 > 0.0 ? s2 / noise2 : std::numeric_limits<double>::infinity();
+    wr.chi2_limit = boost::math::quantile(boost::math::chi_squared(static_cast<double>(dof)), 0.999) / static_cast<double>(dof);
+    id.weak = wr;
+
+    // Friction: int f_x psi = mu int f_N psi on every row (Eq. 2), both sides from the data. The
+    // noise in the regressor's sum of squares (rows x noise^2) is taken out, else it biases mu
+    // towards 0.
+    const auto friction = [&](const std::vector<Eigen::Index>& rows, double& se) {
+      double bb = 0.0, bxb = 0.0;
+      for (const auto r : rows) bb += sys.b[r] * sys.b[r], bxb += sys.bx[r] * sys.b[r];
+      double den = bb - static_cast<double>(rows.size()) * noise2;
+      if (!(den > 0.5 * bb)) den = bb;  // noise-dominated: no correction (the warnings say so)
+      const double mu = den > 0.0 ? bxb / den : kNaN;
+      double rr = 0.0;
+      for (const auto r : rows) rr += std::pow(sys.bx[r] - mu * sys.b[r], 2);
+      const double sx2 = rows.size() > 1 ? rr / static_cast<double>(rows.size() - 1) : kNaN;
+      se = std::sqrt(std::max(sx2, noise2 * (1.0 + mu * mu)) / den);
+      return mu;
+    };
+    std::vector<Eigen::Index> all_rows;
+    std::vector<std::vector<Eigen::Index>> rows_of(forces.size());
+    for (Eigen::Index r = 0; r < n; ++r) {
+      all_rows.push_back(r);
+      rows_of[sys.dwell_of_row[static_cast<std::size_t>(r)]].push_back(r);
+    }
+    id.mu = id.mu_slope = friction(all_rows, id.mu_standard_error);
+    for (std::size_t k = 0; k < forces.size(); ++k) {
+      if (rows_of[k].empty()) continue;
+      double se = 0.0;
+      const double mu = friction(rows_of[k], se);
+      id.dwells[k].friction = friction_estimate{forces[k].source->rpm, rows_of[k].size(), mu, se, mu, mu};
+      mu_means.push_back(mu);
+    }
+    for (double v : mu_means) id.mu_mean += v / mu_means.size();
+    for (double v : mu_means) id.mu_spread += (v - id.mu_mean) * (v - id.mu_mean);
+    id.mu_spread = mu_means.size() > 1 ? std::sqrt(id.mu_spread / (mu_means.size() - 1)) : 0.0;
+    // The shares below compare with the law's own f_N: the measured one is noise here.
+    for (auto* v : {&pooled})
+      for (auto& c : *v) c.fn = law(c.z, c.zd);
+    for (auto& d : per_dwell)
+      for (auto& c : d) c.fn = law(c.z, c.zd);
+  }
 
   // Episode bootstrap: contact samples within an episode are correlated, whole episodes are not.
-  const auto& kept = id.frols.kept;
   std::vector<std::vector<double>> boot(kept.size());
-  if (s.bootstrap > 0 && id.episodes > 1 && !kept.empty()) {
+  if (!weak && s.bootstrap > 0 && id.episodes > 1 && !kept.empty()) {
     std::vector<std::vector<Eigen::Index>> rows_of(id.episodes);
     for (Eigen::Index i = 0; i < n; ++i) rows_of[pooled[i].episode].push_back(i);
     std::mt19937_64 rng(s.seed);  // its output sequence is fixed by the standard: same intervals everywhere
@@ -216,12 +423,13 @@ identification identify_law(const std::vector<dwell>& dwells, const identify_set
       for (std::size_t j = 0; j < kept.size(); ++j) boot[j].push_back(fb.coefficients[j]);
     }
   }
-  for (std::size_t j = 0; j < kept.size(); ++j)
-    id.estimates.push_back({library[kept[j]].name(), library[kept[j]].pretty(), id.frols.coefficients[j],
-                            id.frols.standard_errors[j], percentile(boot[j], 0.025), percentile(boot[j], 0.975)});
+  if (!weak)
+    for (std::size_t j = 0; j < kept.size(); ++j)
+      id.estimates.push_back({library[kept[j]].name(), library[kept[j]].pretty(), id.frols.coefficients[j],
+                              id.frols.standard_errors[j], percentile(boot[j], 0.025), percentile(boot[j], 0.975)});
 
-  // Residual correlation tests, episode by episode.
-  {
+  // Residual correlation tests, episode by episode (samples route: the residual is per sample).
+  if (!weak) {
     std::vector<std::vector<double>> e(id.episodes), z(id.episodes), zd(id.episodes);
     for (Eigen::Index i = 0; i < n; ++i) {
       e[pooled[i].episode].push_back(id.frols.residual[i]);
@@ -233,12 +441,6 @@ identification identify_law(const std::vector<dwell>& dwells, const identify_set
 
   // Term shares per speed: the reference law (Table 2) and the identified one.
   const std::vector<candidate_term> reference_terms = parse_library("z1,z3,zd2");
-  std::vector<candidate_term> kept_terms;
-  std::vector<double> kept_coef;
-  for (std::size_t j = 0; j < kept.size(); ++j) {
-    kept_terms.push_back(library[kept[j]]);
-    kept_coef.push_back(id.frols.coefficients[j]);
-  }
   for (std::size_t k = 0; k < forces.size(); ++k) {
     id.dwells[k].reference_shares = shares(reference_terms, {s.reference.k1, s.reference.k3, s.reference.c2}, per_dwell[k]);
     id.dwells[k].identified_shares = shares(kept_terms, kept_coef, per_dwell[k]);
@@ -247,8 +449,7 @@ identification identify_law(const std::vector<dwell>& dwells, const identify_set
   {
     double peak = 0.0, least = 0.0;
     for (const auto& c : pooled) {
-      double f = 0.0;
-      for (std::size_t j = 0; j < kept_terms.size(); ++j) f += kept_coef[j] * kept_terms[j](c.z, c.zd);
+      const double f = law(c.z, c.zd);
       peak = std::max(peak, f), least = std::min(least, f);
     }
     if (!kept_terms.empty() && least < -kPullShare * peak)
@@ -265,7 +466,7 @@ identification identify_law(const std::vector<dwell>& dwells, const identify_set
     start.k_y = id.linear.k_y;
     start.e = id.linear.e;
     start.delta = forces.front().source->clearance;
-    start.mu = id.mu_mean;
+    start.mu = id.mu;
     start.k1 = start.k3 = start.c2 = 0.0;
     for (const auto& est : id.estimates) {
       if (est.name == "z1") start.k1 = est.value;
@@ -315,8 +516,13 @@ void add_warnings(identification& id, const identify_settings& s) {
                   format_value(e.standard_error) + (std::isfinite(e.ci_low) ? ", bootstrap [" + format_value(e.ci_low) + ", " +
                   format_value(e.ci_high) + "]" : std::string()) + "): the data do not determine it");
   }
-  if (!(id.mu_mean >= 0.0 && id.mu_mean <= 1.0))
-    w.push_back("friction: mu = " + format_value(id.mu_mean) + " is outside [0, 1]: implausible for a rub");
+  if (id.weak && id.weak->chi2_per_dof > id.weak->chi2_limit && 1.0 - id.frols.err_sum_kept > kWeakUnexplained)
+    w.push_back("weak form: the residual is " + format_value(id.weak->chi2_per_dof) + "x the probe noise's variance (limit " +
+                format_value(id.weak->chi2_limit) + " under noise alone), " + format_value(100.0 * (1.0 - id.frols.err_sum_kept)) +
+                " % of the integrals' variance: the law leaves what noise cannot explain (a missing term, an effect outside Eq. 1, "
+                "or a wrong linear part)");
+  if (!(id.mu >= 0.0 && id.mu <= 1.0))
+    w.push_back("friction: mu = " + format_value(id.mu) + " is outside [0, 1]: implausible for a rub");
   else if (id.dwells.size() > 1 && id.mu_spread > id.mu_mean)
     w.push_back("friction: the per-speed means of mu scatter by " + format_value(id.mu_spread) + " around " + format_value(id.mu_mean) +
                 ": not determined by the data");
@@ -356,9 +562,16 @@ nlohmann::ordered_json to_json(const identification& id, const identify_settings
   j["settings"] = {{"library", s.library},
                    {"rho", s.frols.rho},
                    {"err_threshold", s.frols.err_threshold},
-                   {"stop", s.frols.stop == frols_stop::err_sum ? "err_sum" : s.frols.stop == frols_stop::aic ? "aic" : "bic"},
+                   {"stop", id.stop == frols_stop::err_sum ? "err_sum" : id.stop == frols_stop::aic ? "aic"
+                                     : id.stop == frols_stop::bic ? "bic" : "significance"},
+                   {"err_floor", s.frols.err_floor},
                    {"derivative", {{"method", "Savitzky-Golay, windows split at y = clearance"},
                                    {"half_width", s.derivative.half_width}, {"degree", s.derivative.degree}}},
+                   {"law_method", std::string(to_string(id.law_route))},
+                   {"law_method_reason", id.law_route_reason},
+                   {"weak_form", {{"test_functions", s.weak.test_functions}, {"bump_power", s.weak.bump_power},
+                                  {"margin", s.weak.margin}, {"velocity_half_width", s.weak.velocity_half_width}}},
+                   {"intervals", id.weak ? "Student t on the whitened weak-form rows" : "episode bootstrap"},
                    {"bootstrap_resamples", s.bootstrap},
                    {"friction_force_share", kFrictionForceShare}};
   const auto& L = id.linear;
@@ -374,10 +587,12 @@ nlohmann::ordered_json to_json(const identification& id, const identify_settings
     if (!id.linear_fitted->beyond_1x_rms.empty()) j["linear"]["beyond_1x_rms_m"] = id.linear_fitted->beyond_1x_rms;
     j["linear"]["note"] = "m is not identifiable from displacements (Eq. 1 scales with it); it is taken as given";
   }
-  j["friction"] = {{"mu_mean", id.mu_mean}, {"mu_spread", id.mu_spread}, {"mu_slope", id.mu_slope}};
+  j["friction"] = {{"mu", id.mu}, {"mu_standard_error", num(id.mu_standard_error)}, {"mu_mean", id.mu_mean},
+                   {"mu_spread", id.mu_spread}, {"mu_slope", id.mu_slope}};
   for (const auto& d : id.dwells) {
     json jd = {{"speed_rpm", d.rpm}, {"clearance_m", d.clearance}, {"samples", d.samples}, {"contact_samples", d.contact_samples},
-               {"episodes", d.episodes}, {"max_penetration_m", d.max_penetration}};
+               {"episodes", d.episodes}, {"max_penetration_m", d.max_penetration}, {"averaged_revolutions", d.averaged_revolutions},
+               {"average_spread_m", d.average_spread}};
     if (d.friction)
       jd["mu"] = {{"samples", d.friction->samples}, {"mean", d.friction->mean}, {"std", d.friction->std_dev},
                   {"median", d.friction->median}, {"slope", d.friction->slope}};
@@ -404,6 +619,10 @@ nlohmann::ordered_json to_json(const identification& id, const identify_settings
   for (const auto& t : id.validity)
     j["validity"].push_back({{"test", t.name}, {"band", t.band}, {"max_abs", t.max_abs},
                              {"outside_fraction", t.outside_fraction}, {"pass", t.pass}});
+  if (id.weak)
+    j["weak_form"] = {{"rows", id.weak->rows}, {"episodes", id.weak->episodes}, {"noise_m", id.weak->noise},
+                      {"residual_rms_m", id.weak->residual_rms}, {"chi2_per_dof", num(id.weak->chi2_per_dof)},
+                      {"chi2_limit", id.weak->chi2_limit}};
   if (id.reid) {
     j["reidentification"] = {{"algorithm", id.reid->algorithm}, {"evaluations", id.reid->evaluations},
                              {"failed_evaluations", id.reid->failed_evaluations}, {"final_failed", id.reid->final_failed},
@@ -414,6 +633,7 @@ nlohmann::ordered_json to_json(const identification& id, const identify_settings
                                                      {"at_bound", p.at_bound}});
   }
   j["probe_noise_m"] = id.probe_noise;
+  j["notes"] = id.notes;
   j["warnings"] = id.warnings;
   return j;
 }
@@ -428,6 +648,12 @@ std::string to_markdown(const identification& id) {
     md << "\n";
   }
   md << "Probe noise (from the data): " << id.probe_noise << " m.\n\n";
+  md << "Contact law by **" << to_string(id.law_route) << "** (" << id.law_route_reason << ").\n\n";
+  if (!id.notes.empty()) {
+    md << "## Notes\n\n";
+    for (const auto& n : id.notes) md << "- " << n << "\n";
+    md << "\n";
+  }
   md << "Linear part (" << id.linear_source << "): m = " << id.linear.m << " kg, c_x = " << id.linear.c_x << " kg/s, c_y = "
      << id.linear.c_y << " kg/s, k_x = " << id.linear.k_x << " N/m, k_y = " << id.linear.k_y << " N/m, e = " << id.linear.e
      << " m, unbalance phase = " << id.linear.phase << " rad.\n\n";
@@ -443,12 +669,17 @@ std::string to_markdown(const identification& id) {
     md << "| " << e.pretty << " | " << e.value << " | " << e.standard_error << " | [" << e.ci_low << ", " << e.ci_high << "] |\n";
   md << "\nResidual RMS " << id.residual_rms << " N against an RMS contact force of " << id.force_rms << " N over "
      << id.contact_samples << " contact samples in " << id.episodes << " episodes.\n\n";
+  if (id.weak)
+    md << "Weak form: " << id.weak->rows << " rows over " << id.weak->episodes << " episodes; whitened residual RMS "
+       << id.weak->residual_rms << " m against a noise of " << id.weak->noise << " m (χ²/dof " << id.weak->chi2_per_dof
+       << ", 99.9 % limit " << id.weak->chi2_limit << "). Intervals: Student t.\n\n";
   md << "## Friction per speed (Fig. 5)\n\n| speed [rpm] | samples | mean μ | std | median | slope |\n|---|---|---|---|---|---|\n";
   for (const auto& d : id.dwells)
     if (d.friction)
       md << "| " << d.rpm << " | " << d.friction->samples << " | " << d.friction->mean << " | " << d.friction->std_dev << " | "
          << d.friction->median << " | " << d.friction->slope << " |\n";
-  md << "\nμ = " << id.mu_mean << " (mean over speeds, spread " << id.mu_spread << "); pooled slope " << id.mu_slope << ".\n\n";
+  md << "\nμ = " << id.mu << " ± " << id.mu_standard_error << " (" << (id.weak ? "weak form, pooled over every row" : "mean over speeds")
+     << "); per-speed mean " << id.mu_mean << ", spread " << id.mu_spread << "; pooled slope " << id.mu_slope << ".\n\n";
   md << "## Residual correlation tests\n\n| test | max |φ| | band | outside | pass |\n|---|---|---|---|---|\n";
   for (const auto& t : id.validity)
     md << "| " << t.name << " | " << t.max_abs << " | " << t.band << " | " << t.outside_fraction << " | " << (t.pass ? "yes" : "no") << " |\n";

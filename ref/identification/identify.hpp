@@ -3,13 +3,17 @@
 //  1. split records into dwells; a dwell is in contact if any sample has y > clearance
 //  2. the linear part of Eq. 1: given (--linear), or fitted on the dwells without contact
 //  3. contact forces at every sample (Eq. 1 inverted), friction mu per speed (Fig. 5)
-//  4. FROLS on f_N over the contact samples with the candidate library (Eq. 3-4, Tables 1-2),
-//     standard errors, an episode bootstrap, residual correlation tests
+//  4. FROLS on f_N with the candidate library (Eq. 3-4, Tables 1-2): on the contact samples
+//     (the paper's route: standard errors, an episode bootstrap, residual correlation tests) or
+//     on the weak form's integrals (no acceleration from the data; for noisy records), chosen
+//     from the probe noise the data show
 //  5. optionally, output-error re-identification with NLopt
 
+#include <limits>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "ref/identification/contact_forces.hpp"
@@ -17,9 +21,20 @@
 #include "ref/identification/frols.hpp"
 #include "ref/identification/output_error.hpp"
 #include "ref/identification/validity.hpp"
+#include "ref/identification/weak_form.hpp"
 #include "ref/parameters.hpp"
 
 namespace rubref {
+
+// How the contact law is regressed (docs/identification.md §5).
+//  - samples: f_N at every contact sample from Savitzky-Golay second derivatives (the paper's).
+//  - weak_form: Eq. 1 integrated against test functions around each contact episode
+//    (ref/identification/weak_form.hpp): no second derivative of data.
+//  - automatic: samples when the probe noise's share of f_N's variance on the samples route is
+//    below a tenth of rho (the noise cannot pass for a term), else the weak form.
+enum class law_method { automatic, samples, weak_form };
+std::string_view to_string(law_method m);
+law_method parse_law_method(const std::string& name);  // input_error if unknown
 
 struct identify_settings {
   std::optional<parameters> linear;      // the linear part (m, c, k, e, unbalance phase) if known; else fitted
@@ -27,7 +42,10 @@ struct identify_settings {
   double clearance = 0.0;                // m, for records without clearance_m metadata (0: required there)
   linear_method linear_route = linear_method::harmonic;  // how a fitted linear part is found
   derivative_settings derivative;
-  bool average_revolutions = false;      // synchronous averaging of each dwell before differentiating
+  bool average_revolutions = false;      // synchronous averaging of every dwell before differentiating
+                                         // (the weak form averages each steady dwell anyway)
+  law_method law_route = law_method::automatic;
+  weak_form_settings weak;
   std::string library = "z1..4,zd1..4";  // Eq. 4, L = 4
   frols_settings frols;
   int bootstrap = 200;                   // resamples of whole contact episodes (0: none)
@@ -41,7 +59,8 @@ struct identify_settings {
 struct term_estimate {
   std::string name, pretty;
   double value, standard_error;  // in N per unit of the term (k1: N/m, c2: kg/m, ...)
-  double ci_low, ci_high;        // 95 % episode-bootstrap interval (NaN without bootstrap)
+  double ci_low, ci_high;        // 95 % interval: episode bootstrap (samples route; NaN without),
+                                 // Student t on the whitened rows (weak form)
 };
 
 struct term_share {
@@ -60,6 +79,15 @@ struct dwell_report {
   std::vector<term_share> identified_shares;  // the identified law on these z, z_dot
 };
 
+// The weak form's fit (law_method::weak_form).
+struct weak_form_report {
+  std::size_t rows = 0, episodes = 0;
+  double noise = 0.0;           // m, the whitened rows' noise standard deviation (sample noise)
+  double residual_rms = 0.0;    // m, of the whitened rows after the kept terms
+  double chi2_per_dof = 0.0;    // (residual_rms / noise)^2 * rows / (rows - terms): ~1 if only noise is left
+  double chi2_limit = 0.0;      // its 99.9 % quantile under noise alone
+};
+
 struct identification {
   linear_part linear;
   std::string linear_source;             // "given" or "fitted"
@@ -67,10 +95,17 @@ struct identification {
   std::vector<dwell_report> dwells;
   double mu_mean = 0.0, mu_spread = 0.0;  // mean and standard deviation of the per-speed means
   double mu_slope = 0.0;                  // pooled least squares f_x = mu f_N
+  double mu = 0.0;                        // the estimate: mu_mean (samples, the paper's Fig. 5) or mu_slope (weak form)
+  double mu_standard_error = std::numeric_limits<double>::quiet_NaN();
+  law_method law_route = law_method::samples;  // the route taken
+  std::string law_route_reason;
+  std::optional<weak_form_report> weak;
+  std::vector<std::string> notes;         // what was done to the data (keyphasor timing, averaging)
   std::vector<std::string> candidates, candidates_pretty;
   std::vector<double> first_step_err;     // each candidate alone: (p'y)^2 / (p'p y'y)
   std::vector<double> paper_order_err;    // ERR in the order of the paper's Table 1 ranking, when
                                           // the library is Eq. 4's (z^3, z, z_dot^2, z^2, z_dot, z_dot^3, z^4, z_dot^4); else empty
+  frols_stop stop = frols_stop::err_sum;  // the stopping rule used (the weak form's: significance)
   frols_result frols;
   std::vector<term_estimate> estimates;   // the kept terms
   double residual_rms = 0.0;              // N

@@ -67,6 +67,27 @@ double candidate_term::operator()(double z, double z_dot) const {
   return v;
 }
 
+double candidate_term::unbiased(double z, double z_dot, double var_zd) const {
+  double v = 1.0;
+  for (const auto& f : factors_) {
+    if (f.of == term_factor::variable::z_dot && !f.absolute && f.power == std::floor(f.power) && var_zd > 0.0) {
+      // H_0 = 1, H_1 = v, H_{n+1} = v H_n - n sigma^2 H_{n-1}: E[H_n(v + noise)] = v^n.
+      double h0 = 1.0, h1 = z_dot;
+      for (int n = 1; n < static_cast<int>(f.power); ++n) {
+        const double h2 = z_dot * h1 - n * var_zd * h0;
+        h0 = h1;
+        h1 = h2;
+      }
+      v *= h1;
+    } else {
+      double base = f.of == term_factor::variable::z ? z : z_dot;
+      if (f.absolute) base = std::abs(base);
+      v *= f.power == std::floor(f.power) ? std::pow(base, static_cast<int>(f.power)) : std::pow(base, f.power);
+    }
+  }
+  return v;
+}
+
 std::string candidate_term::pretty() const {
   if (factors_.empty()) return "1";
   std::string out;

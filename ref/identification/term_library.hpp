@@ -23,6 +23,11 @@ class candidate_term {
  public:
   explicit candidate_term(std::vector<term_factor> factors);  // empty: the constant 1
   double operator()(double z, double z_dot) const;
+  // The term unbiased for zero-mean Gaussian noise of variance var_zd on a measured z_dot: each
+  // factor z_dot^p with an integer p (not |z_dot|^p) becomes sigma^p He_p(z_dot / sigma), the
+  // probabilists' Hermite polynomial, whose expectation over the noise is the noise-free z_dot^p
+  // (z_dot^2 -> z_dot^2 - sigma^2). Other factors are evaluated as measured. var_zd = 0: the term.
+  double unbiased(double z, double z_dot, double var_zd) const;
   const std::string& name() const { return name_; }            // canonical text form, e.g. "zd2"
   std::string pretty() const;                                  // e.g. "ż²", "|ż|·ż", "z^1.5"
 

@@ -26,41 +26,7 @@ double estimate_noise(const std::vector<loop_dwell>& dwells) {
   return estimate_probe_noise(all);
 }
 
-// The notch passes between the sample before a pulse and the pulse, so every pulse brackets the
-// passage time to one sample; revolutions apart, the brackets of all pulses intersect in a much
-// narrower one.
-void align_by_keyphasor(loop_dwell& ld, std::vector<std::string>& notes) {
-  dwell& d = ld.data;
-  if (d.keyphasor.empty()) return;
-  const double period = 60.0 / d.rpm;
-  std::vector<std::size_t> pulses;
-  for (std::size_t i = 1; i < d.size(); ++i)
-    if (d.keyphasor[i] > 0.5 && !(d.keyphasor[i - 1] > 0.5)) pulses.push_back(i);
-  if (pulses.empty()) {
-    notes.push_back(d.source + ": no keyphasor pulse; times taken as recorded");
-    return;
-  }
-  const double first = d.t[pulses.front()];
-  double lo = -std::numeric_limits<double>::infinity(), hi = std::numeric_limits<double>::infinity(), mean = 0.0;
-  // Closed brackets, widened by a hair: with a sample rate that is a whole multiple of the speed
-  // the notch can pass exactly at a sample, and rounding puts that pulse on either side of it.
-  const double hair = 1e-6 * d.dt;
-  for (const std::size_t i : pulses) {
-    const double revs = std::round((d.t[i] - first) / period);
-    const double t = d.t[i] - revs * period;
-    lo = std::max(lo, t - d.dt - hair);
-    hi = std::min(hi, t + hair);
-    mean += t / static_cast<double>(pulses.size());
-  }
-  double t0 = 0.5 * (lo + hi), width = hi - lo;
-  if (!(hi > lo)) {  // the brackets disagree: the speed is not what the record states
-    notes.push_back(d.source + ": keyphasor pulses are not one revolution of " + format_digits(d.rpm) + " rpm apart");
-    t0 = mean - 0.5 * d.dt;
-    width = d.dt;
-  }
-  for (double& t : d.t) t -= t0;
-  ld.timing_sigma = width / std::sqrt(12.0);  // uniform within the bracket
-}
+void align_by_keyphasor(loop_dwell& ld, std::vector<std::string>& notes) { ld.timing_sigma = rubref::align_by_keyphasor(ld.data, notes); }
 
 // Contact shows in the orbit even where it is not at the top (contact_angle): impacts put
 // orders |k| >= 3 into the orbit, which no effect without contact does (unbalance, bow and
