@@ -546,6 +546,18 @@ TEST(identification, weak_form_at_two_micrometres_stays_physical) {
   }
 }
 
+// A library without the law's z_dot^2: the weak form's residual test names the gap (at 0.5 um the
+// residual is ~30x what the noise leaves, measured; the limit is ~2x).
+TEST(identification, weak_form_residual_test_flags_a_missing_term) {
+  const auto [rub, free] = rig_records("identified", 0.5e-6, 1);
+  identify_settings s;
+  s.library = "z1,z2,z3";
+  const identification id = identify({{rub, "rub.csv"}, {free, "free.csv"}}, s);
+  ASSERT_TRUE(id.weak);
+  EXPECT_GT(id.weak->chi2_per_dof, id.weak->chi2_limit);
+  EXPECT_TRUE(std::any_of(id.warnings.begin(), id.warnings.end(), [](const std::string& w) { return w.rfind("weak form: the residual", 0) == 0; }));
+}
+
 // The piecewise-linear law at 0.5 um: z alone.
 TEST(identification, weak_form_piecewise_linear_gives_z_alone) {
   const parameters truth;

@@ -5,6 +5,7 @@
 #include <boost/math/distributions/students_t.hpp>
 #include <cmath>
 #include <limits>
+#include <numbers>
 #include <random>
 #include <sstream>
 
@@ -74,6 +75,64 @@ constexpr double kSteadyFloor = 1e-8;  // m
 // than this share of the integrals' variance unexplained: on noise-free records the residual is
 // the quadrature's, far above the ~0 noise but ~1e-6 of the signal.
 constexpr double kWeakUnexplained = 1e-4;
+
+// The weak form's intervals. The rows' covariance counts the noise in the integrals of Eq. 1,
+// not the noise the regressors take from z and z_dot; perturbing the data once more with the
+// same noise and refitting moves the estimate by both (to first order, with the estimate's own
+// covariance). kSpreadRepeats: the spread's standard error is ~1/sqrt(2 x 50) = 10 % of itself.
+// The same perturbations give what one dose of the noise adds to the residual variance per row
+// (regressors' noise included): the scale of the weak form's chi^2 test.
+constexpr int kSpreadRepeats = 50;
+
+struct perturbation_spread {
+  Eigen::MatrixXd cov;             // of the estimate
+  double residual_variance = 0.0;  // added to the whitened rows' residual variance by one dose of noise
+};
+
+perturbation_spread perturbation_covariance(const std::vector<std::pair<const dwell*, double>>& used, const linear_part& lin,
+                                        const std::vector<candidate_term>& terms, const derivative_settings& velocity,
+                                        const weak_form_settings& ws, double residual_variance, unsigned seed) {
+  const auto p = static_cast<Eigen::Index>(terms.size());
+  std::mt19937_64 rng(seed);  // the standard fixes its sequence; Box-Muller by hand (std::normal_distribution is not portable)
+  const auto gauss = [&rng] {
+    const double u1 = (static_cast<double>(rng() >> 11) + 0.5) * 0x1.0p-53, u2 = static_cast<double>(rng() >> 11) * 0x1.0p-53;
+    return std::sqrt(-2.0 * std::log(u1)) * std::cos(2.0 * std::numbers::pi * u2);
+  };
+  std::vector<std::size_t> all(terms.size());
+  for (std::size_t j = 0; j < all.size(); ++j) all[j] = j;
+  Eigen::VectorXd mean = Eigen::VectorXd::Zero(p);
+  Eigen::MatrixXd second = Eigen::MatrixXd::Zero(p, p);
+  double added = 0.0;
+  int done = 0;
+  for (int r = 0; r < kSpreadRepeats; ++r) {
+    std::vector<dwell> noisy;
+    noisy.reserve(used.size());
+    for (const auto& [d, sigma] : used) {
+      dwell c = *d;
+      for (double& v : c.x) v += sigma * gauss();
+      for (double& v : c.y) v += sigma * gauss();
+      noisy.push_back(std::move(c));
+    }
+    std::vector<dwell_forces> forces;
+    forces.reserve(noisy.size());
+    for (const auto& c : noisy) forces.push_back(contact_forces(c, lin, c.clearance, velocity));
+    std::vector<weak_form_input> in;
+    // The perturbed data carry twice the noise variance: z_dot^p unbiased at that level.
+    for (std::size_t k = 0; k < forces.size(); ++k) in.push_back({&forces[k], used[k].second * std::numbers::sqrt2});
+    try {
+      const weak_form_system sys = weak_form(in, lin, terms, ws);
+      const least_squares_fit fit = least_squares(sys.A, sys.b, all);
+      mean += fit.coefficients;
+      second += fit.coefficients * fit.coefficients.transpose();
+      added += fit.residual.squaredNorm() / static_cast<double>(std::max<Eigen::Index>(1, sys.A.rows() - p)) - residual_variance;
+      ++done;
+    } catch (const input_error&) {  // a perturbation that leaves no usable episode: not counted
+    }
+  }
+  if (done < 2) return {Eigen::MatrixXd::Zero(p, p), 0.0};
+  mean /= done;
+  return {(second / done - mean * mean.transpose()) * (static_cast<double>(done) / (done - 1)), added / done};
+}
 
 // Noise gain of the centred second-derivative filter (per unit sample noise, dt = 1): its
 // response at the centred windows to a unit impulse.
@@ -347,8 +406,17 @@ identification identify_law(const std::vector<dwell>& dwells, const identify_set
     for (Eigen::Index j = 0; j < p; ++j) Ak.col(j) = P.col(static_cast<Eigen::Index>(kept[j]));
     const Eigen::MatrixXd cov = p > 0 ? Eigen::MatrixXd(var * (Ak.transpose() * Ak).completeOrthogonalDecomposition().pseudoInverse())
                                       : Eigen::MatrixXd();
+    perturbation_spread spread{Eigen::MatrixXd::Zero(p, p), 0.0};
+    if (p > 0 && sys.noise > 0.0) {
+      std::vector<std::pair<const dwell*, double>> used;
+      for (std::size_t k = 0; k < forces.size(); ++k) used.push_back({forces[k].source, sample_noise(k, averaged[k])});
+      spread = perturbation_covariance(used, id.linear, kept_terms, velocity, s.weak, s2, s.seed);
+    }
     for (std::size_t j = 0; j < kept.size(); ++j) {
-      const double se = std::sqrt(cov(static_cast<Eigen::Index>(j), static_cast<Eigen::Index>(j)));
+      const auto jj = static_cast<Eigen::Index>(j);
+      // The larger of the rows' covariance and the perturbations' spread (which also holds the
+      // regressors' noise).
+      const double se = std::sqrt(std::max(cov(jj, jj), spread.cov(jj, jj)));
       id.estimates.push_back({library[kept[j]].name(), library[kept[j]].pretty(), kept_coef[j], se, kept_coef[j] - tq * se,
                               kept_coef[j] + tq * se});
     }
@@ -357,7 +425,10 @@ identification identify_law(const std::vector<dwell>& dwells, const identify_set
     wr.episodes = sys.episodes;
     wr.noise = sys.noise;
     wr.residual_rms = std::sqrt(id.frols.residual.squaredNorm() / static_cast<double>(std::max<Eigen::Index>(1, n)));
-    wr.chi2_per_dof = noise2 > 0.0 ? s2 / noise2 : std::numeric_limits<double>::infinity();
+    // Against what the noise leaves in the residual: the rows' noise, or (larger, when the
+    // regressors' noise counts) what one more dose of it adds.
+    const double expected = std::max(noise2, spread.residual_variance);
+    wr.chi2_per_dof = expected > 0.0 ? s2 / expected : std::numeric_limits<double>::infinity();
     wr.chi2_limit = boost::math::quantile(boost::math::chi_squared(static_cast<double>(dof)), 0.999) / static_cast<double>(dof);
     id.weak = wr;
 
@@ -517,7 +588,7 @@ void add_warnings(identification& id, const identify_settings& s) {
                   format_value(e.ci_high) + "]" : std::string()) + "): the data do not determine it");
   }
   if (id.weak && id.weak->chi2_per_dof > id.weak->chi2_limit && 1.0 - id.frols.err_sum_kept > kWeakUnexplained)
-    w.push_back("weak form: the residual is " + format_value(id.weak->chi2_per_dof) + "x the probe noise's variance (limit " +
+    w.push_back("weak form: the residual variance is " + format_value(id.weak->chi2_per_dof) + "x what the probe noise leaves (limit " +
                 format_value(id.weak->chi2_limit) + " under noise alone), " + format_value(100.0 * (1.0 - id.frols.err_sum_kept)) +
                 " % of the integrals' variance: the law leaves what noise cannot explain (a missing term, an effect outside Eq. 1, "
                 "or a wrong linear part)");

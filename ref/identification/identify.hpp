@@ -84,7 +84,8 @@ struct weak_form_report {
   std::size_t rows = 0, episodes = 0;
   double noise = 0.0;           // m, the whitened rows' noise standard deviation (sample noise)
   double residual_rms = 0.0;    // m, of the whitened rows after the kept terms
-  double chi2_per_dof = 0.0;    // (residual_rms / noise)^2 * rows / (rows - terms): ~1 if only noise is left
+  double chi2_per_dof = 0.0;    // residual variance per dof over what the noise leaves (the rows' noise, or
+                                // more where the regressors' noise adds): ~1 if only noise is left
   double chi2_limit = 0.0;      // its 99.9 % quantile under noise alone
 };
 
