@@ -232,8 +232,8 @@ identification identify_law(const std::vector<dwell>& dwells, const identify_set
   // Noise of a sample: the probe's, or an average's, measured by its revolutions' spread around
   // their mean (spread^2 = s^2 (R - 1) / R for R revolutions of noise s, the average's variance
   // is s^2 / R). Measured rather than sigma / sqrt(R): resampling off-grid revolutions by cubic
-  // interpolation lowers the noise by up to ~30 %, and the weak form's z_dot^2 correction
-  // needs the true level.
+  // interpolation lowers the noise by up to 20 % (Catmull-Rom half-way between samples weighs
+  // them -1/16, 9/16, 9/16, -1/16), and the weak form's z_dot^2 correction needs the true level.
   const auto sample_noise = [&](std::size_t k, bool averaged) {
     if (!averaged) return sigma;
     const auto& a = *averages[k];
