@@ -733,9 +733,10 @@ std::string to_markdown(const identification& id) {
     const auto& st = id.frols.order[k];
     md << "| " << k + 1 << " | " << id.candidates_pretty[st.candidate] << " | " << st.err << " | " << id.first_step_err[st.candidate] << " |\n";
   }
-  md << "\nSelected " << id.frols.steps_selected << " steps; kept (ERR ≥ threshold): ";
+  md << "\nSelected " << id.frols.steps_selected << " steps; kept " << (id.weak ? "(significant, §5)" : "(ERR ≥ threshold)") << ": ";
   for (const auto& e : id.estimates) md << e.pretty << " ";
-  md << "(Σ ERR " << id.frols.err_sum_kept << ").\n\n## Estimates (Table 2)\n\n| term | value | standard error | bootstrap 95 % |\n|---|---|---|---|\n";
+  md << "(Σ ERR " << id.frols.err_sum_kept << ").\n\n## Estimates (Table 2)\n\n| term | value | standard error | "
+     << (id.weak ? "95 % (Student t)" : "bootstrap 95 %") << " |\n|---|---|---|---|\n";
   for (const auto& e : id.estimates)
     md << "| " << e.pretty << " | " << e.value << " | " << e.standard_error << " | [" << e.ci_low << ", " << e.ci_high << "] |\n";
   md << "\nResidual RMS " << id.residual_rms << " N against an RMS contact force of " << id.force_rms << " N over "
@@ -743,17 +744,25 @@ std::string to_markdown(const identification& id) {
   if (id.weak)
     md << "Weak form: " << id.weak->rows << " rows over " << id.weak->episodes << " episodes; whitened residual RMS "
        << id.weak->residual_rms << " m against a noise of " << id.weak->noise << " m (χ²/dof " << id.weak->chi2_per_dof
-       << ", 99.9 % limit " << id.weak->chi2_limit << "). Intervals: Student t.\n\n";
-  md << "## Friction per speed (Fig. 5)\n\n| speed [rpm] | samples | mean μ | std | median | slope |\n|---|---|---|---|---|---|\n";
-  for (const auto& d : id.dwells)
-    if (d.friction)
-      md << "| " << d.rpm << " | " << d.friction->samples << " | " << d.friction->mean << " | " << d.friction->std_dev << " | "
-         << d.friction->median << " | " << d.friction->slope << " |\n";
+       << ", 99.9 % limit " << id.weak->chi2_limit << "). Intervals: Student t on the larger of the rows' and the re-perturbations' standard errors.\n\n";
+  if (id.weak) {
+    md << "## Friction per speed (Fig. 5; weak form: ratio of the integrals)\n\n| speed [rpm] | rows | μ | standard error |\n|---|---|---|---|\n";
+    for (const auto& d : id.dwells)
+      if (d.friction) md << "| " << d.rpm << " | " << d.friction->samples << " | " << d.friction->mean << " | " << d.friction->std_dev << " |\n";
+  } else {
+    md << "## Friction per speed (Fig. 5)\n\n| speed [rpm] | samples | mean μ | std | median | slope |\n|---|---|---|---|---|---|\n";
+    for (const auto& d : id.dwells)
+      if (d.friction)
+        md << "| " << d.rpm << " | " << d.friction->samples << " | " << d.friction->mean << " | " << d.friction->std_dev << " | "
+           << d.friction->median << " | " << d.friction->slope << " |\n";
+  }
   md << "\nμ = " << id.mu << " ± " << id.mu_standard_error << " (" << (id.weak ? "weak form, pooled over every row" : "mean over speeds")
      << "); per-speed mean " << id.mu_mean << ", spread " << id.mu_spread << "; pooled slope " << id.mu_slope << ".\n\n";
-  md << "## Residual correlation tests\n\n| test | max |φ| | band | outside | pass |\n|---|---|---|---|---|\n";
-  for (const auto& t : id.validity)
-    md << "| " << t.name << " | " << t.max_abs << " | " << t.band << " | " << t.outside_fraction << " | " << (t.pass ? "yes" : "no") << " |\n";
+  if (!id.validity.empty()) {  // the samples route's (the weak form's check is its chi^2 above)
+    md << "## Residual correlation tests\n\n| test | max |φ| | band | outside | pass |\n|---|---|---|---|---|\n";
+    for (const auto& t : id.validity)
+      md << "| " << t.name << " | " << t.max_abs << " | " << t.band << " | " << t.outside_fraction << " | " << (t.pass ? "yes" : "no") << " |\n";
+  }
   if (id.reid) {
     md << "\n## Output-error re-identification (" << id.reid->algorithm << ", " << id.reid->evaluations << " evaluations)\n\n"
        << "Orbit RMS error " << id.reid->initial_rms << " m → " << id.reid->final_rms << " m.\n\n| parameter | start | estimate | standard error | identifiable |\n|---|---|---|---|---|\n";
