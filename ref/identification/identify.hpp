@@ -31,7 +31,7 @@ namespace rubref {
 //  - weak_form: Eq. 1 integrated against test functions around each contact episode
 //    (ref/identification/weak_form.hpp): no second derivative of data.
 //  - automatic: samples when the probe noise's share of f_N's variance on the samples route is
-//    below a tenth of rho (the noise cannot pass for a term), else the weak form.
+//    below 0.1 %, a tenth of the paper's rho (the noise cannot pass for a term), else the weak form.
 enum class law_method { automatic, samples, weak_form };
 std::string_view to_string(law_method m);
 law_method parse_law_method(const std::string& name);  // input_error if unknown
