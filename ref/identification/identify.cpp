@@ -87,6 +87,7 @@ constexpr int kSpreadRepeats = 50;
 struct perturbation_spread {
   Eigen::MatrixXd cov;             // of the estimate
   double residual_variance = 0.0;  // added to the whitened rows' residual variance by one dose of noise
+  int done = 0;                    // perturbations that gave a fit (of kSpreadRepeats)
 };
 
 perturbation_spread perturbation_covariance(const std::vector<std::pair<const dwell*, double>>& used, const linear_part& lin,
@@ -129,9 +130,9 @@ perturbation_spread perturbation_covariance(const std::vector<std::pair<const dw
     } catch (const input_error&) {  // a perturbation that leaves no usable episode: not counted
     }
   }
-  if (done < 2) return {Eigen::MatrixXd::Zero(p, p), 0.0};
+  if (done < 2) return {Eigen::MatrixXd::Zero(p, p), 0.0, done};
   mean /= done;
-  return {(second / done - mean * mean.transpose()) * (static_cast<double>(done) / (done - 1)), added / done};
+  return {(second / done - mean * mean.transpose()) * (static_cast<double>(done) / (done - 1)), added / done, done};
 }
 
 // Noise gain of the centred second-derivative filter (per unit sample noise, dt = 1): its
@@ -406,11 +407,16 @@ identification identify_law(const std::vector<dwell>& dwells, const identify_set
     for (Eigen::Index j = 0; j < p; ++j) Ak.col(j) = P.col(static_cast<Eigen::Index>(kept[j]));
     const Eigen::MatrixXd cov = p > 0 ? Eigen::MatrixXd(var * (Ak.transpose() * Ak).completeOrthogonalDecomposition().pseudoInverse())
                                       : Eigen::MatrixXd();
-    perturbation_spread spread{Eigen::MatrixXd::Zero(p, p), 0.0};
+    perturbation_spread spread{Eigen::MatrixXd::Zero(p, p), 0.0, 0};
     if (p > 0 && sys.noise > 0.0) {
       std::vector<std::pair<const dwell*, double>> used;
       for (std::size_t k = 0; k < forces.size(); ++k) used.push_back({forces[k].source, sample_noise(k, averaged[k])});
       spread = perturbation_covariance(used, id.linear, kept_terms, velocity, s.weak, s2, s.seed);
+      // Perturbations that left no usable episode: the data sit at the edge of what the weak
+      // form can use, and the intervals below count only the rows' noise.
+      if (2 * spread.done < kSpreadRepeats)
+        id.warnings.push_back("weak form: only " + std::to_string(spread.done) + " of " + std::to_string(kSpreadRepeats) +
+                              " noise perturbations of the data could be fitted; the intervals omit the regressors' noise");
     }
     for (std::size_t j = 0; j < kept.size(); ++j) {
       const auto jj = static_cast<Eigen::Index>(j);

@@ -84,7 +84,6 @@ weak_form_system weak_form(const std::vector<weak_form_input>& inputs, const lin
   };
   std::vector<block> blocks;
   weak_form_system out;
-  out.episodes_per_dwell.assign(inputs.size(), 0);
 
   for (std::size_t di = 0; di < inputs.size(); ++di) {
     const dwell_forces& f = *inputs[di].forces;
@@ -96,21 +95,32 @@ weak_form_system weak_form(const std::vector<weak_form_input>& inputs, const lin
     // applied to them analytically, no quadrature of psi''); only the rest, the contact's tens of
     // micrometres rather than the orbit's hundreds, goes through psi''. This keeps the quadrature
     // error of the large terms m v psi'' out of the rows.
+    std::vector<double> co(n), si(n);
+    for (std::size_t i = 0; i < n; ++i) co[i] = std::cos(w * s.t[i]), si[i] = std::sin(w * s.t[i]);
     const auto one_x = [&](const std::vector<double>& v) {
       Eigen::MatrixXd B(static_cast<Eigen::Index>(n), 3);
       Eigen::VectorXd r(static_cast<Eigen::Index>(n));
       for (std::size_t i = 0; i < n; ++i) {
-        B.row(static_cast<Eigen::Index>(i)) << 1.0, std::cos(w * s.t[i]), std::sin(w * s.t[i]);
+        B.row(static_cast<Eigen::Index>(i)) << 1.0, co[i], si[i];
         r[static_cast<Eigen::Index>(i)] = v[i];
       }
       return Eigen::Vector3d(B.colPivHouseholderQr().solve(r));
     };
     const Eigen::Vector3d cx = one_x(s.x), cy = one_x(s.y);
-    // Eq. 1's left side on a0 + ac cos + as sin: k a0 + (k - m w^2)(ac cos + as sin) + c w (as cos - ac sin).
-    const auto eq1_on_1x = [&](const Eigen::Vector3d& c, double cc, double kk, double t) {
-      const double co = std::cos(w * t), si = std::sin(w * t);
-      return kk * c[0] + (kk - lin.m * w * w) * (c[1] * co + c[2] * si) + cc * w * (c[2] * co - c[1] * si);
-    };
+    // Per sample, for every test function alike: the rest r = v - v1 (through psi'') and Eq. 1's
+    // left side on v1, k a0 + (k - m w^2)(ac cos + as sin) + c w (as cos - ac sin), minus the
+    // unbalance forcing m e w^2 (cos, sin)(w t + phase) (times psi).
+    std::vector<double> rx(n), ry(n), gx(n), gy(n);
+    const double cp = std::cos(lin.phase), sp = std::sin(lin.phase);
+    for (std::size_t i = 0; i < n; ++i) {
+      const auto eq1_on_1x = [&](const Eigen::Vector3d& c, double cc, double kk) {
+        return kk * c[0] + (kk - lin.m * w * w) * (c[1] * co[i] + c[2] * si[i]) + cc * w * (c[2] * co[i] - c[1] * si[i]);
+      };
+      rx[i] = s.x[i] - (cx[0] + cx[1] * co[i] + cx[2] * si[i]);
+      ry[i] = s.y[i] - (cy[0] + cy[1] * co[i] + cy[2] * si[i]);
+      gx[i] = eq1_on_1x(cx, lin.c_x, lin.k_x) - unbalance * (co[i] * cp - si[i] * sp);
+      gy[i] = eq1_on_1x(cy, lin.c_y, lin.k_y) - unbalance * (si[i] * cp + co[i] * sp);
+    }
 
     // Contact runs [first, last], merged across short gaps.
     std::vector<std::pair<std::size_t, std::size_t>> runs;
@@ -155,13 +165,10 @@ weak_form_system weak_form(const std::vector<weak_form_input>& inputs, const lin
           const double p0 = test_function::horner(psi[q].c, sv);
           const double p1 = test_function::horner(psi[q].c1, sv) / half;
           const double p2 = test_function::horner(psi[q].c2, sv) / (half * half);
-          const double phase = w * s.t[i] + lin.phase;
           // Eq. 1 integrated by parts twice (trapezoid rule; psi, psi', psi'' vanish at a, b).
-          const double co = std::cos(w * s.t[i]), si = std::sin(w * s.t[i]);
-          const double ry = s.y[i] - (cy[0] + cy[1] * co + cy[2] * si), rx = s.x[i] - (cx[0] + cx[1] * co + cx[2] * si);
           Ly(q, static_cast<Eigen::Index>(k)) = -dt * (lin.m * p2 - lin.c_y * p1 + lin.k_y * p0);
-          bl.b[q] += Ly(q, static_cast<Eigen::Index>(k)) * ry - dt * (eq1_on_1x(cy, lin.c_y, lin.k_y, s.t[i]) - unbalance * std::sin(phase)) * p0;
-          bl.bx[q] += dt * (lin.m * p2 - lin.c_x * p1 + lin.k_x * p0) * rx + dt * (eq1_on_1x(cx, lin.c_x, lin.k_x, s.t[i]) - unbalance * std::cos(phase)) * p0;
+          bl.b[q] += Ly(q, static_cast<Eigen::Index>(k)) * ry[i] - dt * gy[i] * p0;
+          bl.bx[q] += dt * (lin.m * p2 - lin.c_x * p1 + lin.k_x * p0) * rx[i] + dt * gx[i] * p0;
         }
         // Regressors: the law on the contact part of every sample interval, the onset and
         // separation located by linear interpolation of z (trapezoid rule on each part).
@@ -199,7 +206,6 @@ weak_form_system weak_form(const std::vector<weak_form_input>& inputs, const lin
       bl.b = llt.matrixL().solve(bl.b);
       bl.bx = llt.matrixL().solve(bl.bx);
       blocks.push_back(std::move(bl));
-      ++out.episodes_per_dwell[di];
     }
   }
   if (blocks.empty())
@@ -220,10 +226,7 @@ weak_form_system weak_form(const std::vector<weak_form_input>& inputs, const lin
     out.A.middleRows(r0, Q) = scale * bl.A;
     out.b.segment(r0, Q) = scale * bl.b;
     out.bx.segment(r0, Q) = scale * bl.bx;
-    for (int q = 0; q < Q; ++q) {
-      out.dwell_of_row.push_back(bl.dwell);
-      out.episode_of_row.push_back(k);
-    }
+    for (int q = 0; q < Q; ++q) out.dwell_of_row.push_back(bl.dwell);
   }
   out.episodes = blocks.size();
   return out;

@@ -53,9 +53,8 @@ struct weak_form_system {
   Eigen::MatrixXd A;   // whitened regressor integrals (rows x library terms)
   Eigen::VectorXd b;   // whitened int f_N psi dt
   Eigen::VectorXd bx;  // the same whitening of int f_x psi dt
-  std::vector<std::size_t> dwell_of_row, episode_of_row;
+  std::vector<std::size_t> dwell_of_row;  // an episode's rows are test_functions consecutive ones
   std::size_t episodes = 0;
-  std::vector<std::size_t> episodes_per_dwell;
   double noise = 0.0;  // m: every whitened row's noise standard deviation (the dwells' sample noise)
 };
 
