@@ -51,6 +51,7 @@ void add_identify(CLI::App& app) {
   sub->add_option("--sg-half-width", s.derivative.half_width, "Savitzky-Golay half-width [samples]")->capture_default_str();
   sub->add_option("--sg-degree", s.derivative.degree, "Savitzky-Golay polynomial degree")->capture_default_str();
   sub->add_flag("--average-revolutions", s.average_revolutions, "average each dwell's revolutions synchronously first (noisy, periodic data)");
+  sub->add_flag("!--no-orbit-fit", s.orbit_fit, "report the weak form's estimates without refining them by the averaged cycles' periodic orbits");
   sub->add_option("--bootstrap", s.bootstrap, "episode-bootstrap resamples for the 95 % intervals (0: none)")->capture_default_str();
   sub->add_flag("--reidentify", s.reidentify, "refine by output error with NLopt (BOBYQA)");
   sub->add_option("--reid-fit", st->reid_fit, "parameters to re-identify: any of k1,k3,c2,mu,e,delta")->capture_default_str();

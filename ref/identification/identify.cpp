@@ -51,6 +51,12 @@ double percentile(std::vector<double> v, double q) {
 // A 95 % interval that contains 0 (value within 1.96 standard errors, or a bootstrap interval
 // across 0) leaves the sign, let alone the size, undetermined.
 constexpr double kInterval95 = 1.96;
+
+// The orbit fit's chi^2 per degree of freedom that noise alone exceeds with probability 0.1 %.
+double orbit_chi2_limit(const orbit_fit_result& o) {
+  const double dof = std::max(1.0, static_cast<double>(o.residuals) - static_cast<double>(o.unknowns));
+  return boost::math::quantile(boost::math::chi_squared(dof), 0.999) / dof;
+}
 // A steady contact-free dwell is its mean and 1X plus noise, whose RMS is the noise itself;
 // content beyond 3 sigma is not noise (a transient, a nonlinearity, a second frequency). 1 nm
 // floor: below any probe's resolution, so noise-free records are not flagged for rounding.
@@ -534,6 +540,59 @@ identification identify_law(const std::vector<dwell>& dwells, const identify_set
                             " N over the contact samples (peak " + format_value(peak) + " N); a contact force cannot pull");
   }
 
+  // The weak form's estimates refined by the averaged cycles' periodic orbits (orbit_fit.hpp):
+  // the law within Eq. 5's family, every averaged dwell, from the weak form's start.
+  const auto law_member = [](const std::string& term) -> std::string {
+    return term == "z1" ? "k1" : term == "z3" ? "k3" : term == "zd2" ? "c2" : "";
+  };
+  const bool in_family = !id.estimates.empty() && std::all_of(id.estimates.begin(), id.estimates.end(), [&](const term_estimate& e) {
+    return !law_member(e.name).empty();
+  });
+  if (weak && s.orbit_fit && in_family) {
+    std::vector<orbit_fit_cycle> cycles;
+    for (std::size_t k = 0; k < forces.size(); ++k)
+      if (averaged[k]) cycles.push_back({&forces[k], sample_noise(k, true)});
+    if (cycles.empty()) {
+      id.notes.push_back("orbit fit: no dwell was steady enough to average; the weak form's estimates stand");
+    } else {
+      if (cycles.size() < forces.size())
+        id.notes.push_back("orbit fit: " + std::to_string(forces.size() - cycles.size()) + " unsteady dwell(s) left out");
+      parameters start = s.reference;
+      start.m = id.linear.m;
+      start.c_x = id.linear.c_x;
+      start.c_y = id.linear.c_y;
+      start.k_x = id.linear.k_x;
+      start.k_y = id.linear.k_y;
+      start.e = id.linear.e;
+      start.unbalance_phase = id.linear.phase;
+      start.delta = forces.front().source->clearance;
+      start.mu = std::isfinite(id.mu) && id.mu > 0.0 ? id.mu : 0.0;
+      std::vector<std::string> terms;
+      for (const auto& e : id.estimates) {
+        terms.push_back(law_member(e.name));
+        start.*(terms.back() == "k1" ? &parameters::k1 : terms.back() == "k3" ? &parameters::k3 : &parameters::c2) = e.value;
+      }
+      const orbit_fit_result fit = fit_periodic_orbits(cycles, start, terms, s.orbit);
+      id.orbit = fit;
+      id.weak_estimates = id.estimates;
+      id.weak_mu = id.mu;
+      id.weak_mu_standard_error = id.mu_standard_error;
+      if (fit.converged) {
+        for (std::size_t j = 0; j < id.estimates.size(); ++j) {
+          auto& e = id.estimates[j];
+          const auto& p = fit.parameters[j];
+          e.value = p.value;
+          e.standard_error = p.standard_error;
+          e.ci_low = p.value - kInterval95 * p.standard_error;
+          e.ci_high = p.value + kInterval95 * p.standard_error;
+        }
+        const auto& mu = fit.parameters[id.estimates.size()];
+        id.mu = mu.value;
+        id.mu_standard_error = mu.standard_error;
+      }
+    }
+  }
+
   if (s.reidentify) {
     parameters start = s.reference;
     start.m = id.linear.m;
@@ -593,6 +652,13 @@ void add_warnings(identification& id, const identify_settings& s) {
                   format_value(e.standard_error) + (std::isfinite(e.ci_low) ? ", bootstrap [" + format_value(e.ci_low) + ", " +
                   format_value(e.ci_high) + "]" : std::string()) + "): the data do not determine it");
   }
+  if (id.orbit && !id.orbit->converged)
+    w.push_back("orbit fit: " + id.orbit->status + " (" + std::to_string(id.orbit->failed_evaluations) +
+                " failed orbit evaluations); the weak form's estimates are reported");
+  if (id.orbit && id.orbit->converged && id.orbit->final_chi2 > orbit_chi2_limit(*id.orbit))
+    w.push_back("orbit fit: the averaged cycles leave " + format_value(id.orbit->final_chi2) + "x the residual the probe noise leaves (limit " +
+                format_value(orbit_chi2_limit(*id.orbit)) + "; RMS " + format_value(id.orbit->final_rms) +
+                " m): the model misses something (a term, an effect outside Eq. 1, a wrong linear part); intervals widened by its square root");
   if (id.weak && id.weak->chi2_per_dof > id.weak->chi2_limit && 1.0 - id.frols.err_sum_kept > kWeakUnexplained)
     w.push_back("weak form: the residual variance is " + format_value(id.weak->chi2_per_dof) + "x what the probe noise leaves (limit " +
                 format_value(id.weak->chi2_limit) + " under noise alone), " + format_value(100.0 * (1.0 - id.frols.err_sum_kept)) +
@@ -648,7 +714,10 @@ nlohmann::ordered_json to_json(const identification& id, const identify_settings
                    {"law_method_reason", id.law_route_reason},
                    {"weak_form", {{"test_functions", s.weak.test_functions}, {"bump_power", s.weak.bump_power},
                                   {"margin", s.weak.margin}, {"velocity_half_width", s.weak.velocity_half_width}}},
-                   {"intervals", id.weak ? "Student t on the whitened weak-form rows" : "episode bootstrap"},
+                   {"orbit_fit", s.orbit_fit},
+                   {"intervals", id.orbit && id.orbit->converged ? "normal, from the orbit fit's Jacobian"
+                                 : id.weak                     ? "Student t on the whitened weak-form rows"
+                                                               : "episode bootstrap"},
                    {"bootstrap_resamples", s.bootstrap},
                    {"friction_force_share", kFrictionForceShare}};
   const auto& L = id.linear;
@@ -700,6 +769,20 @@ nlohmann::ordered_json to_json(const identification& id, const identify_settings
     j["weak_form"] = {{"rows", id.weak->rows}, {"episodes", id.weak->episodes}, {"noise_m", id.weak->noise},
                       {"residual_rms_m", id.weak->residual_rms}, {"chi2_per_dof", num(id.weak->chi2_per_dof)},
                       {"chi2_limit", id.weak->chi2_limit}};
+  if (id.orbit) {
+    const auto& o = *id.orbit;
+    j["orbit_fit"] = {{"converged", o.converged}, {"status", o.status}, {"iterations", o.iterations},
+                      {"evaluations", o.evaluations}, {"failed_evaluations", o.failed_evaluations},
+                      {"residuals", o.residuals}, {"unknowns", o.unknowns}, {"initial_chi2_per_dof", num(o.initial_chi2)},
+                      {"final_chi2_per_dof", num(o.final_chi2)}, {"chi2_limit", orbit_chi2_limit(o)},
+                      {"final_rms_m", num(o.final_rms)}, {"unbalance_e_m", o.e}, {"unbalance_phase_rad", o.phase}};
+    for (const auto& p : o.parameters)
+      j["orbit_fit"]["parameters"].push_back({{"name", p.name}, {"start", p.start}, {"value", p.value},
+                                              {"standard_error", num(p.standard_error)}});
+    for (const auto& e : id.weak_estimates)
+      j["orbit_fit"]["weak_form_start"].push_back({{"term", e.name}, {"value", e.value}, {"standard_error", e.standard_error}});
+    j["orbit_fit"]["weak_form_mu"] = num(id.weak_mu);
+  }
   if (id.reid) {
     j["reidentification"] = {{"algorithm", id.reid->algorithm}, {"evaluations", id.reid->evaluations},
                              {"failed_evaluations", id.reid->failed_evaluations}, {"final_failed", id.reid->final_failed},
@@ -742,7 +825,7 @@ std::string to_markdown(const identification& id) {
   md << "\nSelected " << id.frols.steps_selected << " steps; kept " << (id.weak ? "(significant, §5)" : "(ERR ≥ threshold)") << ": ";
   for (const auto& e : id.estimates) md << e.pretty << " ";
   md << "(Σ ERR " << id.frols.err_sum_kept << ").\n\n## Estimates (Table 2)\n\n| term | value | standard error | "
-     << (id.weak ? "95 % (Student t)" : "bootstrap 95 %") << " |\n|---|---|---|---|\n";
+     << (id.orbit && id.orbit->converged ? "95 % (orbit fit)" : id.weak ? "95 % (Student t)" : "bootstrap 95 %") << " |\n|---|---|---|---|\n";
   for (const auto& e : id.estimates)
     md << "| " << e.pretty << " | " << e.value << " | " << e.standard_error << " | [" << e.ci_low << ", " << e.ci_high << "] |\n";
   md << "\nResidual RMS " << id.residual_rms << " N against an RMS contact force of " << id.force_rms << " N over "
@@ -762,7 +845,19 @@ std::string to_markdown(const identification& id) {
         md << "| " << d.rpm << " | " << d.friction->samples << " | " << d.friction->mean << " | " << d.friction->std_dev << " | "
            << d.friction->median << " | " << d.friction->slope << " |\n";
   }
-  md << "\nμ = " << id.mu << " ± " << id.mu_standard_error << " (" << (id.weak ? "weak form, pooled over every row" : "mean over speeds")
+  if (id.orbit) {
+    const auto& o = *id.orbit;
+    md << "## Orbit fit (§5: the averaged cycles' periodic orbits, Levenberg-Marquardt)\n\n"
+       << (o.converged ? "The estimates above and μ below are the orbit fit's. " : "Not converged: the estimates above are the weak form's. ")
+       << o.status << "; " << o.iterations << " iterations, " << o.evaluations << " evaluations (" << o.failed_evaluations
+       << " failed); χ²/dof " << o.initial_chi2 << " → " << o.final_chi2 << " (99.9 % limit " << orbit_chi2_limit(o)
+       << "), orbit RMS " << o.final_rms << " m.\n\n| parameter | weak form (start) | orbit fit | standard error |\n|---|---|---|---|\n";
+    for (const auto& p : o.parameters)
+      md << "| " << p.name << " | " << p.start << " | " << p.value << " | " << p.standard_error << " |\n";
+    md << "\n";
+  }
+  md << "\nμ = " << id.mu << " ± " << id.mu_standard_error << " ("
+     << (id.orbit && id.orbit->converged ? "orbit fit" : id.weak ? "weak form, pooled over every row" : "mean over speeds")
      << "); per-speed mean " << id.mu_mean << ", spread " << id.mu_spread << "; pooled slope " << id.mu_slope << ".\n\n";
   if (!id.validity.empty()) {  // the samples route's (the weak form's check is its chi^2 above)
     md << "## Residual correlation tests\n\n| test | max |φ| | band | outside | pass |\n|---|---|---|---|---|\n";

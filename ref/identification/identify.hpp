@@ -7,7 +7,8 @@
 //     (the paper's route: standard errors, an episode bootstrap, residual correlation tests) or
 //     on the weak form's integrals (no acceleration from the data; for noisy records), chosen
 //     from the probe noise the data show
-//  5. optionally, output-error re-identification with NLopt
+//  5. on the weak route, the law refined by the averaged cycles' periodic orbits (orbit_fit.hpp)
+//  6. optionally, output-error re-identification with NLopt
 
 #include <limits>
 #include <nlohmann/json.hpp>
@@ -19,6 +20,7 @@
 #include "ref/identification/contact_forces.hpp"
 #include "ref/identification/dwells.hpp"
 #include "ref/identification/frols.hpp"
+#include "ref/identification/orbit_fit.hpp"
 #include "ref/identification/output_error.hpp"
 #include "ref/identification/validity.hpp"
 #include "ref/identification/weak_form.hpp"
@@ -46,6 +48,10 @@ struct identify_settings {
                                          // (the weak form averages each steady dwell anyway)
   law_method law_route = law_method::automatic;
   weak_form_settings weak;
+  // The weak form's law refined by the averaged cycles' periodic orbits (orbit_fit.hpp), when it
+  // lies in Eq. 5's family (k1 z, k3 z^3, c2 z_dot^2): on by default, off for the weak form alone.
+  bool orbit_fit = true;
+  orbit_fit_settings orbit;
   std::string library = "z1..4,zd1..4";  // Eq. 4, L = 4
   frols_settings frols;
   int bootstrap = 200;                   // resamples of whole contact episodes (0: none)
@@ -101,6 +107,11 @@ struct identification {
   law_method law_route = law_method::samples;  // the route taken
   std::string law_route_reason;
   std::optional<weak_form_report> weak;
+  // The orbit fit, when it ran; the estimates and mu above are its values when it converged, and
+  // the weak form's (kept here as its start) otherwise.
+  std::optional<orbit_fit_result> orbit;
+  std::vector<term_estimate> weak_estimates;
+  double weak_mu = std::numeric_limits<double>::quiet_NaN(), weak_mu_standard_error = std::numeric_limits<double>::quiet_NaN();
   std::vector<std::string> notes;         // what was done to the data (keyphasor timing, averaging)
   std::vector<std::string> candidates, candidates_pretty;
   std::vector<double> first_step_err;     // each candidate alone: (p'y)^2 / (p'p y'y)

@@ -1,0 +1,306 @@
+#include "ref/identification/orbit_fit.hpp"
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <unsupported/Eigen/LevenbergMarquardt>
+
+#include "ref/errors.hpp"
+#include "ref/identification/output_error.hpp"
+#include "ref/integrate/hybrid_integrator.hpp"
+#include "ref/integrate/shooting.hpp"
+#include "ref/parallel.hpp"
+#include "variants/identified.hpp"
+
+namespace rubref {
+
+namespace {
+
+// Newton shooting from the previous orbit of the same cycle converges in a few iterations; a trial
+// law that needs more, or 10^5 steps per revolution, is far off the data (as output_error.cpp).
+constexpr int kShootIterations = 12;
+constexpr std::size_t kMaxStepsPerRevolution = 100000;
+// A cycle whose orbit cannot be computed answers this whitened residual per sample (1000 noise
+// standard deviations): LM rejects the step that led there.
+constexpr double kFailedResidual = 1e3;
+// Central differences in the scaled unknowns (relative to the start): far above the shooting's
+// 1e-12 m over the noise floor's 1e-8 m, far below the ~0.5 % the data resolve.
+constexpr double kDifferenceStep = 1e-4;
+
+struct grid_recorder {
+  std::vector<double> x, y;
+  template <class System>
+  void on_sample(double, const state_type& s, const System&) {
+    x.push_back(s[idx::x]);
+    y.push_back(s[idx::y]);
+  }
+  void on_event(const contact_event&) {}
+};
+
+class cycles_model {
+ public:
+  cycles_model(const std::vector<orbit_fit_cycle>& cycles, const parameters& start, const std::vector<std::string>& terms)
+      : cycles_(cycles), start_(start), terms_(terms) {
+    for (const auto& t : terms_) {
+      if (t != "k1" && t != "k3" && t != "c2") throw input_error("orbit fit: unknown law term '" + t + "' (k1, k3, c2)");
+      const double v = start.*member(t);
+      scale_.push_back(v != 0.0 ? std::abs(v) : 1.0);
+    }
+    // mu's scale: its start, or 0.01 (friction too small to scale by).
+    scale_.push_back(std::max(start.mu, 0.01));
+    // The dampings: their starts (> 0 by validation of the linear part).
+    scale_.push_back(start.c_x > 0.0 ? start.c_x : 1.0);
+    scale_.push_back(start.c_y > 0.0 ? start.c_y : 1.0);
+    scale_.push_back(start.k_x);  // > 0 by validation
+    scale_.push_back(start.k_y);
+    e_scale_ = start.e > 0.0 ? start.e : 1e-6;
+    for (const auto& c : cycles_) {
+      if (c.forces == nullptr || !c.forces->source->periodic)
+        throw input_error("orbit fit: every cycle must be a synchronously averaged (periodic) dwell");
+      const dwell& d = *c.forces->source;
+      const std::size_t n = d.size();
+      // The first guess: the cycle's own state at its first sample (velocities by the filter, or
+      // the periodic central difference where the filter has none).
+      const auto rate = [&](const std::vector<double>& v, const std::vector<double>& filtered) {
+        return std::isfinite(filtered[0]) ? filtered[0] : (v[1] - v[n - 1]) / (2.0 * d.dt);
+      };
+      guess_.push_back(state_type{d.x[0], d.y[0], rate(d.x, c.forces->vx), rate(d.y, c.forces->vy)});
+      offset_.push_back(residuals_);
+      residuals_ += 2 * n;
+    }
+  }
+
+  Eigen::Index unknowns() const { return static_cast<Eigen::Index>(shared() + 2 * cycles_.size()); }
+  Eigen::Index residuals() const { return static_cast<Eigen::Index>(residuals_); }
+  std::size_t shared() const { return scale_.size(); }
+  double scale(std::size_t j) const { return scale_[j]; }
+
+  Eigen::VectorXd start() const {
+    Eigen::VectorXd u(unknowns());
+    for (std::size_t j = 0; j < terms_.size(); ++j) u[static_cast<Eigen::Index>(j)] = (start_.*member(terms_[j])) / scale_[j];
+    const auto shared_law = static_cast<Eigen::Index>(terms_.size());
+    u[shared_law] = start_.mu / scale_[terms_.size()];
+    u[shared_law + 1] = start_.c_x / scale_[terms_.size() + 1];
+    u[shared_law + 2] = start_.c_y / scale_[terms_.size() + 2];
+    u[shared_law + 3] = 1.0;
+    u[shared_law + 4] = 1.0;
+    for (std::size_t k = 0; k < cycles_.size(); ++k) {
+      u[forcing(k)] = start_.e / e_scale_ * std::cos(start_.unbalance_phase);
+      u[forcing(k) + 1] = start_.e / e_scale_ * std::sin(start_.unbalance_phase);
+    }
+    return u;
+  }
+
+  // Cycle k's model parameters at u.
+  parameters at(const Eigen::VectorXd& u, std::size_t k) const {
+    parameters q = start_;
+    q.k1 = q.k3 = q.c2 = 0.0;
+    for (std::size_t j = 0; j < terms_.size(); ++j) q.*member(terms_[j]) = u[static_cast<Eigen::Index>(j)] * scale_[j];
+    const auto shared_law = static_cast<Eigen::Index>(terms_.size());
+    q.mu = u[shared_law] * scale_[terms_.size()];
+    q.c_x = u[shared_law + 1] * scale_[terms_.size() + 1];
+    q.c_y = u[shared_law + 2] * scale_[terms_.size() + 2];
+    q.k_x = u[shared_law + 3] * scale_[terms_.size() + 3];
+    q.k_y = u[shared_law + 4] * scale_[terms_.size() + 4];
+    const double a = u[forcing(k)], b = u[forcing(k) + 1];
+    q.e = e_scale_ * std::hypot(a, b);
+    q.unbalance_phase = std::atan2(b, a);
+    const dwell& d = *cycles_[k].forces->source;
+    if (d.clearance > 0.0) q.delta = d.clearance;  // each record keeps its own clearance
+    return q;
+  }
+
+  // All whitened residuals at u; the cycles' orbits become the next evaluation's first guesses.
+  Eigen::VectorXd evaluate(const Eigen::VectorXd& u) {
+    Eigen::VectorXd r(residuals());
+    std::vector<int> failed(cycles_.size(), 0);
+    parallel_for(cycles_.size(), 0, [&](std::size_t k) {
+      state_type orbit = guess_[k];
+      const bool ok = cycle_residuals(k, at(u, k), orbit, r.segment(offset(k), size(k)));
+      if (ok) guess_[k] = orbit;
+      failed[k] = ok ? 0 : 1;
+    });
+    for (std::size_t k = 0; k < cycles_.size(); ++k) failed_ += failed[k];
+    last_failed_ = std::count(failed.begin(), failed.end(), 1) > 0;
+    ++evaluations_;
+    return r;
+  }
+
+  // Central differences; cycle k's residuals depend on the shared unknowns and its own forcing only.
+  Eigen::MatrixXd jacobian(const Eigen::VectorXd& u) const {
+    Eigen::MatrixXd J = Eigen::MatrixXd::Zero(residuals(), unknowns());
+    parallel_for(cycles_.size(), 0, [&](std::size_t k) {
+      std::vector<Eigen::Index> columns;
+      for (std::size_t j = 0; j < shared(); ++j) columns.push_back(static_cast<Eigen::Index>(j));
+      columns.push_back(forcing(k));
+      columns.push_back(forcing(k) + 1);
+      Eigen::VectorXd up(size(k)), down(size(k));
+      for (const auto c : columns) {
+        Eigen::VectorXd u1 = u, u2 = u;
+        u1[c] += kDifferenceStep;
+        u2[c] -= kDifferenceStep;
+        state_type g1 = guess_[k], g2 = guess_[k];
+        cycle_residuals(k, at(u1, k), g1, up);
+        cycle_residuals(k, at(u2, k), g2, down);
+        J.block(offset(k), c, size(k), 1) = (up - down) / (2.0 * kDifferenceStep);
+      }
+    });
+    return J;
+  }
+
+  int evaluations() const { return evaluations_; }
+  int failed() const { return failed_; }
+  bool last_failed() const { return last_failed_; }
+
+ private:
+  static double parameters::*member(const std::string& t) {
+    return t == "k1" ? &parameters::k1 : t == "k3" ? &parameters::k3 : &parameters::c2;
+  }
+  Eigen::Index forcing(std::size_t k) const { return static_cast<Eigen::Index>(shared() + 2 * k); }
+  Eigen::Index offset(std::size_t k) const { return static_cast<Eigen::Index>(offset_[k]); }
+  Eigen::Index size(std::size_t k) const { return static_cast<Eigen::Index>(2 * cycles_[k].forces->source->size()); }
+
+  // The periodic orbit of cycle k's model near `orbit` (updated to it), sampled on the cycle's grid:
+  // (x_sim - x, y_sim - y) / noise per sample. False (and kFailedResidual) where it cannot be computed.
+  template <class Out>
+  bool cycle_residuals(std::size_t k, const parameters& q, state_type& orbit, Out&& r) const {
+    const dwell& d = *cycles_[k].forces->source;
+    const std::size_t n = d.size();
+    const double noise = std::max(cycles_[k].noise, kOrbitNoiseFloor);
+    r.setConstant(kFailedResidual);
+    try {
+      const rotor_system<identified> model(q, d.omega());
+      shooting_settings set;
+      set.max_iterations = kShootIterations;
+      set.integration.max_steps = kMaxStepsPerRevolution;
+      const double t0 = d.t[0];
+      const auto shot = shoot_periodic_orbit(model, orbit, t0, 1, set);
+      if (!shot.converged) return false;
+      integration_options opt;
+      opt.stepper.rtol = 1e-10;
+      opt.stepper.atol = 1e-14;
+      grid_recorder rec;
+      rec.x.reserve(n);
+      rec.y.reserve(n);
+      integrate_hybrid(model, start_state(model, shot.state, t0), t0 + static_cast<double>(n - 1) * d.dt, opt,
+                       sample_grid{t0, d.dt, n}, rec);
+      if (rec.x.size() < n) return false;
+      for (std::size_t i = 0; i < n; ++i) {
+        r[static_cast<Eigen::Index>(2 * i)] = (rec.x[i] - d.x[i]) / noise;
+        r[static_cast<Eigen::Index>(2 * i + 1)] = (rec.y[i] - d.y[i]) / noise;
+      }
+      orbit = shot.state;
+      return true;
+    } catch (const numerical_error&) {
+      return false;
+    }
+  }
+
+  const std::vector<orbit_fit_cycle>& cycles_;
+  parameters start_;
+  std::vector<std::string> terms_;
+  std::vector<double> scale_;
+  double e_scale_ = 1.0;
+  std::vector<state_type> guess_;
+  std::vector<std::size_t> offset_;
+  std::size_t residuals_ = 0;
+  int evaluations_ = 0, failed_ = 0;
+  bool last_failed_ = false;
+};
+
+// Eigen's Levenberg-Marquardt on the whitened residuals.
+struct lm_functor : Eigen::DenseFunctor<double> {
+  explicit lm_functor(cycles_model& m) : Eigen::DenseFunctor<double>(static_cast<int>(m.unknowns()), static_cast<int>(m.residuals())), model(m) {}
+  int operator()(const Eigen::VectorXd& u, Eigen::VectorXd& r) const {
+    r = model.evaluate(u);
+    return 0;
+  }
+  int df(const Eigen::VectorXd& u, Eigen::MatrixXd& J) {
+    J = model.jacobian(u);
+    ++jacobians;  // one per LM iteration
+    return 0;
+  }
+  cycles_model& model;
+  int jacobians = 0;
+};
+
+std::string lm_status(Eigen::LevenbergMarquardtSpace::Status s) {
+  using namespace Eigen::LevenbergMarquardtSpace;
+  switch (s) {
+    case RelativeReductionTooSmall: return "converged: relative reduction of the residual below tolerance";
+    case RelativeErrorTooSmall: return "converged: relative change of the unknowns below tolerance";
+    case RelativeErrorAndReductionTooSmall: return "converged: residual and unknowns both settled";
+    case CosinusTooSmall: return "converged: residual orthogonal to the Jacobian";
+    case TooManyFunctionEvaluation: return "stopped: evaluation budget spent";
+    case FtolTooSmall:
+    case XtolTooSmall:
+    case GtolTooSmall: return "stopped: no further reduction possible at rounding level";
+    default: return "stopped: Levenberg-Marquardt failed";
+  }
+}
+
+}  // namespace
+
+orbit_fit_result fit_periodic_orbits(const std::vector<orbit_fit_cycle>& cycles, const parameters& start,
+                                     const std::vector<std::string>& terms, const orbit_fit_settings& s) {
+  if (cycles.empty()) throw input_error("orbit fit: no averaged cycle to fit");
+  cycles_model model(cycles, start, terms);
+  orbit_fit_result out;
+  out.residuals = static_cast<std::size_t>(model.residuals());
+  out.unknowns = static_cast<std::size_t>(model.unknowns());
+  const double dof = std::max(1.0, static_cast<double>(out.residuals) - static_cast<double>(out.unknowns));
+
+  const Eigen::VectorXd start_values = model.start();
+  Eigen::VectorXd u = start_values;
+  out.initial_chi2 = model.evaluate(u).squaredNorm() / dof;
+  lm_functor f(model);
+  Eigen::LevenbergMarquardt<lm_functor> lm(f);
+  lm.setXtol(s.tolerance);
+  lm.setFtol(s.tolerance * s.tolerance);
+  lm.setMaxfev(s.max_evaluations);
+  const auto status = lm.minimize(u);
+  out.iterations = f.jacobians;
+  out.status = lm_status(status);
+
+  const Eigen::VectorXd r = model.evaluate(u);
+  out.evaluations = model.evaluations();
+  out.failed_evaluations = model.failed();
+  out.final_chi2 = r.squaredNorm() / dof;
+  using namespace Eigen::LevenbergMarquardtSpace;
+  out.converged = !model.last_failed() && (status == RelativeReductionTooSmall || status == RelativeErrorTooSmall ||
+                                           status == RelativeErrorAndReductionTooSmall || status == CosinusTooSmall);
+  if (model.last_failed()) out.status = "failed: the final parameters' orbit could not be computed";
+  for (std::size_t k = 0; k < cycles.size(); ++k) {
+    const parameters q = model.at(u, k);
+    out.e.push_back(q.e);
+    out.phase.push_back(q.unbalance_phase);
+  }
+  double sq = 0.0;
+  Eigen::Index at = 0;
+  for (const auto& c : cycles) {
+    const double noise = std::max(c.noise, kOrbitNoiseFloor);
+    const auto n = static_cast<Eigen::Index>(2 * c.forces->source->size());
+    sq += r.segment(at, n).squaredNorm() * noise * noise;
+    at += n;
+  }
+  out.final_rms = std::sqrt(sq / static_cast<double>(out.residuals));
+
+  // Covariance: (J'J)^-1 on whitened residuals, times the residual's excess over the noise when
+  // the model leaves more than noise (never narrowed below what the noise gives).
+  const Eigen::MatrixXd J = model.jacobian(u);
+  const Eigen::MatrixXd info = J.transpose() * J;
+  const Eigen::LDLT<Eigen::MatrixXd> ldlt(info);
+  const bool solvable = ldlt.info() == Eigen::Success && ldlt.isPositive();
+  const Eigen::MatrixXd cov = std::max(1.0, out.final_chi2) * ldlt.solve(Eigen::MatrixXd::Identity(info.rows(), info.cols()));
+  std::vector<std::string> names = terms;
+  names.insert(names.end(), {"mu", "c_x", "c_y", "k_x", "k_y"});
+  for (std::size_t j = 0; j < names.size(); ++j) {
+    const auto jj = static_cast<Eigen::Index>(j);
+    const double se = solvable && cov(jj, jj) > 0.0 ? std::sqrt(cov(jj, jj)) * model.scale(j) : std::numeric_limits<double>::infinity();
+    out.parameters.push_back({names[j], start_values[jj] * model.scale(j), u[jj] * model.scale(j), se});
+  }
+  return out;
+}
+
+}  // namespace rubref
