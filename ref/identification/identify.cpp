@@ -655,6 +655,10 @@ void add_warnings(identification& id, const identify_settings& s) {
   if (id.orbit && !id.orbit->converged)
     w.push_back("orbit fit: " + id.orbit->status + " (" + std::to_string(id.orbit->failed_evaluations) +
                 " failed orbit evaluations); the weak form's estimates are reported");
+  if (id.orbit && id.orbit->converged)
+    for (const auto& p : id.orbit->parameters)
+      if ((p.name == "mu" || p.name == "c_x" || p.name == "c_y" || p.name == "k_x" || p.name == "k_y") && !(p.value >= 0.0))  // the law's terms: above
+        w.push_back("orbit fit: " + p.name + " = " + format_value(p.value) + " is unphysical (friction, damping and stiffness are >= 0)");
   if (id.orbit && id.orbit->converged && id.orbit->final_chi2 > orbit_chi2_limit(*id.orbit))
     w.push_back("orbit fit: the averaged cycles leave " + format_value(id.orbit->final_chi2) + "x the residual the probe noise leaves (limit " +
                 format_value(orbit_chi2_limit(*id.orbit)) + "; RMS " + format_value(id.orbit->final_rms) +
