@@ -95,14 +95,15 @@ model_point staged_model(const std::vector<loop_dwell>& dwells, double mass, std
   start.p.unbalance_phase = lin.unbalance_phase;
   try {
     const identification id = identify(plain, is);
-    // The law's start: FROLS's coefficients where positive (else the paper's Table 2 value: the
-    // fit searches logarithms), mu from the friction ratio (Fig. 5).
+    // The law's start: identify's coefficients where positive (else the paper's Table 2 value:
+    // the fit searches logarithms), and its mu (Fig. 5's mean on the samples route; on noisy
+    // records the weak form's, refined by the orbit fit, docs/identification.md §5).
     for (const auto& t : id.estimates) {
       if (t.name == "z1" && t.value > 0.0) start.p.k1 = t.value;
       if (t.name == "z3" && t.value > 0.0) start.p.k3 = t.value;
       if (t.name == "zd2" && t.value > 0.0) start.p.c2 = t.value;
     }
-    if (std::isfinite(id.mu_mean) && id.mu_mean > 0.0 && id.mu_mean < 2.0) start.p.mu = id.mu_mean;
+    if (std::isfinite(id.mu) && id.mu > 0.0 && id.mu < 2.0) start.p.mu = id.mu;
   } catch (const input_error& e) {
     notes.push_back(std::string("FROLS start not available (") + e.what() + "); the law starts from the paper's Table 2");
   }
