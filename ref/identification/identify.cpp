@@ -540,6 +540,20 @@ identification identify_law(const std::vector<dwell>& dwells, const identify_set
                             " N over the contact samples (peak " + format_value(peak) + " N); a contact force cannot pull");
   }
 
+  // The start of either output-error stage: the identified linear part and the first dwell's
+  // clearance on the reference law's other parameters.
+  const auto output_error_start = [&] {
+    parameters p = s.reference;
+    p.m = id.linear.m;
+    p.c_x = id.linear.c_x;
+    p.c_y = id.linear.c_y;
+    p.k_x = id.linear.k_x;
+    p.k_y = id.linear.k_y;
+    p.e = id.linear.e;
+    p.delta = forces.front().source->clearance;
+    return p;
+  };
+
   // The weak form's estimates refined by the averaged cycles' periodic orbits (orbit_fit.hpp):
   // the law within Eq. 5's family, every averaged dwell, from the weak form's start.
   const auto law_member = [](const std::string& term) -> std::string {
@@ -557,15 +571,8 @@ identification identify_law(const std::vector<dwell>& dwells, const identify_set
     } else {
       if (cycles.size() < forces.size())
         id.notes.push_back("orbit fit: " + std::to_string(forces.size() - cycles.size()) + " unsteady dwell(s) left out");
-      parameters start = s.reference;
-      start.m = id.linear.m;
-      start.c_x = id.linear.c_x;
-      start.c_y = id.linear.c_y;
-      start.k_x = id.linear.k_x;
-      start.k_y = id.linear.k_y;
-      start.e = id.linear.e;
+      parameters start = output_error_start();
       start.unbalance_phase = id.linear.phase;
-      start.delta = forces.front().source->clearance;
       start.mu = std::isfinite(id.mu) && id.mu > 0.0 ? id.mu : 0.0;
       std::vector<std::string> terms;
       for (const auto& e : id.estimates) {
@@ -594,14 +601,7 @@ identification identify_law(const std::vector<dwell>& dwells, const identify_set
   }
 
   if (s.reidentify) {
-    parameters start = s.reference;
-    start.m = id.linear.m;
-    start.c_x = id.linear.c_x;
-    start.c_y = id.linear.c_y;
-    start.k_x = id.linear.k_x;
-    start.k_y = id.linear.k_y;
-    start.e = id.linear.e;
-    start.delta = forces.front().source->clearance;
+    parameters start = output_error_start();
     start.mu = id.mu;
     start.k1 = start.k3 = start.c2 = 0.0;
     for (const auto& est : id.estimates) {

@@ -28,16 +28,6 @@ constexpr double kFailedResidual = 1e3;
 // 1e-12 m over the noise floor's 1e-8 m, far below the ~0.5 % the data resolve.
 constexpr double kDifferenceStep = 1e-4;
 
-struct grid_recorder {
-  std::vector<double> x, y;
-  template <class System>
-  void on_sample(double, const state_type& s, const System&) {
-    x.push_back(s[idx::x]);
-    y.push_back(s[idx::y]);
-  }
-  void on_event(const contact_event&) {}
-};
-
 class cycles_model {
  public:
   cycles_model(const std::vector<orbit_fit_cycle>& cycles, const parameters& start, const std::vector<std::string>& terms)
@@ -180,7 +170,7 @@ class cycles_model {
       integration_options opt;
       opt.stepper.rtol = 1e-10;
       opt.stepper.atol = 1e-14;
-      grid_recorder rec;
+      position_recorder rec;
       rec.x.reserve(n);
       rec.y.reserve(n);
       integrate_hybrid(model, start_state(model, shot.state, t0), t0 + static_cast<double>(n - 1) * d.dt, opt,

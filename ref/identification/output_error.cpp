@@ -36,16 +36,6 @@ double parameters::*member_named(const std::string& name) {
   throw input_error(msg.str());
 }
 
-struct grid_recorder {
-  std::vector<double> x, y;
-  template <class System>
-  void on_sample(double, const state_type& s, const System&) {
-    x.push_back(s[idx::x]);
-    y.push_back(s[idx::y]);
-  }
-  void on_event(const contact_event&) {}
-};
-
 class orbit_error {
  public:
   orbit_error(const std::vector<dwell_forces>& dwells, double phase, int first, bool fit_delta)
@@ -94,7 +84,7 @@ class orbit_error {
     try {
       state_type s0{d.x[i0], d.y[i0], f.vx[i0], f.vy[i0]};
       if (d.periodic) s0 = periodic_orbit(model, s0, t0);
-      grid_recorder rec;
+      position_recorder rec;
       rec.x.reserve(n);
       rec.y.reserve(n);
       integrate_hybrid(model, start_state(model, s0, t0), t0 + static_cast<double>(n - 1) * d.dt, opt,

@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "ref/identification/contact_forces.hpp"
+#include "ref/integrate/hybrid_integrator.hpp"
 #include "ref/parameters.hpp"
 
 namespace rubref {
@@ -45,6 +46,17 @@ struct reid_result {
   int failed_evaluations = 0;
   bool initial_failed = false, final_failed = false;
   std::string failure;  // the first failure's message
+};
+
+// An integration observer that keeps the positions at the grid's samples (both output-error fits).
+struct position_recorder {
+  std::vector<double> x, y;
+  template <class System>
+  void on_sample(double, const state_type& s, const System&) {
+    x.push_back(s[idx::x]);
+    y.push_back(s[idx::y]);
+  }
+  void on_event(const contact_event&) {}
 };
 
 // The smallest orbit error the identifiability judgement takes as noise: 10 nm, a decade below
