@@ -6,6 +6,7 @@
 #include <complex>
 #include <limits>
 #include <optional>
+#include <sstream>
 
 #include "ref/errors.hpp"
 #include "ref/orbit_io.hpp"
@@ -264,6 +265,8 @@ record make_golden(const golden_spec& spec, std::string_view date, unsigned thre
   return r;
 }
 
+std::string attractor_key(int k, std::string_view field) { return "attractor_" + std::to_string(k) + "_" + std::string(field); }
+
 golden_case read_golden_case(const record& r, const std::string& source) {
   const auto need = [&](std::string_view key) -> const std::string& {
     const std::string* v = r.find(key);
@@ -334,6 +337,25 @@ golden_case read_golden_case(const record& r, const std::string& source) {
   if (g.t.size() != expected)
     throw input_error(source + ": " + std::to_string(g.t.size()) + " samples, but record_revs x samples_per_rev = " +
                       std::to_string(expected));
+  if (r.find("coexisting_attractors")) {
+    g.attractors_scanned = true;
+    const int n = count("coexisting_attractors");
+    for (int k = 1; k <= n; ++k) {
+      coexisting_attractor a;
+      a.start = need(attractor_key(k, "start"));
+      a.period_revs = count(attractor_key(k, "period_revs"));
+      a.max_multiplier = number(attractor_key(k, "max_multiplier"));
+      const std::string key = attractor_key(k, "state");
+      std::istringstream in(need(key));
+      for (double& v : a.state)
+        if (!(in >> v) || !std::isfinite(v))
+          throw input_error((r.where(key).empty() ? source + ": " : r.where(key)) + "metadata '" + key + "' must be four finite numbers x y vx vy");
+      if (a.period_revs < 1)
+        throw input_error((r.where(attractor_key(k, "period_revs")).empty() ? source + ": " : r.where(attractor_key(k, "period_revs"))) +
+                          "metadata '" + attractor_key(k, "period_revs") + "' must be at least 1");
+      g.attractors.push_back(std::move(a));
+    }
+  }
   return g;
 }
 

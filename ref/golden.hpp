@@ -94,6 +94,21 @@ inline constexpr double kReproducibleRelTol = 1e-9;
 // orbit tolerance; the files reach 1e-14 m and below.
 inline constexpr double kGoldenShootingTolerance = 1e-12;
 
+// Another stable steady state of a case's model, reached from another start than the file's (rest
+// at t = 0 with the file's unbalance phase): docs/validation.md, "Coexisting attractors". A
+// candidate that started elsewhere can settle there and fail for that reason alone.
+struct coexisting_attractor {
+  std::string start;            // how it is reached, e.g. "rest, unbalance phase 90 deg"
+  int period_revs = 1;          // revolutions per period (>= 1)
+  state_type state{};           // on it at t = settle_revs T, in the file's frame (its unbalance phase)
+  double max_multiplier = 0.0;  // largest Floquet multiplier modulus (< 1: stable)
+};
+
+// Header keys of the attractor scan: `coexisting_attractors: N` (absent: the file predates the
+// scan), then for k = 1..N `attractor_<k>_start`, `attractor_<k>_period_revs`,
+// `attractor_<k>_state` ("x y vx vy", 17 digits) and `attractor_<k>_max_multiplier`.
+std::string attractor_key(int k, std::string_view field);  // "attractor_<k>_<field>"
+
 // A golden file as read back: the run that makes it, how to compare, and its samples.
 struct golden_case {
   std::string name;           // file name
@@ -104,6 +119,8 @@ struct golden_case {
   orbit_statistics statistics;     // of the golden samples
   orbit_statistics statistics_tolerance;
   std::vector<double> t, x, y, vx, vy;  // the samples
+  bool attractors_scanned = false;      // the header has `coexisting_attractors`
+  std::vector<coexisting_attractor> attractors;  // other stable orbits from other starts
   double omega() const { return rpm_to_rad_s(request.rpm); }
 };
 
