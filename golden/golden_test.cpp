@@ -10,7 +10,7 @@
 
 #include "ref/golden.hpp"
 #include "ref/orbit_io.hpp"
-#include "ref/validation.hpp"
+#include "ref/validation/validate.hpp"
 
 namespace rubref {
 namespace {

@@ -19,7 +19,7 @@
 #include "ref/loop/loop.hpp"
 #include "ref/parameter_io.hpp"
 #include "ref/record.hpp"
-#include "ref/validation.hpp"
+#include "ref/validation/validate.hpp"
 
 namespace rubref::fuzz {
 

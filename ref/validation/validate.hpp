@@ -13,10 +13,8 @@
 //    every statistic within its tolerance.
 //  - statistics cases (chaotic): the statistics of the candidate's own samples, each within its
 //    tolerance.
-// A failure is examined for a likely cause: samples inside a rigid stator (impacts missed),
-// fewer contact episodes than the golden (contact events missed), deeper penetration (late
-// contact force), or a friction coefficient or coefficient of restitution that, put into
-// rubref, reproduces the candidate (a reversed friction sign; r applied to the kinetic energy).
+// A candidate spanning less than one period of the case fails (`coverage`). A failure is
+// diagnosed (ref/validation/diagnosis.hpp): causes from a fixed vocabulary, confirmed or likely.
 
 #include <nlohmann/json.hpp>
 #include <string>
@@ -24,6 +22,8 @@
 
 #include "ref/golden.hpp"
 #include "ref/record.hpp"
+#include "ref/validation/causes.hpp"
+#include "ref/validation/diagnosis.hpp"
 
 namespace rubref {
 
@@ -51,15 +51,15 @@ struct validation_result {
   double worst_golden[2]{}, worst_candidate[2]{};            // (x, y), m
 
   std::vector<statistic_check> statistics;
-  std::vector<std::string> likely_causes;  // filled only when the case fails
+  double spanned_revs = 0.0;       // revolutions the candidate spans
+  bool covered = false;            // at least one period of the case
+  int candidate_period_revs = -1;  // the candidate's own repetition (0: none, -1: too short to tell)
+  std::vector<cause> causes;       // filled only when the case fails, most certain first
   bool pass = false;
 };
 
 // The candidate's samples, checked against the case (its speed, at least 4 samples): the reader
 // behind validate_candidate, input_error naming the candidate otherwise.
-struct candidate_data {
-  std::vector<double> t, x, y;
-};
 candidate_data read_candidate(const golden_case& g, const record& candidate, const std::string& candidate_name);
 
 // Compares `candidate` (named `candidate_name`) with the golden case `g`. input_error when the

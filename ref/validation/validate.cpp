@@ -1,7 +1,6 @@
-#include "ref/validation.hpp"
+#include "ref/validation/validate.hpp"
 
 #include <algorithm>
-#include <boost/math/tools/minima.hpp>
 #include <cmath>
 #include <limits>
 #include <numbers>
@@ -9,6 +8,7 @@
 #include <sstream>
 
 #include "ref/errors.hpp"
+#include "ref/validation/diagnosis.hpp"
 #include "variants/all_variants.hpp"
 
 namespace rubref {
@@ -29,6 +29,11 @@ candidate_data read_candidate(const golden_case& g, const record& c, const std::
   d.t = c.column("t_s");
   d.x = c.column("x_m");
   d.y = c.column("y_m");
+  const auto has = [&](std::string_view n) { return std::find(c.columns.begin(), c.columns.end(), n) != c.columns.end(); };
+  if (has("vx_m_s") && has("vy_m_s")) {
+    d.vx = c.column("vx_m_s");
+    d.vy = c.column("vy_m_s");
+  }
   const auto& speed = c.column("speed_rpm");
   for (std::size_t i = 0; i < speed.size(); ++i)
     if (std::abs(speed[i] - g.request.rpm) > 1e-9 * g.request.rpm)
@@ -67,14 +72,6 @@ std::vector<state_type> case_states_at(const golden_case& g, const parameters& p
   return out.s;
 }
 
-// The candidate's samples paired with the golden orbit at the same times of the case's run.
-struct comparison_points {
-  std::vector<double> t;       // s, in the case's run, ascending
-  std::vector<double> x, y;    // m, the candidate
-  std::vector<double> gx, gy;  // m, the golden orbit
-  std::string note;
-};
-
 comparison_points pair_with_golden(const golden_case& g, const candidate_data& c, const std::string& name) {
   comparison_points out;
   const std::size_t n = g.t.size();
@@ -94,7 +91,9 @@ comparison_points pair_with_golden(const golden_case& g, const candidate_data& c
     throw numerical_error("integrating " + g.name + " again does not reproduce its samples (difference " + num(drift, 3) +
                           " m): the file was made by another rubref; compare at the case's own sample times");
 
-  if (c.t.front() < 0.0) throw input_error(name + ": t_s starts at " + num(c.t.front(), 17) + " s; time is absolute, from rest at t = 0");
+  // An orbit that repeats is compared by phase, whatever the time origin (a shifted origin is
+  // diagnosed); one that does not is compared at absolute times.
+  if (g.period_revs == 0 && c.t.front() < 0.0) throw input_error(name + ": t_s starts at " + num(c.t.front(), 17) + " s; time is absolute, from rest at t = 0");
   const double t0 = g.t.front(), window = g.period_revs * period;
   double best = std::numeric_limits<double>::infinity();
   for (int shift = 0; shift < std::max(1, g.period_revs); ++shift) {
@@ -137,103 +136,6 @@ comparison_points pair_with_golden(const golden_case& g, const candidate_data& c
   return out;
 }
 
-// Upward crossings of the clearance: contact episodes seen on the samples.
-int episodes(const std::vector<double>& y, double delta) {
-  int count = 0;
-  for (std::size_t i = 1; i < y.size(); ++i)
-    if (y[i - 1] <= delta && y[i] > delta) ++count;
-  return count;
-}
-
-// RMS distance between the candidate and rubref's run of the case with `params` at the
-// comparison times (rubref's default integration): infinite when that run fails.
-double rms_against(const golden_case& g, const comparison_points& pts, const parameters& params) {
-  const auto s = case_states_at(g, params, g.request.integration, pts.t);
-  if (s.size() != pts.t.size()) return std::numeric_limits<double>::infinity();
-  double sum = 0.0;
-  for (std::size_t i = 0; i < s.size(); ++i) sum += std::pow(s[i][idx::x] - pts.x[i], 2) + std::pow(s[i][idx::y] - pts.y[i], 2);
-  return std::sqrt(sum / static_cast<double>(s.size()));
-}
-
-struct coefficient_fit {
-  double value, rms;
-};
-
-// The value of one coefficient in [lo, hi] with which rubref comes closest to the candidate: the
-// best of a coarse grid, refined by Brent's method between its neighbours.
-coefficient_fit fit_coefficient(const golden_case& g, const comparison_points& pts, double parameters::*member, double lo, double hi) {
-  const auto error = [&](double v) {
-    parameters p = g.request.params;
-    p.*member = v;
-    return rms_against(g, pts, p);
-  };
-  constexpr int kGrid = 10;
-  int best = 0;
-  double best_rms = std::numeric_limits<double>::infinity();
-  for (int k = 0; k <= kGrid; ++k) {
-    const double e = error(lo + (hi - lo) * k / kGrid);
-    if (e < best_rms) {
-      best_rms = e;
-      best = k;
-    }
-  }
-  const double a = lo + (hi - lo) * std::max(0, best - 1) / kGrid, b = lo + (hi - lo) * std::min(kGrid, best + 1) / kGrid;
-  std::uintmax_t iterations = 40;
-  const auto [value, rms] = boost::math::tools::brent_find_minima(error, a, b, 30, iterations);
-  return rms < best_rms ? coefficient_fit{value, rms} : coefficient_fit{lo + (hi - lo) * best / kGrid, best_rms};
-}
-
-void diagnose(const golden_case& g, const candidate_data& c, const comparison_points* pts, validation_result& r) {
-  const parameters& p = g.request.params;
-  const double delta = p.delta, scale = kGoldenOrbitRelTol * g.statistics.max_radius;
-  const bool rigid = visit_variant(g.request.variant, []<class V>() { return impact_law<V>; });
-
-  // A rigid stator cannot be entered.
-  std::size_t deepest = 0;
-  for (std::size_t i = 1; i < c.y.size(); ++i)
-    if (c.y[i] > c.y[deepest]) deepest = i;
-  const double depth = c.y[deepest] - delta;
-  double golden_depth = 0.0;
-  for (const double y : g.y) golden_depth = std::max(golden_depth, y - delta);
-  if (rigid && depth > scale)
-    r.likely_causes.push_back("missed impacts: the candidate goes " + num(depth) + " m into the stator at t = " + num(c.t[deepest], 10) +
-                              " s, which the restitution law (Eq. 6) never allows; impacts are detected late (only at step "
-                              "ends?) or missed between steps");
-  if (!rigid && golden_depth > 0.0 && depth > 1.5 * golden_depth + scale)
-    r.likely_causes.push_back("late contact force: the candidate penetrates " + num(depth) + " m where the golden's deepest sample is " +
-                              num(golden_depth) + " m; contact onsets are detected late or missed between steps");
-  if (pts) {
-    const int want = episodes(pts->gy, delta), got = episodes(pts->y, delta);
-    if (got < want)
-      r.likely_causes.push_back("missed contact events: " + std::to_string(got) + " contact episodes on the compared samples where the golden has " +
-                                std::to_string(want) + "; short or grazing contacts are missed between steps");
-  }
-  if (!pts) return;
-
-  // One coefficient that, put into rubref, reproduces the candidate.
-  if (rigid) {
-    const coefficient_fit f = fit_coefficient(g, *pts, &parameters::r, 0.0, 1.0);
-    if (f.rms <= g.orbit_tolerance && std::abs(f.value - p.r) > 1e-3) {
-      std::string why;
-      if (std::abs(f.value - std::sqrt(p.r)) <= 2e-3) why = " (sqrt(" + num(p.r) + ") = " + num(std::sqrt(p.r)) + ": r applied to the kinetic energy instead of the velocity?)";
-      if (std::abs(f.value - p.r * p.r) <= 2e-3) why = " (" + num(p.r) + "^2 = " + num(p.r * p.r) + ": r applied twice, or to the energy?)";
-      r.likely_causes.push_back("wrong coefficient of restitution: rubref with r = " + num(f.value) + " instead of " + num(p.r) +
-                                " reproduces the candidate to " + num(f.rms, 2) + " m RMS" + why);
-    }
-  } else if (p.mu > 0.0) {
-    const coefficient_fit f = fit_coefficient(g, *pts, &parameters::mu, -1.0, 1.0);
-    if (f.rms <= g.orbit_tolerance && std::abs(f.value - p.mu) > 1e-3 * p.mu + 1e-4) {
-      if (f.value < 0.0)
-        r.likely_causes.push_back("wrong friction sign: rubref with f_x = -mu f_N (mu = " + num(-f.value) + ") reproduces the candidate to " +
-                                  num(f.rms, 2) + " m RMS; for a shaft spinning counter-clockwise (x towards y) the stator pushes "
-                                  "the rotor's top towards +x, f_x = +mu f_N (docs/model.md)");
-      else
-        r.likely_causes.push_back("wrong friction coefficient: rubref with mu = " + num(f.value) + " instead of " + num(p.mu) +
-                                  " reproduces the candidate to " + num(f.rms, 2) + " m RMS");
-    }
-  }
-}
-
 }  // namespace
 
 validation_result validate_candidate(const golden_case& g, const record& candidate, const std::string& candidate_name) {
@@ -246,7 +148,7 @@ validation_result validate_candidate(const golden_case& g, const record& candida
   r.comparison = g.comparison;
   r.period_revs = g.period_revs;
   const candidate_data c = read_candidate(g, candidate, candidate_name);
-  const double omega = g.omega(), period = 60.0 / g.request.rpm;
+  const double omega = g.omega();
 
   orbit_statistics got, want = g.statistics;
   comparison_points pts;
@@ -272,10 +174,6 @@ validation_result validate_candidate(const golden_case& g, const record& candida
     got = statistics_of(pts.t, pts.x, pts.y, omega, g.request.params.delta);
     want = statistics_of(pts.t, pts.gx, pts.gy, omega, g.request.params.delta);
   } else {
-    if (c.t.back() - c.t.front() < period * (1.0 - 1e-9))
-      throw input_error(candidate_name + ": covers " + num((c.t.back() - c.t.front()) / period) +
-                        " revolutions; a statistics case needs at least one whole revolution (the golden has " +
-                        std::to_string(g.request.record_revs) + ")");
     r.sampling = "its own " + std::to_string(c.t.size()) + " samples (statistics only: this case is chaotic)";
     const double nan = std::numeric_limits<double>::quiet_NaN();
     r.max_error = r.rms_error = r.tolerance = r.worst_t = nan;
@@ -284,9 +182,14 @@ validation_result validate_candidate(const golden_case& g, const record& candida
   for (const auto& info : statistic_table)
     r.statistics.push_back({std::string(info.key), want.*info.member, got.*info.member, g.statistics_tolerance.*info.member});
 
+  r.spanned_revs = spanned_revolutions(g, c);
+  r.candidate_period_revs = candidate_period(g, c);
   r.pass = std::all_of(r.statistics.begin(), r.statistics.end(), [](const statistic_check& s) { return s.pass(); });
   if (g.comparison == comparison_kind::orbit) r.pass = r.pass && r.max_error <= r.tolerance;
-  if (!r.pass) diagnose(g, c, g.comparison == comparison_kind::orbit ? &pts : nullptr, r);
+  // Less than one period passes nothing, however well its samples agree.
+  r.covered = r.spanned_revs >= required_revolutions(g) * (1.0 - 1e-6);
+  r.pass = r.pass && r.covered;
+  if (!r.pass) r.causes = diagnose(g, c, candidate, g.comparison == comparison_kind::orbit ? &pts : nullptr);
   return r;
 }
 
@@ -308,8 +211,11 @@ std::string to_text(const validation_result& r) {
     out << "          " << s.key << std::string(s.key.size() < 18 ? 18 - s.key.size() : 1, ' ') << "golden " << num(s.golden, 6)
         << ", candidate " << num(s.candidate, 6) << ", error " << num(std::abs(s.candidate - s.golden), 3) << " (tolerance "
         << num(s.tolerance, 3) << "): " << (s.pass() ? "ok" : "FAIL") << "\n";
-  for (const auto& cause : r.likely_causes) out << "cause     " << cause << "\n";
-  if (!r.pass && r.likely_causes.empty()) out << "cause     no single cause found\n";
+  out << "coverage  " << num(r.spanned_revs, 4) << " revolution(s)";
+  if (r.candidate_period_revs > 0) out << ", repeats every " << r.candidate_period_revs << " rev";
+  if (r.candidate_period_revs == 0) out << ", does not repeat";
+  out << (r.covered ? "" : ": FAIL (less than one period of the case)") << "\n";
+  for (const auto& c : r.causes) out << "cause     " << to_string(c.code) << " (" << to_string(c.confidence) << "): " << c.detail << "\n";
   out << "result    " << (r.pass ? "PASS" : "FAIL") << "\n";
   return out.str();
 }
@@ -344,7 +250,10 @@ nlohmann::ordered_json to_json(const validation_result& r) {
                      {"tolerance", s.tolerance},
                      {"pass", s.pass()}});
   j["statistics"] = stats;
-  j["likely_causes"] = r.likely_causes;
+  j["spanned_revs"] = r.spanned_revs;
+  j["candidate_period_revs"] = r.candidate_period_revs;
+  j["causes"] = nlohmann::ordered_json::array();
+  for (const auto& c : r.causes) j["causes"].push_back(to_json(c));
   j["pass"] = r.pass;
   return j;
 }
