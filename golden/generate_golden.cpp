@@ -56,6 +56,7 @@ int main(int argc, char** argv) {
       std::cout << name << ": " << *r.find("comparison") << ", period " << *r.find("period_revs") << " rev, cross-check "
                 << *r.find("cross_check_max_difference_m") << " m";
       if (const std::string* tol = r.find("tolerance_orbit_m")) std::cout << ", tolerance " << *tol << " m";
+      std::cout << ", " << *r.find("coexisting_attractors") << " coexisting attractor(s)";
       std::cout << "\n";
     }
     out.commit();

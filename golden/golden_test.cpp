@@ -6,10 +6,12 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <string>
 
 #include "ref/golden.hpp"
 #include "ref/orbit_io.hpp"
+#include "ref/orbits/periodic_orbit.hpp"
 #include "ref/validation/validate.hpp"
 
 namespace rubref {
@@ -109,6 +111,54 @@ TEST_P(golden_regression, carries_its_provenance) {
   while (std::getline(in, line) && (line.empty() || line[0] == '#' || line[0] == 't')) {
   }
   EXPECT_EQ(line.substr(0, line.find(',')).size(), std::string("7.5000000000000000e+00").size()) << line;
+}
+
+// The attractor scan (ref/golden.hpp, scan_attractors): every file has been scanned, and every
+// coexisting attractor it records is one. Newton from its state with its period stays on it (the
+// state is a fixed point converged to 1e-12 m; the scan merged states closer than
+// kDistinctAttractorRelTol of the radius, so that is how close "the same" is), it is stable, and it
+// is not the case's own orbit: farther from every revolution start of the record than ten orbit
+// tolerances, so a candidate on it cannot pass as the case.
+constexpr double kApartFromOwnRelTol = 10.0 * kGoldenOrbitRelTol;
+TEST_P(golden_regression, coexisting_attractors_are_stable_and_not_the_case) {
+  const golden_case g = load(GetParam());
+  ASSERT_TRUE(g.attractors_scanned) << g.name << " predates the attractor scan (no 'coexisting_attractors'): regenerate";
+  run_request careful = g.request;
+  careful.integration = golden_method();
+  const double omega = g.omega(), radius = g.statistics.max_radius;
+  for (std::size_t k = 0; k < g.attractors.size(); ++k) {
+    const coexisting_attractor& a = g.attractors[k];
+    SCOPED_TRACE(::testing::Message() << g.name << ", attractor " << k + 1 << " (" << a.start << ")");
+    shot_options so;
+    so.t0 = g.t.front();
+    so.stepper = careful.integration.stepper;
+    so.tolerance = kGoldenShootingTolerance;
+    const periodic_orbit_result shot = shoot_from(careful, a.state, a.period_revs, so);
+    ASSERT_TRUE(shot.converged) << shot.failure;
+    EXPECT_LE(shot.residual, kGoldenShootingTolerance);
+    EXPECT_LE(state_distance(shot.samples.request.initial_state, a.state, omega), kDistinctAttractorRelTol * radius);
+    EXPECT_LT(shot.max_multiplier_modulus, 1.0);
+    EXPECT_LT(a.max_multiplier, 1.0);
+    double nearest = std::numeric_limits<double>::infinity();
+    for (std::size_t i = 0; i < g.t.size(); i += static_cast<std::size_t>(g.request.samples_per_rev))
+      nearest = std::min(nearest, state_distance(a.state, state_type{g.x[i], g.y[i], g.vx[i], g.vy[i]}, omega));
+    EXPECT_GT(nearest, kApartFromOwnRelTol * radius);
+  }
+}
+
+// The long-contact case is what it was chosen for (ref/golden.cpp, long_contact_case): a periodic
+// orbit case whose contact share is 1.5 times any matrix case's or more, in one episode a revolution.
+TEST(golden_cases, long_contact_case_has_a_long_contact) {
+  const golden_spec spec = long_contact_case();
+  const golden_case g = load(spec);
+  EXPECT_EQ(g.comparison, comparison_kind::orbit);
+  EXPECT_GT(g.period_revs, 0);
+  double matrix_largest = 0.0;
+  for (const golden_spec& other : golden_matrix())
+    if (golden_file_name(other) != golden_file_name(spec)) matrix_largest = std::max(matrix_largest, load(other).statistics.contact_fraction);
+  EXPECT_GE(g.statistics.contact_fraction, 1.5 * matrix_largest);
+  const record r = read_record(std::filesystem::path(RUBREF_GOLDEN_DIR) / golden_file_name(spec));
+  EXPECT_EQ(r.number("contact_episodes_per_rev"), 1.0);
 }
 
 std::string case_name(const ::testing::TestParamInfo<golden_spec>& info) {

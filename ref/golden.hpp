@@ -69,7 +69,10 @@ inline constexpr int kGoldenSettleRevs = 200;    // from rest at t = 0 (~40 deca
 inline constexpr int kGoldenRecordRevs = 8;      // holds two periods of any period <= 4 rev
 inline constexpr int kGoldenSamplesPerRev = 128;
 
+// Every variant x clearance x speed, then the cases beyond the matrix (long_contact_case).
 std::vector<golden_spec> golden_matrix();
+// A periodic case with one long contact episode per revolution (ref/golden.cpp says why this one).
+golden_spec long_contact_case();
 std::string golden_file_name(const golden_spec& spec);  // e.g. "identified_0.3mm_1600rpm.csv"
 
 // The case as rubref runs it by default (its fast path): paper parameters with the case's
@@ -108,6 +111,46 @@ struct coexisting_attractor {
 // scan), then for k = 1..N `attractor_<k>_start`, `attractor_<k>_period_revs`,
 // `attractor_<k>_state` ("x y vx vy", 17 digits) and `attractor_<k>_max_multiplier`.
 std::string attractor_key(int k, std::string_view field);  // "attractor_<k>_<field>"
+
+// The attractor scan of make_golden (docs/validation.md, "Coexisting attractors"): other starts
+// than the file's, each settled by rubref's fast path, its period found, then shot with the
+// careful stepper at t = settle_revs T; the stable orbits that are not the case's own are kept.
+// Each start settles to t = kGoldenSettleRevs T, as the file's run from rest, and once more as
+// long if it is not periodic by then.
+inline constexpr int kScanExtraSettleRevs = 200;
+inline constexpr int kScanPoincareRevs = 8;       // revolution starts compared: two periods of 4
+inline constexpr int kScanMaxPeriodRevs = 4;      // the periods the golden record itself resolves
+// A start has settled on a period-p orbit when its revolution-start states repeat every p
+// revolutions to this share of the case's radius (the shooting's norm): 200 revolutions from
+// rest bring the files' own transients to ~1e-11 of it; 1e-6 leaves room for a slower decay
+// and is still far inside Newton's basin, which the shooting then confirms.
+inline constexpr double kScanPeriodRelTol = 1e-6;
+// The shot orbit must lie this close (share of the radius) to the settled state it was shot
+// from, or Newton went elsewhere and the start did not reach it: 100x the period test.
+inline constexpr double kScanReachedRelTol = 1e-4;
+// Two shot orbits are the same attractor when one's state is within this share of the case's
+// radius of a revolution shift of the other: both are converged to 1e-12 m (~2e-9 of a 0.5 mm
+// orbit); distinct attractors differ by microns, far above.
+inline constexpr double kDistinctAttractorRelTol = 1e-6;
+
+// The shooting's norm on a state difference: max(|dx|, |dy|, |dvx| / |w|, |dvy| / |w|), m.
+double state_distance(const state_type& a, const state_type& b, double omega);
+
+// The states of a shot orbit at t0 + k T for k < revs (the careful method): its revolution shifts.
+std::vector<state_type> revolution_states(const run_request& careful, const state_type& on_orbit, int revs, double t0);
+
+struct attractor_scan {
+  std::vector<coexisting_attractor> attractors;  // distinct, in the order of the starts that reach them
+  int starts = 0;
+  int unsettled = 0;        // starts on no stable orbit of period <= kScanMaxPeriodRevs (chaotic)
+  std::string description;  // the header key `attractor_scan`
+};
+
+// Scans the model of `spec` from the other starts: rest at t = k T / 8 (unbalance phase k 45 deg,
+// k = 1..7), the contact-free response at t = 0, and rest at (0, 0.9 delta), (0, -0.9 delta),
+// (0.9 delta, 0), (-0.9 delta, 0) at t = 0. `own` are the case's own states at
+// t = settle_revs T + k T (every revolution start of its record), `radius` its largest radius (m).
+attractor_scan scan_attractors(const golden_spec& spec, std::span<const state_type> own, double radius, unsigned threads = 1);
 
 // A golden file as read back: the run that makes it, how to compare, and its samples.
 struct golden_case {
