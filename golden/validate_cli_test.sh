@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # `rubref validate` as a user meets it: exit 0 on a pass, 1 on a failure (with the worst sample
-# and a cause), 2 with one line on stderr for input it cannot compare, text on stdout and JSON
-# with --json, single files and directories.
+# and its causes), 2 with one line on stderr for a single file it cannot compare, text on stdout
+# and JSON with --json; directories list unmatched files (--strict fails on them) and carry on
+# past a malformed file, whose case is an error, with the JSON always written.
 set -u
 rubref=$1
 golden=$2
@@ -26,13 +27,33 @@ awk -F, 'BEGIN { OFS = "," } /^#/ || /^t_s/ { print; next } { $2 = $2 + 1e-6; pr
 grep -q "^result    FAIL" "$work/out" || fail "no FAIL line: $(cat "$work/out")"
 grep -q "max error 1e-06 m" "$work/out" || fail "worst error not reported as 1e-06 m: $(grep orbit "$work/out")"
 grep -q '"failed": 1' "$work/moved.json" || fail "JSON lacks failed: 1"
+/usr/bin/python3 -c "import json,sys; c=json.load(open(sys.argv[1]))['cases'][0]['causes'][0]; sys.exit(not (c['code']=='static_offset' and c['confidence']=='confirmed' and abs(c['fitted']['offset_x_m']-1e-6)<1e-10))" "$work/moved.json" ||
+  fail "a moved orbit's first cause is not a confirmed static_offset of 1e-6 m: $(grep -A3 '"causes"' "$work/moved.json")"
 
 # Directories: every case with a candidate of the same name; the rest are skipped.
 mkdir "$work/dir"
 cp "$golden/$case" "$golden/restitution_0.3mm_1650rpm.csv" "$work/dir/"
 "$rubref" validate --case "$golden" --candidate "$work/dir" >"$work/out" 2>"$work/err"
 [ $? -eq 0 ] || fail "directory validation failed: $(tail -3 "$work/out") $(cat "$work/err")"
-grep -q "validated 2 case(s): 2 passed, 0 failed, 58 without a candidate (skipped)" "$work/out" || fail "directory summary: $(tail -1 "$work/out")"
+ncases=$(ls "$golden"/*.csv | wc -l)
+grep -q "validated 2 case(s): 2 passed, 0 failed, $((ncases - 2)) without a candidate (skipped)" "$work/out" || fail "directory summary: $(tail -1 "$work/out")"
+
+# A candidate named like no case is listed; --strict fails on it.
+cp "$golden/$case" "$work/dir/identified_0.3mm_1600rpm_v2.csv"
+"$rubref" validate --case "$golden" --candidate "$work/dir" >"$work/out" 2>"$work/err"
+[ $? -eq 0 ] || fail "an unmatched file failed the batch without --strict"
+grep -q "^unmatched 1 candidate file(s) named like no case: identified_0.3mm_1600rpm_v2.csv" "$work/out" || fail "unmatched file not listed: $(tail -2 "$work/out")"
+"$rubref" validate --case "$golden" --candidate "$work/dir" --strict >"$work/out" 2>"$work/err"
+[ $? -eq 1 ] || fail "--strict did not fail on an unmatched file"
+
+# A malformed candidate is its case's error; the other cases are still compared, and the JSON written.
+printf 't_s,x_m,y_m,speed_rpm\n0,0,zero,1600\n' >"$work/dir/restitution_0.3mm_1650rpm.csv"
+"$rubref" validate --case "$golden" --candidate "$work/dir" --json "$work/batch.json" >"$work/out" 2>"$work/err"
+rc=$?
+[ "$rc" -eq 2 ] || fail "a batch with a malformed file exited $rc (want 2)"
+grep -q "validated 2 case(s): 1 passed, 0 failed, 1 could not be compared" "$work/out" || fail "batch summary: $(grep validated "$work/out")"
+/usr/bin/python3 -c "import json,sys; j=json.load(open(sys.argv[1])); e=[c for c in j['cases'] if 'error' in c]; sys.exit(not (len(e)==1 and \"column 'y_m'\" in e[0]['error'] and j['passed']==1 and j['unmatched']==['identified_0.3mm_1600rpm_v2.csv']))" "$work/batch.json" ||
+  fail "batch JSON does not hold the malformed case's error: $(cat "$work/batch.json" | head -c 600)"
 
 # Input it cannot compare: exit 2, one line on stderr, no JSON written.
 expect_error() {
