@@ -98,8 +98,24 @@ bool has(const validation_result& r, cause_code code) {
   return std::any_of(r.causes.begin(), r.causes.end(), [&](const cause& c) { return c.code == code; });
 }
 
+// With RUBREF_FAULT_CANDIDATES_DIR set, each fault's diagnosis is also appended to faults.jsonl
+// there, and the vocabulary written to causes.json: the tables of docs/validation.md.
+void keep_outcome_for_docs(const validation_result& r) {
+  const char* dir = std::getenv("RUBREF_FAULT_CANDIDATES_DIR");
+  if (!dir) return;
+  std::ofstream(std::filesystem::path(dir) / "faults.jsonl", std::ios::app)
+      << nlohmann::ordered_json{{"fault", r.candidate_name}, {"case", r.case_name}, {"max_error_m", r.max_error},
+                                {"first", r.causes.empty() ? nlohmann::ordered_json() : to_json(r.causes.front())}}
+             .dump()
+      << "\n";
+  nlohmann::ordered_json vocabulary = nlohmann::ordered_json::array();
+  for (const auto& c : cause_table) vocabulary.push_back({{"code", c.name}, {"meaning", c.meaning}});
+  std::ofstream(std::filesystem::path(dir) / "causes.json") << vocabulary.dump(1) << "\n";
+}
+
 // The fault's code is the first cause, with the expected confidence.
 void expect_first(const validation_result& r, cause_code code, cause_confidence confidence = cause_confidence::confirmed) {
+  keep_outcome_for_docs(r);
   EXPECT_FALSE(r.pass) << to_text(r);
   ASSERT_FALSE(r.causes.empty()) << to_text(r);
   EXPECT_EQ(to_string(r.causes.front().code), to_string(code)) << to_text(r);
@@ -133,7 +149,7 @@ TEST(validate, less_than_one_period_fails_with_coverage) {
   const golden_case g = load(kIdentifiedCase);
   samples s = wrong_model(g, g.request.params);
   for (auto* v : {&s.t, &s.x, &s.y}) v->resize(20);  // 0.16 of a revolution, each sample exact
-  const validation_result r = validate_candidate(g, to_record(s, g.request.rpm), "20 samples");
+  const validation_result r = validate_candidate(g, to_record(s, g.request.rpm), "20 samples (0.16 of a revolution)");
   EXPECT_LE(r.max_error, r.tolerance) << "the samples themselves agree";
   expect_first(r, cause_code::coverage);
   EXPECT_EQ(r.causes.size(), 1u);
@@ -145,7 +161,7 @@ TEST(validate, a_header_naming_other_values_is_reported_first) {
   req.params.k1 *= 1.06;
   record candidate = as_record(simulate(req));
   write_parameters(candidate, req.params);  // as rubref simulate writes them
-  const validation_result r = validate_candidate(g, candidate, "rubref with k1 +6 %");
+  const validation_result r = validate_candidate(g, candidate, "a header naming k1 +6 %");
   expect_first(r, cause_code::header_mismatch);
   EXPECT_NEAR(r.causes.front().fitted["k1_N_m"].get<double>(), req.params.k1, 1e-9 * req.params.k1);
 }
@@ -155,13 +171,14 @@ TEST(validate, a_start_that_lands_on_another_stable_orbit_is_named) {
   // frame): the period-3 case's rotor settles on a coexisting orbit.
   const golden_case g = load(kPeriodThreeCase);
   const double T = 60.0 / g.request.rpm;
-  const validation_result r = validate_candidate(g, to_record(wrong_model(g, g.request.params, 1.0, T / 4), g.request.rpm), "late start");
+  const validation_result r = validate_candidate(g, keep_for_docs("late_start.csv", to_record(wrong_model(g, g.request.params, 1.0, T / 4), g.request.rpm)),
+                         "start from rest a quarter revolution late");
   expect_first(r, cause_code::other_attractor);
 }
 
 TEST(validate, an_unsettled_candidate_is_non_periodic) {
   const golden_case g = load(kIdentifiedCase);
-  const validation_result r = validate_candidate(g, to_record(wrong_model(g, g.request.params, 1.0, 0.0, 4), g.request.rpm), "4 settling revolutions");
+  const validation_result r = validate_candidate(g, to_record(wrong_model(g, g.request.params, 1.0, 0.0, 4), g.request.rpm), "recorded after 4 settling revolutions");
   expect_first(r, cause_code::non_periodic, cause_confidence::likely);
   EXPECT_EQ(r.candidate_period_revs, 0);
 }
@@ -170,15 +187,15 @@ TEST(validate, an_unsettled_candidate_is_non_periodic) {
 
 using transform = std::function<void(samples&)>;
 
-validation_result transformed(const char* name, const std::string& file, const transform& f) {
+validation_result transformed(const char* name, const std::string& file, const std::string& fault, const transform& f) {
   const golden_case g = load(name);
   samples s = wrong_model(g, g.request.params);
   f(s);
-  return validate_candidate(g, keep_for_docs(file, to_record(s, g.request.rpm)), file);
+  return validate_candidate(g, keep_for_docs(file, to_record(s, g.request.rpm)), fault);
 }
 
 TEST(validate, output_in_millimetres_is_units) {
-  const validation_result r = transformed(kIdentifiedCase, "in_mm.csv", [](samples& s) {
+  const validation_result r = transformed(kIdentifiedCase, "in_mm.csv", "output in mm", [](samples& s) {
     for (auto* v : {&s.x, &s.y})
       for (double& a : *v) a *= 1e3;
   });
@@ -187,14 +204,14 @@ TEST(validate, output_in_millimetres_is_units) {
 }
 
 TEST(validate, y_pointing_down_is_a_mirrored_axis) {
-  const validation_result r = transformed(kRestitutionCase, "y_down.csv", [](samples& s) {
+  const validation_result r = transformed(kRestitutionCase, "y_down.csv", "y pointing down", [](samples& s) {
     for (double& a : s.y) a = -a;
   });
   expect_first(r, cause_code::mirrored_axis);
 }
 
 TEST(validate, times_from_another_origin_are_a_time_shift) {
-  const validation_result r = transformed(kPeriodThreeCase, "time_origin.csv", [](samples& s) {
+  const validation_result r = transformed(kPeriodThreeCase, "time_origin.csv", "times from another origin (-12.3 ms)", [](samples& s) {
     for (double& t : s.t) t -= 0.0123;
   });
   expect_first(r, cause_code::time_origin_or_unbalance_phase);
@@ -202,7 +219,7 @@ TEST(validate, times_from_another_origin_are_a_time_shift) {
 }
 
 TEST(validate, a_constant_offset_is_static_offset) {
-  const validation_result r = transformed(kLinearCase, "offset.csv", [](samples& s) {
+  const validation_result r = transformed(kLinearCase, "offset.csv", "y offset by 20 um", [](samples& s) {
     for (double& a : s.y) a += 20e-6;
   });
   expect_first(r, cause_code::static_offset);
@@ -211,59 +228,60 @@ TEST(validate, a_constant_offset_is_static_offset) {
 
 // --- the model changed -------------------------------------------------------------------------
 
-validation_result changed(const char* name, const std::string& file, const std::function<void(parameters&)>& f, double omega_sign = 1.0) {
+validation_result changed(const char* name, const std::string& file, const std::string& fault, const std::function<void(parameters&)>& f,
+                          double omega_sign = 1.0) {
   const golden_case g = load(name);
   parameters p = g.request.params;
   f(p);
-  return validate_candidate(g, keep_for_docs(file, to_record(wrong_model(g, p, omega_sign), g.request.rpm)), file);
+  return validate_candidate(g, keep_for_docs(file, to_record(wrong_model(g, p, omega_sign), g.request.rpm)), fault);
 }
 
 TEST(validate, another_clearance_is_clearance) {
-  const validation_result r = changed(kIdentifiedCase, "clearance_0.25mm.csv", [](parameters& p) { p.delta = 0.25e-3; });
+  const validation_result r = changed(kIdentifiedCase, "clearance_0.25mm.csv", "clearance 0.25 mm", [](parameters& p) { p.delta = 0.25e-3; });
   expect_first(r, cause_code::clearance);
   EXPECT_NEAR(r.causes.front().fitted["clearance_m"].get<double>(), 0.25e-3, 1e-8);  // Brent stops at ~1e-5 of the value: the RMS is flat at its minimum
 }
 
 // Friction pushing the rotor's top to -x (f_x = -mu f_N): the sign convention turned around.
 TEST(validate, reversed_friction_sign_is_friction_sign) {
-  const validation_result r = changed(kIdentifiedCase, "friction_reversed.csv", [](parameters& p) { p.mu = -p.mu; });
+  const validation_result r = changed(kIdentifiedCase, "friction_reversed.csv", "friction sign reversed", [](parameters& p) { p.mu = -p.mu; });
   expect_first(r, cause_code::friction_sign);
   EXPECT_GT(r.max_error, 100.0 * r.tolerance);
 }
 
 TEST(validate, another_friction_coefficient_is_friction_coefficient) {
-  const validation_result r = changed(kLinearCase, "mu_0.3.csv", [](parameters& p) { p.mu = 0.3; });
+  const validation_result r = changed(kLinearCase, "mu_0.3.csv", "mu = 0.3", [](parameters& p) { p.mu = 0.3; });
   expect_first(r, cause_code::friction_coefficient);
   EXPECT_NEAR(r.causes.front().fitted["mu"].get<double>(), 0.3, 1e-5);
 }
 
 TEST(validate, k1_six_percent_high_is_a_law_coefficient) {
-  const validation_result r = changed(kIdentifiedCase, "k1_plus_6pc.csv", [](parameters& p) { p.k1 *= 1.06; });
+  const validation_result r = changed(kIdentifiedCase, "k1_plus_6pc.csv", "k1 +6 %", [](parameters& p) { p.k1 *= 1.06; });
   expect_first(r, cause_code::contact_law_coefficient);
   EXPECT_NEAR(r.causes.front().fitted["relative_change"].get<double>(), 0.06, 1e-5);
 }
 
 TEST(validate, c2_ten_percent_high_is_a_law_coefficient) {
-  const validation_result r = changed(kPeriodThreeCase, "c2_times_1.1.csv", [](parameters& p) { p.c2 *= 1.1; });
+  const validation_result r = changed(kPeriodThreeCase, "c2_times_1.1.csv", "c2 x 1.1", [](parameters& p) { p.c2 *= 1.1; });
   expect_first(r, cause_code::contact_law_coefficient);
   EXPECT_NEAR(r.causes.front().fitted["relative_change"].get<double>(), 0.1, 1e-4);
 }
 
 // r applied to the kinetic energy instead of the velocity: the rebound speed is sqrt(r) v.
 TEST(validate, restitution_on_the_energy_is_a_law_coefficient) {
-  const validation_result r = changed(kRestitutionCase, "energy_restitution.csv", [](parameters& p) { p.r = std::sqrt(p.r); });
+  const validation_result r = changed(kRestitutionCase, "energy_restitution.csv", "r applied to the kinetic energy", [](parameters& p) { p.r = std::sqrt(p.r); });
   expect_first(r, cause_code::contact_law_coefficient);
   EXPECT_NE(r.causes.front().detail.find("kinetic energy"), std::string::npos) << to_text(r);
 }
 
 TEST(validate, a_larger_unbalance_is_unbalance) {
-  const validation_result r = changed(kLinearCase, "e_times_1.1.csv", [](parameters& p) { p.e *= 1.1; });
+  const validation_result r = changed(kLinearCase, "e_times_1.1.csv", "e x 1.1", [](parameters& p) { p.e *= 1.1; });
   expect_first(r, cause_code::unbalance);
 }
 
 // sin and cos swapped in the unbalance force: it turns clockwise while friction stays rubref's.
 TEST(validate, sin_and_cos_swapped_is_rotation_sense) {
-  const validation_result r = changed(kIdentifiedCase, "sin_cos_swapped.csv", [](parameters& p) {
+  const validation_result r = changed(kIdentifiedCase, "sin_cos_swapped.csv", "sin and cos swapped in the unbalance force", [](parameters& p) {
     p.mu = -p.mu;  // rubref turns friction with the rotation; this code does not
     p.unbalance_phase = std::numbers::pi / 2;
   }, -1.0);
@@ -272,7 +290,7 @@ TEST(validate, sin_and_cos_swapped_is_rotation_sense) {
 
 // A code that is rubref's mirror image throughout (shaft, unbalance and friction clockwise).
 TEST(validate, a_clockwise_shaft_is_rotation_sense) {
-  const validation_result r = changed(kLinearCase, "clockwise.csv", [](parameters&) {}, -1.0);
+  const validation_result r = changed(kLinearCase, "clockwise.csv", "shaft turning clockwise", [](parameters&) {}, -1.0);
   expect_first(r, cause_code::rotation_sense);
 }
 
@@ -289,7 +307,7 @@ struct abs_damper {
 TEST(validate, a_damper_for_c2_z_dot_squared_is_the_law_form) {
   const golden_case g = load(kIdentifiedCase);
   const samples s = run_of(rotor_system<abs_damper>(g.request.params, g.omega()), 0.0, 200, 8, 128, g.request.integration);
-  const validation_result r = validate_candidate(g, keep_for_docs("abs_damper.csv", to_record(s, g.request.rpm)), "c2 |z_dot| z_dot");
+  const validation_result r = validate_candidate(g, keep_for_docs("abs_damper.csv", to_record(s, g.request.rpm)), "c2 |z_dot| z_dot for c2 z_dot^2");
   expect_first(r, cause_code::contact_law_form);
 }
 
@@ -299,7 +317,7 @@ TEST(validate, gravity_is_a_static_offset) {
   effect_parameters fx;
   fx.preload_y = -g.request.params.m * 9.80665;
   const samples s = run_of(rotor_with_effects<piecewise_linear>(g.request.params, fx, g.omega()), 0.0, 200, 8, 128, g.request.integration);
-  const validation_result r = validate_candidate(g, keep_for_docs("gravity.csv", to_record(s, g.request.rpm)), "gravity");
+  const validation_result r = validate_candidate(g, keep_for_docs("gravity.csv", to_record(s, g.request.rpm)), "gravity (static load m g)");
   expect_first(r, cause_code::static_offset);
 }
 
@@ -327,7 +345,7 @@ record naive_restitution(const golden_case& g) {
 
 TEST(validate, impacts_applied_at_step_ends_are_missed_events) {
   const golden_case g = load(kRestitutionCase);
-  const validation_result r = validate_candidate(g, keep_for_docs("step_end_impacts.csv", naive_restitution(g)), "step-end impacts");
+  const validation_result r = validate_candidate(g, keep_for_docs("step_end_impacts.csv", naive_restitution(g)), "impacts applied at RK4 step ends");
   expect_first(r, cause_code::missed_events, cause_confidence::likely);
 }
 
@@ -348,14 +366,14 @@ TEST(validate, a_coarse_fixed_step_is_coarse_step) {
     }
     rk4.do_step(model, s, static_cast<double>(k) * dt, dt);
   }
-  const validation_result r = validate_candidate(g, keep_for_docs("coarse_rk4.csv", to_record(out, g.request.rpm)), "rk4, 256 a revolution");
+  const validation_result r = validate_candidate(g, keep_for_docs("coarse_rk4.csv", to_record(out, g.request.rpm)), "fixed RK4 step, 256 a revolution, force switched inside steps");
   expect_first(r, cause_code::coarse_step);
   EXPECT_NEAR(r.causes.front().fitted["dt_s"].get<double>(), dt, 1e-12);
 }
 
 // A fault outside the vocabulary (horizontal damping 1.5 times): nothing is confirmed.
 TEST(validate, a_fault_outside_the_vocabulary_is_none_found) {
-  const validation_result r = changed(kIdentifiedCase, "c_x_times_1.5.csv", [](parameters& p) { p.c_x *= 1.5; });
+  const validation_result r = changed(kIdentifiedCase, "c_x_times_1.5.csv", "c_x x 1.5 (outside the vocabulary)", [](parameters& p) { p.c_x *= 1.5; });
   expect_first(r, cause_code::none_found, cause_confidence::likely);
 }
 
