@@ -94,10 +94,6 @@ record keep_for_docs(const std::string& file, record r) {
   return r;
 }
 
-bool has(const validation_result& r, cause_code code) {
-  return std::any_of(r.causes.begin(), r.causes.end(), [&](const cause& c) { return c.code == code; });
-}
-
 // With RUBREF_FAULT_CANDIDATES_DIR set, each fault's diagnosis is also appended to faults.jsonl
 // there, and the vocabulary written to causes.json: the tables of docs/validation.md.
 void keep_outcome_for_docs(const validation_result& r) {
@@ -139,7 +135,9 @@ TEST(validate, correct_output_passes_on_the_case_samples_and_on_its_own) {
     const validation_result shifted = validate_candidate(g, other, "rubref, own sampling");
     EXPECT_TRUE(shifted.pass) << to_text(shifted);
     EXPECT_NE(shifted.sampling.find("modulo the orbit's period"), std::string::npos) << shifted.sampling;
-    if (g.period_revs == 1) EXPECT_EQ(shifted.candidate_period_revs, 1);  // (3 revolutions cannot show a period of 3)
+    if (g.period_revs == 1) {
+      EXPECT_EQ(shifted.candidate_period_revs, 1);  // (3 revolutions cannot show a period of 3)
+    }
   }
 }
 
