@@ -90,6 +90,7 @@ struct model_fit {
   double rms = kInf, max = kInf;  // m, over the view
   orbit_start orbit;              // the shot orbit
   double max_multiplier = 0.0;
+  std::vector<double> residual;   // m, (model - view) in x then y at each view point
 };
 
 enum class law_form { as_named, abs_damper };
@@ -158,6 +159,13 @@ model_fit fit_orbit(const hypothesis& h, const view& v, const std::vector<orbit_
       worst[k] = std::max(worst[k], e);
     }
     const auto best = static_cast<std::size_t>(std::min_element(sum.begin(), sum.end()) - sum.begin());
+    out.residual.assign(2 * n, 0.0);
+    for (std::size_t j = 0; j < at.size(); ++j)
+      if (at[j].second / n == best) {
+        const std::size_t i = at[j].second % n;
+        out.residual[i] = kept.s[j][idx::x] + h.offset_x - v.x[i];
+        out.residual[n + i] = kept.s[j][idx::y] + h.offset_y - v.y[i];
+      }
     out.converged = true;
     out.rms = std::sqrt(sum[best] / static_cast<double>(n));
     out.max = worst[best];
@@ -235,7 +243,7 @@ constexpr std::size_t kRefined = 4;
 constexpr int kRefitZooms = 3;
 
 refit fit_one(const hypothesis& base, const std::function<void(hypothesis&, double)>& set, double lo, double hi, const view& v,
-              const std::vector<orbit_start>& starts, bool refine) {
+              const std::vector<orbit_start>& starts, bool refine, std::optional<double> extra = std::nullopt) {
   refit best;
   std::optional<orbit_start> warm;
   const auto objective = [&](double value) {
@@ -249,6 +257,8 @@ refit fit_one(const hypothesis& base, const std::function<void(hypothesis&, doub
     if (f.rms < best.fit.rms) best = {value, f};
     return f.converged ? f.rms : 1e30;
   };
+  // The linearised step from the case's value (a small fault lies between grid points).
+  if (extra && *extra >= lo && *extra <= hi) objective(*extra);
   double a = lo, b = hi;
   for (int zoom = 0; zoom <= (refine ? kRefitZooms : 0); ++zoom) {
     const double step = (b - a) / kRefitGrid;
@@ -591,7 +601,11 @@ std::optional<transform_fit> diagnosis::transform_stage() {
     }
   }
   bool offset = false;
-  if (with_offset_cost * kLikelyReduction * kLikelyReduction <= plain) {
+  // A part of a transform counts only when leaving it out costs tenfold in RMS and leaves the
+  // candidate outside half the tolerance (else a shift of 1e-9 s found by Brent on an exact
+  // match would be "significant").
+  const double negligible = std::pow(0.5 * tolerance / best.scale, 2);
+  if (with_offset_cost * kLikelyReduction * kLikelyReduction <= plain && plain > negligible) {
     offset = true;
     best.map = offset_map;
     best.tau = offset_tau;
@@ -604,7 +618,8 @@ std::optional<transform_fit> diagnosis::transform_stage() {
   // A shift by whole revolutions is the same orbit (the comparison already picks the best).
   const axis_map& A = kAxisMaps[best.map];
   const double whole = std::round(best.tau / T) * T;
-  const bool shifted = search.cost(A, whole, offset) > kLikelyReduction * kLikelyReduction * best_cost;
+  const double unshifted = search.cost(A, whole, offset);
+  const bool shifted = unshifted > kLikelyReduction * kLikelyReduction * best_cost && unshifted > negligible;
   if (!shifted) best.tau = whole;
   const bool any = best.scale != 1.0 || best.map != 0 || shifted || offset;
   // Significant: the transform explains the difference at least tenfold better than the raw
@@ -673,7 +688,7 @@ void diagnosis::refit_stage(const std::optional<transform_fit>& transform) {
     std::string name;  // parameter key
     hypothesis base;
     std::function<void(hypothesis&, double)> set;
-    double lo, hi, value0;
+    double lo, hi, value0;  // value0: the case's value (infinite: the hypothesis is not the case's model there)
   };
   std::vector<candidate_refit> list;
   const hypothesis h0 = case_hypothesis(g);
@@ -721,10 +736,35 @@ void diagnosis::refit_stage(const std::optional<transform_fit>& transform) {
                     -range, std::min(range, p.delta * p.k_y), 0.0});
   }
 
+  // A small fault lies between the coarse grid's points: each hypothesis also tries the
+  // Gauss-Newton step from the case's value, p0 - (J . r0) / (J . J), with r0 the residual of the
+  // case's own orbit and J its derivative by a forward difference of 1e-4 of the range.
+  std::vector<std::optional<double>> linearised(list.size());
+  const model_fit at_case = evaluate(h0, v, from);
+  if (at_case.converged) {
+    parallel_for(list.size(), thread_count(0, list.size()), [&](std::size_t k) {
+      const auto& item = list[k];
+      const bool case_model = item.base.form == h0.form && item.base.omega == h0.omega;
+      const double p0 = item.code == cause_code::time_origin_or_unbalance_phase ? p.unbalance_phase : item.value0;
+      if (!case_model || !std::isfinite(p0)) return;
+      const double dp = 1e-4 * (item.hi - item.lo);
+      hypothesis h = item.base;
+      item.set(h, p0 + dp);
+      const model_fit f = evaluate(h, v, {at_case.orbit});
+      if (!f.converged || f.residual.size() != at_case.residual.size()) return;
+      double jr = 0.0, jj = 0.0;
+      for (std::size_t i = 0; i < f.residual.size(); ++i) {
+        const double J = (f.residual[i] - at_case.residual[i]) / dp;
+        jr += J * at_case.residual[i];
+        jj += J * J;
+      }
+      if (jj > 0.0) linearised[k] = p0 - jr / jj;
+    });
+  }
   // Every hypothesis on the coarse grid; the kRefined closest to the candidate refined.
   std::vector<refit> fits(list.size());
   parallel_for(list.size(), thread_count(0, list.size()), [&](std::size_t k) {
-    fits[k] = fit_one(list[k].base, list[k].set, list[k].lo, list[k].hi, v, from, false);
+    fits[k] = fit_one(list[k].base, list[k].set, list[k].lo, list[k].hi, v, from, false, linearised[k]);
   });
   std::vector<std::size_t> order(list.size());
   for (std::size_t k = 0; k < order.size(); ++k) order[k] = k;
@@ -733,7 +773,7 @@ void diagnosis::refit_stage(const std::optional<transform_fit>& transform) {
   std::erase_if(order, [&](std::size_t k) { return !fits[k].fit.converged; });
   parallel_for(order.size(), thread_count(0, order.size()), [&](std::size_t i) {
     const std::size_t k = order[i];
-    fits[k] = fit_one(list[k].base, list[k].set, list[k].lo, list[k].hi, v, from, true);
+    fits[k] = fit_one(list[k].base, list[k].set, list[k].lo, list[k].hi, v, from, true, linearised[k]);
   });
   for (std::size_t k = 0; k < list.size(); ++k)
     if (std::find(order.begin(), order.end(), k) == order.end()) fits[k].fit.converged = false;  // not refined: no verdict
