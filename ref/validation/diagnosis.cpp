@@ -578,11 +578,15 @@ std::optional<transform_fit> diagnosis::transform_stage() {
     }
   const transform_search search{curve, v, best.scale};
   const double identity_rms = std::sqrt(search.cost(kAxisMaps[0], 0.0, false)) * best.scale;
-  // The best map and shift, without an offset, then with one if that cuts the error tenfold.
+  // The best map and shift, without an offset, then with one if that cuts the error tenfold. A
+  // map replaces the identity (or an earlier one) only when it is tenfold better in RMS: a
+  // contact-free orbit is an ellipse, for which flipping both axes is exactly half a revolution
+  // of shift, and a tie must not name a mirror.
+  const auto better = [](double cost, double than) { return cost * kLikelyReduction * kLikelyReduction < than; };
   double best_cost = kInf;
   for (std::size_t k = 0; k < kAxisMaps.size(); ++k) {
     const auto [tau, cost] = search.best_shift(kAxisMaps[k], false);
-    if (cost < best_cost) {
+    if (k == 0 || better(cost, best_cost)) {
       best_cost = cost;
       best.map = k;
       best.tau = tau;
@@ -594,7 +598,7 @@ std::optional<transform_fit> diagnosis::transform_stage() {
   double offset_tau = 0.0;
   for (std::size_t k = 0; k < kAxisMaps.size(); ++k) {
     const auto [tau, cost] = search.best_shift(kAxisMaps[k], true);
-    if (cost < with_offset_cost) {
+    if (k == 0 || better(cost, with_offset_cost)) {
       with_offset_cost = cost;
       offset_map = k;
       offset_tau = tau;
