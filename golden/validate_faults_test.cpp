@@ -292,19 +292,10 @@ TEST(validate, a_clockwise_shaft_is_rotation_sense) {
   expect_first(r, cause_code::rotation_sense);
 }
 
-// Eq. 5's c2 z_dot^2 written as a damper, c2 |z_dot| z_dot.
-struct abs_damper {
-  static constexpr std::string_view name = "identified-abs-damper";
-  static constexpr std::string_view equation = "f_N = k1 z + k3 z^3 + c2 |z_dot| z_dot";
-  double k1, k3, c2;
-  static abs_damper from(const parameters& p) { return {p.k1, p.k3, p.c2}; }
-  double normal_force(double z, double zd) const noexcept { return z * (k1 + k3 * z * z) + c2 * std::abs(zd) * zd; }
-  std::array<double, 2> normal_force_gradient(double z, double zd) const noexcept { return {k1 + 3.0 * k3 * z * z, 2.0 * c2 * std::abs(zd)}; }
-};
-
+// Eq. 5's c2 z_dot^2 written as a damper, c2 |z_dot| z_dot (the diagnosis's own hypothesis law).
 TEST(validate, a_damper_for_c2_z_dot_squared_is_the_law_form) {
   const golden_case g = load(kIdentifiedCase);
-  const samples s = run_of(rotor_system<abs_damper>(g.request.params, g.omega()), 0.0, 200, 8, 128, g.request.integration);
+  const samples s = run_of(rotor_system<abs_damper_law>(g.request.params, g.omega()), 0.0, 200, 8, 128, g.request.integration);
   const validation_result r = validate_candidate(g, keep_for_docs("abs_damper.csv", to_record(s, g.request.rpm)), "c2 |z_dot| z_dot for c2 z_dot^2");
   expect_first(r, cause_code::contact_law_form);
 }

@@ -41,19 +41,6 @@ double median_spacing(const std::vector<double>& t) {
   return d[d.size() / 2];
 }
 
-// The damper form a candidate may have used for Eq. 5's c2 z_dot^2: a true damper, c2 |z_dot| z_dot.
-// Not a variant (it is no law of the paper's): only a hypothesis of the diagnosis.
-struct abs_damper_law {
-  static constexpr std::string_view name = "identified-abs-damper";
-  static constexpr std::string_view equation = "f_N = k1 z + k3 z^3 + c2 |z_dot| z_dot";
-  double k1, k3, c2;
-  static abs_damper_law from(const parameters& p) { return {p.k1, p.k3, p.c2}; }
-  double normal_force(double z, double z_dot) const noexcept { return z * (k1 + k3 * z * z) + c2 * std::abs(z_dot) * z_dot; }
-  std::array<double, 2> normal_force_gradient(double z, double z_dot) const noexcept {
-    return {k1 + 3.0 * k3 * z * z, 2.0 * c2 * std::abs(z_dot)};
-  }
-};
-
 // ----------------------------------------------------------------------------------------------
 // Re-simulation: a hypothesis is the case's model with one change; its periodic orbit, shot from
 // a guess, is compared with what the candidate shows at the candidate's times.

@@ -13,6 +13,9 @@
 //     a naive fixed-step integration that reproduces the candidate.
 // Stages 3-4 need an orbit case with a period (`period_revs` > 0); chaotic cases get 1, 2, 5.
 
+#include <array>
+#include <cmath>
+#include <string_view>
 #include <vector>
 
 #include "ref/golden.hpp"
@@ -20,6 +23,19 @@
 #include "ref/validation/causes.hpp"
 
 namespace rubref {
+
+// The damper form a candidate may have used for Eq. 5's c2 z_dot^2: a true damper, c2 |z_dot| z_dot.
+// Not a variant (it is no law of the paper's): a hypothesis of the diagnosis (contact_law_form).
+struct abs_damper_law {
+  static constexpr std::string_view name = "identified-abs-damper";
+  static constexpr std::string_view equation = "f_N = k1 z + k3 z^3 + c2 |z_dot| z_dot";
+  double k1, k3, c2;
+  static abs_damper_law from(const parameters& p) { return {p.k1, p.k3, p.c2}; }
+  double normal_force(double z, double z_dot) const noexcept { return z * (k1 + k3 * z * z) + c2 * std::abs(z_dot) * z_dot; }
+  std::array<double, 2> normal_force_gradient(double z, double z_dot) const noexcept {
+    return {k1 + 3.0 * k3 * z * z, 2.0 * c2 * std::abs(z_dot)};
+  }
+};
 
 // The candidate's samples, as read (m, s; velocities when it has vx_m_s, vy_m_s).
 struct candidate_data {
