@@ -47,8 +47,20 @@ orbit_summary summarize(const orbit& o) {
     rev_hi = std::max(rev_hi, r);
   }
   out.radius_spread = rev_hi >= rev_lo ? rev_hi - rev_lo : 0.0;
+  const std::size_t revs = per_rev == 0 ? 0 : o.samples.size() / per_rev;
+  if (revs >= 2) {
+    out.period_revs = 0;
+    const double tol = kRepeatRelTol * out.max_radius;
+    for (std::size_t n = 1; n <= revs / 2 && out.period_revs == 0; ++n) {
+      bool repeats = true;
+      for (std::size_t i = 0; i + n * per_rev < revs * per_rev && repeats; ++i)
+        repeats = std::abs(x[i + n * per_rev] - x[i]) <= tol && std::abs(y[i + n * per_rev] - y[i]) <= tol;
+      if (repeats) out.period_revs = static_cast<int>(n);
+    }
+  }
   out.peak_to_peak_x = x_hi - x_lo;
   out.peak_to_peak_y = y_hi - y_lo;
+  out.max_y = y_hi;
   out.contact_fraction = static_cast<double>(in_contact) / static_cast<double>(o.samples.size());
 
   std::size_t episodes = 0, endings = 0;

@@ -63,11 +63,23 @@ sweep_branch run_branch(const sweep_settings& s, sweep_direction d) {
     req.rpm = speeds[i];
     req.settle_revs = i == 0 ? s.first_settle_revs : s.settle_revs;
     if (s.start_from_orbit) {
-      const periodic_orbit_result shot = shoot_from(req, req.initial_state, 1);
-      if (shot.stable) {  // (converged and every multiplier inside the unit circle)
-        req.initial_state = shot.samples.request.initial_state;
-        req.settle_revs = 0;
-        ++branch.orbit_starts;
+      // No stable period-1 orbit next to the neighbour's (past a fold, or none at all): settle, and
+      // look again from where the transient went, up to kSettleRounds times. A jump lands near the
+      // other branch within a round, but its last approach, or the slow passage past a fold, can
+      // take longer than one; a subharmonic, torus or chaotic response is recorded after them all.
+      for (int round = 0; round <= kSettleRounds; ++round) {
+        if (round > 0) {
+          run_request settle = req;
+          settle.record_revs = 1;
+          req.initial_state = simulate(settle).end.s;  // after settle_revs + 1 revolutions: w t is a multiple of 2 pi
+        }
+        const periodic_orbit_result shot = shoot_from(req, req.initial_state, 1);
+        if (shot.stable) {  // (converged and every multiplier inside the unit circle)
+          req.initial_state = shot.samples.request.initial_state;
+          req.settle_revs = 0;
+          ++branch.orbit_starts;
+          break;
+        }
       }
     }
     orbit o = simulate(req);

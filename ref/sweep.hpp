@@ -31,9 +31,11 @@ struct sweep_settings {
   bool keep_orbits = false;     // keep every recorded orbit (memory: record_revs * samples_per_rev per speed)
   // Start each speed on the periodic orbit continued from its neighbour (Newton shooting from the
   // neighbour's end state, docs/orbits.md) where that orbit is found and stable, instead of
-  // settling; the settle revolutions remain where it is not (subharmonic, non-periodic, unstable).
+  // settling. Where it is not (past a fold, subharmonic, non-periodic, unstable) the speed settles
+  // settle_revs and shoots again from there, up to kSettleRounds times, before it is recorded.
   bool start_from_orbit = false;
 };
+inline constexpr int kSettleRounds = 4;
 
 // Throws input_error naming the first bad setting.
 void validate(const sweep_settings& s);

@@ -79,17 +79,17 @@ record dwell_record(const sweep_settings& s, const sweep_branch& b) {
 table sweep_table(const sweep_settings& s, const std::vector<sweep_branch>& branches) {
   table t;
   t.metadata = sweep_metadata(s);
-  t.columns = {"direction", "speed_rpm", "peak_to_peak_x_m", "peak_to_peak_y_m", "max_radius_m", "radius_spread_m", "max_penetration_m",
-               "max_normal_force_N", "contact_episodes_per_rev", "contact_fraction", "regime", "whirl"};
+  t.columns = {"direction", "speed_rpm", "peak_to_peak_x_m", "peak_to_peak_y_m", "max_y_m", "max_radius_m", "radius_spread_m", "max_penetration_m",
+               "max_normal_force_N", "contact_episodes_per_rev", "contact_fraction", "regime", "period_revs", "whirl"};
   for (const auto& oc : reported_orders()) t.columns.push_back(oc.name);
   for (const auto& b : branches) {
     for (const auto& p : b.points) {
       const auto& m = p.summary;
       std::vector<std::string> row{std::string(to_string(b.direction)), format_number(p.rpm),
-                                   format_number(m.peak_to_peak_x), format_number(m.peak_to_peak_y),
+                                   format_number(m.peak_to_peak_x), format_number(m.peak_to_peak_y), format_number(m.max_y),
                                    format_number(m.max_radius), format_number(m.radius_spread), format_number(m.max_penetration),
                                    format_number(m.max_normal_force), format_number(m.contact_episodes_per_rev),
-                                   format_number(m.contact_fraction), std::string(to_string(m.regime)),
+                                   format_number(m.contact_fraction), std::string(to_string(m.regime)), std::to_string(m.period_revs),
                                    m.backward_whirl() ? "backward" : "forward"};
       for (const auto& oc : reported_orders()) row.push_back(format_number(m.spectrum.amplitude(oc.order)));
       t.rows.push_back(std::move(row));

@@ -99,6 +99,37 @@ TEST(contact_free, transient_from_rest_decays_onto_closed_form) {
   EXPECT_TRUE(within(compare_to_closed_form(tr, exact), kReferenceRelTol));
 }
 
+// The ellipse of the contact-free orbit (Eq. 7's components) against the orbit itself, sampled
+// finely over one revolution at speeds below, between and above the two resonances: the extreme
+// radii are the semi-axes, the farthest sample lies along the tilt, and the sense is the sign of
+// the angular momentum x vy - y vx. 1e-4 relative is the sampling's own error (4096 samples:
+// 1 - cos(pi / 4096) ~ 3e-7 on a radius, 8e-4 rad on an angle, so 2e-3 rad on the tilt).
+TEST(whirl_ellipse, matches_the_sampled_orbit) {
+  constexpr int kSamples = 4096;
+  constexpr double kRadiusRelTol = 1e-4, kTiltTol = 2e-3;
+  const parameters p;
+  for (const double rpm : {900.0, 1450.0, 1500.0, 1540.0, 1560.0, 1600.0, 2400.0}) {
+    const unbalance_response r(p, rpm * 2.0 * std::numbers::pi / 60.0);
+    const whirl_ellipse e = ellipse_of(r);
+    double r_max = 0.0, r_min = 1e9, tilt = 0.0, momentum = 0.0;
+    for (int i = 0; i < kSamples; ++i) {
+      const state_type s = r.at(i * (2.0 * std::numbers::pi / r.omega) / kSamples);
+      const double rad = std::hypot(s[0], s[1]);
+      if (rad > r_max) {
+        r_max = rad;
+        tilt = std::fmod(std::atan2(s[1], s[0]) + 2.0 * std::numbers::pi, std::numbers::pi);
+      }
+      r_min = std::min(r_min, rad);
+      momentum += s[0] * s[3] - s[1] * s[2];
+    }
+    EXPECT_NEAR(e.semi_major, r_max, kRadiusRelTol * r_max) << rpm;
+    EXPECT_NEAR(e.semi_minor, r_min, kRadiusRelTol * r_max) << rpm;
+    const double d = std::abs(e.tilt - tilt);
+    EXPECT_LT(std::min(d, std::numbers::pi - d), kTiltTol) << rpm;
+    EXPECT_EQ(e.forward, momentum > 0.0) << rpm;
+  }
+}
+
 // The forcing's (cos, sin) without libm (ref/state.hpp): within a few ulp of std::cos/std::sin
 // over every angle a run meets (w t + phi to ~1e5 rad) and at the reduction's seams. 4e-16 is
 // four ulp of 1: the node table and the final turn each round once, the polynomials twice.

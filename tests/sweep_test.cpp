@@ -5,6 +5,7 @@
 
 #include <cmath>
 #include <cstring>
+#include <numbers>
 
 #include "ref/closed_form.hpp"
 #include "ref/errors.hpp"
@@ -132,6 +133,36 @@ TEST(sweep, starting_from_the_continued_orbit_reaches_the_settled_responses) {
   EXPECT_EQ(bands(detect_jumps(b[0], b[1], s.step_rpm)), bands(detect_jumps(b[2], b[3], s.step_rpm)));
 }
 
+// An orbit of 12 revolutions at 64 samples each whose x carries a component of period n revs.
+orbit with_period(double n, double share, double noise = 0.0) {
+  orbit o;
+  o.request.rpm = 1500.0;
+  o.request.samples_per_rev = 64;
+  o.request.record_revs = 12;
+  o.request.params.delta = 1.0;
+  for (int i = 0; i < 12 * 64; ++i) {
+    const double th = 2.0 * std::numbers::pi * i / 64.0;
+    const double wiggle = noise * std::sin(1e3 * i * i);  // deterministic, irregular
+    o.samples.push_back({th / rpm_to_rad_s(1500.0), {1e-3 * (std::cos(th) + share * std::cos(th / n) + wiggle), 1e-3 * std::sin(th), 0.0, 0.0}, 0.0});
+  }
+  return o;
+}
+
+// The period is the smallest whole number of revolutions after which the recorded samples repeat
+// to kRepeatRelTol of the orbit's size; an incommensurate component has none.
+TEST(orbit_summary, period_is_the_smallest_repetition) {
+  for (const int n : {1, 2, 3, 4, 5, 6}) EXPECT_EQ(summarize(with_period(n, 0.2)).period_revs, n) << n;
+  EXPECT_EQ(summarize(with_period(std::numbers::sqrt2, 0.2)).period_revs, 0) << "quasi-periodic";
+  EXPECT_EQ(summarize(with_period(7, 0.2)).period_revs, 0) << "longer than half the record";
+  // A settled orbit's residue (1e-5 of its size) is not a lack of period; a visible one (1e-2) is.
+  EXPECT_EQ(summarize(with_period(1, 0.0, 1e-5)).period_revs, 1);
+  EXPECT_EQ(summarize(with_period(1, 0.0, 1e-2)).period_revs, 0);
+  orbit one_rev = with_period(1, 0.0);
+  one_rev.samples.resize(64);
+  one_rev.request.record_revs = 1;
+  EXPECT_EQ(summarize(one_rev).period_revs, -1) << "one revolution cannot show a repetition";
+}
+
 sweep_branch synthetic(sweep_direction d, std::vector<std::pair<double, double>> rpm_amplitude, double spread = 0.0) {
   sweep_branch b{d, {}, {}};
   for (const auto& [rpm, a] : rpm_amplitude) {
@@ -207,7 +238,7 @@ TEST(sweep_io, tables_have_a_row_per_speed_and_the_reported_orders) {
   const auto branches = run_branches({{s, sweep_direction::up}, {s, sweep_direction::down}}, 2);
   const table t = sweep_table(s, branches);
   EXPECT_EQ(t.rows.size(), 6u);
-  EXPECT_EQ(t.columns.size(), 12u + reported_orders().size());
+  EXPECT_EQ(t.columns.size(), 14u + reported_orders().size());
   const table w = waterfall_table(s, branches[0]);
   // record_revs = 12: order bins of 1/12 from -5 to +5 inclusive, per speed.
   EXPECT_EQ(w.rows.size(), 3u * 121u);

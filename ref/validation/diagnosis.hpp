@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "ref/golden.hpp"
+#include "ref/orbit_summary.hpp"
 #include "ref/record.hpp"
 #include "ref/validation/causes.hpp"
 
@@ -56,10 +57,9 @@ double required_revolutions(const golden_case& g);
 double spanned_revolutions(const golden_case& g, const candidate_data& c);
 
 // The smallest p in 1..kMaxCandidatePeriod after which the candidate repeats itself (to
-// kRepeatRelTol of its size, plus the linear interpolation's error when its sampling does not
+// kRepeatRelTol (ref/orbit_summary.hpp) of its size, plus the linear interpolation's error when its sampling does not
 // divide the revolution); 0 when it does not repeat; -1 when it is too short to tell.
 inline constexpr int kMaxCandidatePeriod = 8;
-inline constexpr double kRepeatRelTol = 1e-3;  // a settled orbit repeats to ~1e-12; not settled or chaotic: > 1e-2
 int candidate_period(const golden_case& g, const candidate_data& c);
 
 // The causes, most certain first: confirmed before likely, each group in the order of diagnosis.
