@@ -280,6 +280,11 @@ void reproduce(const reproduce_settings& s) {
       tasks.push_back({paper_sweep("identified", delta, from_rpm, to_rpm), dir_kind});
   for (const std::string v : {"restitution", "piecewise-linear", "piecewise-nonlinear"})
     tasks.push_back({paper_sweep(v, kPaperClearance, from_rpm, to_rpm), sweep_direction::up});
+  // The identified law without friction: what friction adds to the backward whirl.
+  sweep_settings frictionless = paper_sweep("identified", kPaperClearance, from_rpm, to_rpm);
+  frictionless.params.mu = 0.0;
+  const std::size_t frictionless_task = tasks.size();
+  tasks.push_back({frictionless, sweep_direction::up});
   sweep_settings id_sweep = paper_sweep("identified", kPaperClearance, kIdentifyFromRpm, kIdentifyToRpm);
   id_sweep.step_rpm = kIdentifyStepRpm;
   id_sweep.samples_per_rev = kIdentifySamplesPerRev;
@@ -287,7 +292,8 @@ void reproduce(const reproduce_settings& s) {
   const sweep_settings& grid_settings = tasks.front().settings;
   const std::vector<double> grid = sweep_speeds(grid_settings);
   s.progress("[2/6] sweeps " + fixed(from_rpm, 0) + "–" + fixed(to_rpm, 0) + " rpm, step " + fixed(kSweepStepRpm, 0) +
-             " rpm: identified at 0.2/0.3/0.4 mm up and down, restitution and both piecewise laws at 0.3 mm up, and a finely "
+             " rpm: identified at 0.2/0.3/0.4 mm up and down, restitution, both piecewise laws and the identified law without friction "
+             "at 0.3 mm up, and a finely "
              "sampled record for identification (" + std::to_string(tasks.size()) + " branches) ...");
   t0 = std::chrono::steady_clock::now();
   const std::vector<sweep_branch> branches = run_branches(tasks, s.threads);
@@ -303,7 +309,7 @@ void reproduce(const reproduce_settings& s) {
   const auto branch_of = [&](const std::string& variant, double delta, sweep_direction d) -> const sweep_branch& {
     for (std::size_t i = 0; i < tasks.size(); ++i)
       if (tasks[i].settings.variant == variant && tasks[i].settings.params.delta == delta && tasks[i].direction == d &&
-          tasks[i].settings.samples_per_rev == grid_settings.samples_per_rev)
+          tasks[i].settings.samples_per_rev == grid_settings.samples_per_rev && tasks[i].settings.params.mu == paper.mu)
         return branches[i];
     throw numerical_error("reproduce: missing branch");
   };
@@ -433,6 +439,13 @@ void reproduce(const reproduce_settings& s) {
                                 {"rub_up_rpm", ranges_json(rub_ranges(up))},
                                 {"backward_whirl_up_rpm", ranges_json(backward_whirl_ranges(up))},
                                 {"periods_up", period_bands_json(up)}};
+  }
+  {
+    const sweep_branch& b = branches[frictionless_task];
+    const std::string f = "data/sweep_identified_" + mm_label(kPaperClearance) + "_mu0.csv";
+    dir.write(f, to_csv(sweep_table(frictionless, {b})));
+    numbers["frictionless"] = {{"variant", "identified"}, {"mu", 0.0}, {"file", f}, {"rub_up_rpm", ranges_json(rub_ranges(b))},
+                               {"backward_whirl_up_rpm", ranges_json(backward_whirl_ranges(b))}};
   }
   // Fig. 7: the stiffness laws over the penetrations reached, and the sizes of k3 z^3 and c2 zdot^2
   // there: at the paper's speeds (Figs. 6, 8) and over the whole run-up (up to its fold).

@@ -274,7 +274,9 @@ void differences(std::ostringstream& md, const json& n) {
                       " rpm while the run-down keeps the contact-free orbit until that orbit reaches the stator"
                 : "")
      << ". Friction is not what makes it: the restitution law has no friction at all and whirls backward over "
-     << ranges(rest["backward_whirl_up_rpm"]) << " too. Nor is it the rotor's anisotropy alone: the contact-free orbit (closed form) whirls "
+     << ranges(rest["backward_whirl_up_rpm"]) << " too, and the identified law with μ = 0 whirls backward over "
+     << ranges(n["frictionless"]["backward_whirl_up_rpm"]) << " (run-up) against " << ranges(c3["backward_whirl_up_rpm"])
+     << " with μ = 0.24. Nor is it the rotor's anisotropy alone: the contact-free orbit (closed form) whirls "
      << (cf["backward_whirl_rpm"].empty() ? std::string("forward at every speed") : "backward only over " + ranges(cf["backward_whirl_rpm"]))
      << ", its critical speeds (" << fixed(cf["critical_rpm_x"].get<double>(), 0) << " and " << fixed(cf["critical_rpm_y"].get<double>(), 0)
      << " rpm) lying within each other's damped resonance peaks. The likely mechanism is the contact itself: it acts on y alone, at the top, "
