@@ -35,4 +35,11 @@ for n in 1 2; do
 done
 same "identify with output-error refinement (1 vs 2 threads)" "$work/identify_1" "$work/identify_2"
 
+# The main job: continuation, sweeps and identification on 1 and 2 threads (figures aside:
+# matplotlib's files carry no rubref numbers beyond the data compared here).
+for n in 1 2; do
+  "$rubref" reproduce --no-figures --threads $n --out "$work/reproduce_$n" >/dev/null 2>&1 || fail "reproduce on $n threads"
+done
+same "reproduce (1 vs 2 threads)" "$work/reproduce_1" "$work/reproduce_2"
+
 finish "determinism: all outputs identical"
