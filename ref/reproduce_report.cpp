@@ -81,11 +81,11 @@ void header(std::ostringstream& md, const json& n) {
      << " rpm) to the highest fold of the period-1 branches found by continuation (" << fixed(r["highest_fold_or_grazing_rpm"].get<double>(), 1)
      << " rpm), widened by " << fixed(100.0 * r["pad_share"].get<double>(), 0) << " % of that span on each side and rounded out to 50 rpm. "
      << "Quasi-static sweeps hand each speed's end state to the next; a speed starts on the periodic orbit shot from there (Newton "
-     << "on the one-revolution map, docs/orbits.md) when that orbit is stable, and settles for " << st["settle_revs"].get<std::string>()
-     << " revolutions where it is not; then " << st["record_revs"].get<std::string>() << " revolutions are recorded at "
-     << st["samples_per_rev"].get<std::string>() << " samples per revolution (" << st["stepper"].get<std::string>() << ", rtol "
-     << st["rtol"].get<std::string>() << ", located contact events). The period of each recorded response is the smallest n ≤ "
-     << std::stoi(st["record_revs"].get<std::string>()) / 2 << " "
+     << "on the one-revolution map, docs/orbits.md) when that orbit is stable, and settles for " << st["settle_revs"].get<int>()
+     << " revolutions where it is not; then " << st["record_revs"].get<int>() << " revolutions are recorded at "
+     << st["samples_per_rev"].get<int>() << " samples per revolution (" << st["stepper"].get<std::string>() << ", rtol "
+     << sig(st["rtol"].get<double>(), 3) << ", located contact events). The period of each recorded response is the smallest n ≤ "
+     << st["record_revs"].get<int>() / 2 << " "
      << "revolutions after which it repeats to 10⁻³ of its size; none is \"non-periodic\". The branches (solid stable, dashed unstable "
      << "in Fig. 10) are the period-1 orbits followed by pseudo-arclength continuation with their Floquet multipliers.\n\n"
      << "**No experiment is overlaid.** The paper's figures overlay measurements from the RK-4 rotor kit; those records are not "

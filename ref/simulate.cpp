@@ -31,18 +31,25 @@ struct recorder {
 
 }  // namespace
 
-void require_safe_rates(const parameters& p, bool compliant, double duration) {
-  // The fastest rate of Eq. 1 (free, or on the stator's spring for a compliant law) times the
-  // run's duration. Every explicit stepper needs rate * dt below ~1 to stay stable, so beyond
-  // kMaxRateTimesDuration the run could not finish (or finish right) in any reasonable time.
-  struct rate {
-    double value;
-    std::string what;
-  };
+namespace {
+struct rate {
+  double value;
+  std::string what;
+};
+// The fastest rate of Eq. 1: free, or on the stator's spring for a compliant law.
+rate fastest_rate(const parameters& p, bool compliant) {
   std::vector<rate> rates{{std::sqrt(p.k_x / p.m), "sqrt(k_x/m)"}, {std::sqrt(p.k_y / p.m), "sqrt(k_y/m)"},
                           {p.c_x / p.m, "c_x/m"}, {p.c_y / p.m, "c_y/m"}};
   if (compliant) rates.push_back({std::sqrt(p.k1 / p.m), "sqrt(k1/m)"});
-  const auto fastest = *std::max_element(rates.begin(), rates.end(), [](const rate& a, const rate& b) { return a.value < b.value; });
+  return *std::max_element(rates.begin(), rates.end(), [](const rate& a, const rate& b) { return a.value < b.value; });
+}
+}  // namespace
+
+void require_safe_rates(const parameters& p, bool compliant, double duration) {
+  // The fastest rate times the run's duration. Every explicit stepper needs rate * dt below ~1 to
+  // stay stable, so beyond kMaxRateTimesDuration the run could not finish (or finish right) in any
+  // reasonable time.
+  const rate fastest = fastest_rate(p, compliant);
   require(fastest.value * duration <= kMaxRateTimesDuration,
           "numerically dangerous parameters: " + fastest.what + " = " + str(fastest.value) + " 1/s over the run's " + str(duration) +
               " s needs more than " + str(kMaxRateTimesDuration) + " stable steps (m_kg = " + str(p.m) + ")");
@@ -71,6 +78,12 @@ void validate(const run_request& req) {
 
   const bool compliant = visit_variant(req.variant, []<class Law>() { return compliant_law<Law>; });
   require_safe_rates(req.params, compliant, revs * 60.0 / req.rpm);
+  if (st.kind == stepper_kind::rk4 && st.dt > 0.0) {
+    const rate fastest = fastest_rate(req.params, compliant);
+    require(fastest.value * st.dt <= kRk4StableRateDt,
+            "dt = " + str(st.dt) + " s is beyond rk4's stability for this rotor: " + fastest.what + " * dt = " + str(fastest.value * st.dt) +
+                " > " + str(kRk4StableRateDt) + "; use dt <= " + str(kRk4StableRateDt / fastest.value) + " s or an adaptive stepper");
+  }
 }
 
 orbit simulate(const run_request& req) {

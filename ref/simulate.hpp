@@ -42,6 +42,11 @@ inline constexpr double kMaxRateTimesDuration = 1e9;
 // Largest speed accepted; far above any rotor kit, it only keeps the period well resolved in t.
 inline constexpr double kMaxSpeedRpm = 1e6;
 
+// RK4 is stable for a mode with rate * dt up to 2.785 on the negative real axis and 2.828 on the
+// imaginary one; a fixed step beyond the smaller for the rotor's fastest mode (free, or on the
+// stator's spring for a compliant law) diverges, so it is refused before integrating.
+inline constexpr double kRk4StableRateDt = 2.78;
+
 // Throws input_error if the model's fastest rate times `duration_s` exceeds kMaxRateTimesDuration
 // (after validate(parameters): finite, positive values).
 void require_safe_rates(const parameters& p, bool compliant, double duration_s);

@@ -1,6 +1,7 @@
 #include "ref/sweep_io.hpp"
 
 #include <algorithm>
+#include <charconv>
 #include <cmath>
 #include <limits>
 #include <map>
@@ -134,9 +135,23 @@ speed_ranges rub_ranges(const sweep_branch& b) {
   return ranges_of(b, [](const orbit_summary& s) { return s.regime != contact_regime::no_contact; });
 }
 
+nlohmann::ordered_json sweep_settings_json(const sweep_settings& s) {
+  nlohmann::ordered_json j = nlohmann::ordered_json::object();
+  for (const auto& [k, v] : sweep_metadata(s)) {
+    // The metadata is text (a file header); in JSON a number is a number.
+    double x = 0.0;
+    const auto [end, ec] = std::from_chars(v.data(), v.data() + v.size(), x);
+    if (ec == std::errc() && end == v.data() + v.size() && std::isfinite(x))
+      j[k] = x;
+    else
+      j[k] = v;
+  }
+  return j;
+}
+
 nlohmann::ordered_json sweep_summary_json(const sweep_settings& s, const std::vector<sweep_branch>& branches) {
   nlohmann::ordered_json j;
-  for (const auto& [k, v] : sweep_metadata(s)) j["settings"][k] = v;
+  j["settings"] = sweep_settings_json(s);
   const sweep_branch* up = nullptr;
   const sweep_branch* down = nullptr;
   for (const auto& b : branches) {

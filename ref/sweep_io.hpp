@@ -40,6 +40,9 @@ record orbit_record(const sweep_settings& s, const sweep_point& p);
 // previous dwell, so t_s keeps meaning the unbalance phase w t at every sample.
 record dwell_record(const sweep_settings& s, const sweep_branch& b);
 
+// The settings as JSON: the provenance lines below, numbers as numbers.
+nlohmann::ordered_json sweep_settings_json(const sweep_settings& s);
+
 // Provenance lines for any sweep output.
 std::vector<std::pair<std::string, std::string>> sweep_metadata(const sweep_settings& s);
 

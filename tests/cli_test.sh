@@ -43,6 +43,15 @@ printf '{\n  "m_kg": 1.52,\n  "mu": "0.2"\n}\n' >"$work/pm.json"
 expect_error "pm.json:3: parameter 'mu' is not a number" simulate --params "$work/pm.json" "${out[@]}"
 printf '{\n  "k1_N_m": 0\n}\n' >"$work/pk.json"
 expect_error "pk.json:2: parameter k1_N_m must be finite and > 0" simulate --params "$work/pk.json" "${out[@]}"
+# A fixed step beyond rk4's stability for the rotor's fastest mode is refused before integrating.
+expect_error "dt = 1 s is beyond rk4's stability for this rotor: sqrt(k1/m) * dt" simulate --stepper rk4 --dt 1 "${out[@]}"
+expect_error "sqrt(k_y/m) * dt" simulate --variant restitution --stepper rk4 --dt 0.02 "${out[@]}"
+# Numbers in JSON are numbers.
+"$rubref" sweep --from 1580 --to 1600 --step 20 --first-settle-revs 5 --settle-revs 5 --revs 6 --out "$work/json_sweep" >/dev/null \
+  || fail "short sweep failed"
+/usr/bin/python3 -c "import json,sys; s=json.load(open(sys.argv[1]))['settings']; sys.exit(0 if isinstance(s['rtol'], float) and isinstance(s['clearance_m'], float) else 1)" \
+  "$work/json_sweep/summary.json" || fail "sweep summary.json settings hold numbers as text"
+rm -rf "$work/json_sweep"
 # A coarse fixed step through contact runs, but warns with the time (stderr), exit 0.
 "$rubref" simulate --stepper rk4 --dt 3e-4 --revs 2 --settle-revs 20 --out "$work/coarse.csv" >/dev/null 2>"$work/stderr" \
   || fail "coarse rk4 run failed"
