@@ -9,6 +9,14 @@
 
 namespace rubref {
 
+// Whether an existing file was written by rubref: a record or table (a "# format: rubref-" or
+// "# generator: rubref" header line) or JSON with "generator": "rubref ..." near its top.
+bool written_by_rubref(const std::filesystem::path& file);
+
+// Checks an output file before any work is done: its folder exists, it is not a folder nor one of
+// `inputs`, and, if it exists, rubref wrote it (or `force`). input_error naming the problem.
+void check_output_file(const std::filesystem::path& target, const std::vector<std::filesystem::path>& inputs, bool force);
+
 class atomic_output {
  public:
   atomic_output() = default;

@@ -66,6 +66,7 @@ record to_record(const orbit& o) {
 
 nlohmann::ordered_json to_json(const orbit_summary& s, const orbit& o) {
   nlohmann::ordered_json j;
+  j["generator"] = "rubref " + std::string(version());
   j["variant"] = o.request.variant;
   j["speed_rpm"] = o.request.rpm;
   j["clearance_m"] = o.request.params.delta;

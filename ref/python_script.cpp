@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "ref/errors.hpp"
+#include "ref/interrupt.hpp"
 
 extern char** environ;
 
@@ -18,11 +19,25 @@ std::filesystem::path script_path(const char* name) { return std::filesystem::pa
 void run_python_script(const std::filesystem::path& python, const std::filesystem::path& script, const std::filesystem::path& folder) {
   const std::string py = python.string(), sc = script.string(), dir = folder.string();
   std::vector<char*> argv{const_cast<char*>(py.c_str()), const_cast<char*>(sc.c_str()), const_cast<char*>(dir.c_str()), nullptr};
+  // The child gets the signals rubref waits for back at their default action and unblocked
+  // (ref/interrupt.hpp): Ctrl-C ends the figures too.
+  posix_spawnattr_t attr;
+  posix_spawnattr_init(&attr);
+  sigset_t none, handled = interrupt_signals();
+  sigemptyset(&none);
+  posix_spawnattr_setsigmask(&attr, &none);
+  posix_spawnattr_setsigdefault(&attr, &handled);
+  posix_spawnattr_setflags(&attr, POSIX_SPAWN_SETSIGMASK | POSIX_SPAWN_SETSIGDEF);
   pid_t pid = 0;
-  if (posix_spawn(&pid, py.c_str(), nullptr, nullptr, argv.data(), environ) != 0)
+  const int spawned = posix_spawn(&pid, py.c_str(), nullptr, &attr, argv.data(), environ);
+  posix_spawnattr_destroy(&attr);
+  if (spawned != 0)
     throw input_error("cannot run " + py + " for the figures (is python3-matplotlib installed? scripts/setup installs it)");
+  register_child(pid);
   int status = 0;
-  if (waitpid(pid, &status, 0) < 0 || !WIFEXITED(status) || WEXITSTATUS(status) != 0)
+  const pid_t waited = waitpid(pid, &status, 0);
+  unregister_child(pid);
+  if (waited < 0 || !WIFEXITED(status) || WEXITSTATUS(status) != 0)
     throw input_error("drawing the figures failed: " + py + " " + sc + " " + dir);
 }
 

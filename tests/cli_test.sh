@@ -185,4 +185,35 @@ grep -q "residual unexplained" "$work/stdout" || fail "loop (drift) did not call
 grep -q "left out: not synchronous" "$work/stderr" || fail "loop (drift) did not say why the dwells were left out"
 rm -rf "$work/drift" "$work/drift.csv"
 
+# Outputs are checked before any work: a file rubref did not write is not replaced (unless
+# --force), an input is never an output, a missing folder is named, and the loop refuses its
+# folder before it starts working (no progress lines, just the error).
+printf 'my own notes\n' >"$work/notes.csv"
+expect_error "notes.csv: exists and was not written by rubref" simulate --revs 1 --settle-revs 1 --out "$work/notes.csv"
+grep -q "my own notes" "$work/notes.csv" || fail "a file rubref did not write was replaced"
+"$rubref" simulate --revs 1 --settle-revs 1 --force --out "$work/notes.csv" >/dev/null || fail "--force did not replace the file"
+"$rubref" simulate --revs 1 --settle-revs 1 --out "$work/notes.csv" >/dev/null || fail "rubref's own output was not replaced"
+rm -f "$work/notes.csv" "$work/notes.summary.json"
+"$rubref" params >"$work/p.json"
+expect_error "is also an input of this run" simulate --params "$work/p.json" --revs 1 --settle-revs 1 --out "$work/p.json"
+expect_error "directory $work/none does not exist" orbit --out "$work/none/o.csv"
+expect_error "parent directory $work/none does not exist" loop "$work/free.csv" --out "$work/none/loop"
+
+# An interrupted run removes its unfinished output and dies of the signal (128 + signal): SIGTERM,
+# and SIGINT (Ctrl-C) with job control on, as in a terminal (a background job of a script ignores it).
+for sig in TERM INT; do
+  set -m
+  "$rubref" reproduce --no-figures --out "$work/interrupted" 2>"$work/stderr" >/dev/null &
+  pid=$!
+  set +m
+  for _ in $(seq 1 200); do ls -d "$work"/interrupted.tmp-* >/dev/null 2>&1 && break; sleep 0.05; done
+  kill -"$sig" "$pid"
+  wait "$pid"
+  rc=$?
+  want=$((128 + $(kill -l "$sig")))
+  [ "$rc" -eq "$want" ] || fail "SIG$sig: exit $rc (want $want): $(cat "$work/stderr")"
+  ls -d "$work"/interrupted* >/dev/null 2>&1 && fail "SIG$sig left $(ls -d "$work"/interrupted*)"
+  grep -q "interrupted" "$work/stderr" || fail "SIG$sig: no message: $(cat "$work/stderr")"
+done
+
 finish "cli_test: all passed"

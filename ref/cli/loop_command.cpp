@@ -35,12 +35,12 @@ void add_loop(CLI::App& app) {
   sub->add_option("--refit", s.refit_candidates, "effects refitted per round (best scores)")->capture_default_str()->check(CLI::Range(1, 11));
   sub->add_flag("!--no-figures", st->figures, "write the report without drawing figures");
   sub->callback([st] {
+    staged_directory dir(st->out);  // the output folder is checked before the work, not after it
     std::vector<std::pair<record, std::string>> records;
     for (const auto& f : st->files) records.emplace_back(read_record(f), f);
     loop_settings settings = st->settings;
     settings.progress = [](const std::string& line) { std::cerr << line << std::endl; };
     const loop_result r = run_loop(records, settings);
-    staged_directory dir(st->out);
     dir.write("report.json", to_json(r).dump(2) + "\n");
     dir.write("report.md", to_markdown(r));
     dir.write("plot_data.json", plot_data(r).dump() + "\n");

@@ -8,12 +8,14 @@
 
 #include "ref/cli/commands.hpp"
 #include "ref/errors.hpp"
+#include "ref/interrupt.hpp"
 #include "ref/parameter_io.hpp"
 #include "ref/version.hpp"
 #include "variants/all_variants.hpp"
 
 int main(int argc, char** argv) {
   using namespace rubref;
+  install_interrupt_cleanup();  // before any thread starts (ref/interrupt.hpp)
   CLI::App app{"rubref " + std::string(version()) +
                ": numerical reference for partial rotor-stator rub (anisotropic Jeffcott rotor, Eq. 1-6)"};
   app.require_subcommand(1);

@@ -17,6 +17,7 @@ class parameter_options {
  public:
   void add_to(CLI::App& app);
   parameters resolve() const;
+  const std::string& file() const { return file_; }  // the --params file ("" when none)
 
  private:
   std::string file_;

@@ -18,6 +18,7 @@ struct orbit_state {
   parameter_options params;
   integration_cli integration;
   std::string out, summary;
+  bool force = false;
   std::vector<double> initial;
 };
 }  // namespace
@@ -36,6 +37,7 @@ void add_orbit(CLI::App& app) {
                                             "continuation's branch.csv); default: the contact-free response")
       ->expected(4);
   sub->add_option("--summary", st->summary, "summary JSON to write; default: <out without .csv>.summary.json");
+  sub->add_flag("--force", st->force, "replace output files rubref did not write");
   st->integration.add_to(*sub);
   st->params.add_to(*sub);
   sub->callback([st] {
@@ -48,6 +50,8 @@ void add_orbit(CLI::App& app) {
       std::filesystem::path p(st->out);
       summary = (p.extension() == ".csv" ? p.replace_extension("") : p).string() + ".summary.json";
     }
+    check_output_file(st->out, {st->params.file()}, st->force);  // before the work, not after it
+    check_output_file(summary, {st->params.file(), st->out}, st->force);
     const periodic_orbit_result r = find_periodic_orbit(req);
     if (!r.converged)
       std::cerr << "warning: Newton shooting did not converge (" << r.failure << "); the orbit written is the end of a "

@@ -18,6 +18,7 @@ struct rig_state {
   std::vector<std::string> effects;
   std::string out, truth, time_base;
   bool no_keyphasor = false;
+  bool force = false;
 };
 }  // namespace
 
@@ -55,6 +56,7 @@ void add_rig(CLI::App& app) {
   sub->add_flag("--carry-over", r.carry_over, "each dwell settles from where the previous one ended (a run-up), not from rest");
   sub->add_flag("--minimal-header", r.minimal_header, "write only clearance_m, sample_rate_hz and description (a record from elsewhere)");
   sub->add_option("--out", st->out, "measurement record to write (docs/data-format.md)")->required();
+  sub->add_flag("--force", st->force, "replace output files rubref did not write");
   sub->add_option("--truth", st->truth, "truth JSON to write (the effects; for tests); default: <out without .csv>.truth.json");
   st->params.add_to(*sub);
   st->integration.add_to(*sub);
@@ -73,6 +75,8 @@ void add_rig(CLI::App& app) {
       std::filesystem::path p(st->out);
       truth = (p.extension() == ".csv" ? p.replace_extension("") : p).string() + ".truth.json";
     }
+    check_output_file(st->out, {st->params.file()}, st->force);  // before the work, not after it
+    check_output_file(truth, {st->params.file(), st->out}, st->force);
     const rig_output o = run_rig(req);
     atomic_output files;
     files.stage(st->out, to_csv(o.measurement));

@@ -17,6 +17,7 @@ struct simulate_state {
   integration_cli integration;
   std::vector<double> initial;
   std::string out, summary;
+  bool force = false;
 };
 }  // namespace
 
@@ -31,6 +32,7 @@ void add_simulate(CLI::App& app) {
   sub->add_option("--initial", st->initial, "initial state x y vx vy at t = 0 [m m m/s m/s]; default rest")->expected(4);
   sub->add_option("--out", st->out, "record CSV to write (docs/data-format.md)")->required();
   sub->add_option("--summary", st->summary, "summary JSON to write; default: <out without .csv>.summary.json");
+  sub->add_flag("--force", st->force, "replace output files rubref did not write");
   st->integration.add_to(*sub);
   st->params.add_to(*sub);
   sub->callback([st] {
@@ -43,6 +45,9 @@ void add_simulate(CLI::App& app) {
       std::filesystem::path p(st->out);
       summary = (p.extension() == ".csv" ? p.replace_extension("") : p).string() + ".summary.json";
     }
+    validate(req);
+    check_output_file(st->out, {st->params.file()}, st->force);  // before the work, not after it
+    check_output_file(summary, {st->params.file(), st->out}, st->force);
     const orbit o = simulate(req);
     const orbit_summary s = summarize(o);
     atomic_output files;
