@@ -2,8 +2,11 @@
 // The two ways rubref refuses to produce a number: the input is wrong, or the numerics failed.
 // Both carry a one-line message that names what is wrong; the CLI prints it and exits non-zero.
 
+#include <algorithm>
 #include <stdexcept>
 #include <string>
+#include <string_view>
+#include <vector>
 
 namespace rubref {
 
@@ -27,6 +30,28 @@ class numerical_error : public std::runtime_error {
  public:
   using std::runtime_error::runtime_error;
 };
+
+// "; did you mean 'x'?" for the candidate nearest `word` in edits (insertions, deletions,
+// substitutions, adjacent swaps), when it is within a third of the word's length (at least 1);
+// "" when none is that close. For names typed by hand: variants, effects, steppers, commands.
+inline std::string did_you_mean(std::string_view word, const std::vector<std::string>& candidates) {
+  const auto distance = [](std::string_view a, std::string_view b) {
+    std::vector<std::vector<std::size_t>> d(a.size() + 1, std::vector<std::size_t>(b.size() + 1));
+    for (std::size_t i = 0; i <= a.size(); ++i) d[i][0] = i;
+    for (std::size_t j = 0; j <= b.size(); ++j) d[0][j] = j;
+    for (std::size_t i = 1; i <= a.size(); ++i)
+      for (std::size_t j = 1; j <= b.size(); ++j) {
+        d[i][j] = std::min({d[i - 1][j] + 1, d[i][j - 1] + 1, d[i - 1][j - 1] + (a[i - 1] == b[j - 1] ? 0 : 1)});
+        if (i > 1 && j > 1 && a[i - 1] == b[j - 2] && a[i - 2] == b[j - 1]) d[i][j] = std::min(d[i][j], d[i - 2][j - 2] + 1);
+      }
+    return d[a.size()][b.size()];
+  };
+  const std::string* best = nullptr;
+  std::size_t best_d = std::max<std::size_t>(1, word.size() / 3) + 1;
+  for (const auto& c : candidates)
+    if (const std::size_t dist = distance(word, c); dist < best_d) best = &c, best_d = dist;
+  return best ? "; did you mean '" + *best + "'?" : "";
+}
 
 // Throws input_error(what) unless ok: the one-line check every validator is made of.
 inline void require(bool ok, const std::string& what) {

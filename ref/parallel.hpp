@@ -8,22 +8,43 @@
 #include <cstdlib>
 #include <exception>
 #include <mutex>
+#include <string>
 #include <thread>
 #include <vector>
 
+#include "ref/errors.hpp"
+
 namespace rubref {
 
-// Threads to use for `requested` (0: the environment's RUBREF_THREADS if it is a number >= 1,
-// else every hardware thread), never more than there are tasks. The knob lets the commands
-// without a --threads option (rig, identify, loop) be run on any thread count, e.g. to check
-// that their outputs do not depend on it (tests/determinism_test.sh).
+// The process's default thread count: 0 (every hardware thread) unless set, e.g. by a command's
+// --threads. Library calls that take no thread count (the rig, identification's fits, the loop,
+// validation's diagnosis) use it; the result does not depend on it (below).
+inline std::atomic<unsigned>& default_threads() {
+  static std::atomic<unsigned> n{0};
+  return n;
+}
+inline void set_default_threads(unsigned n) { default_threads() = n; }
+
+// RUBREF_THREADS as a thread count: 0 when unset; input_error unless a whole number 1..4096.
+inline unsigned threads_from_environment() {
+  const char* env = std::getenv("RUBREF_THREADS");
+  if (env == nullptr) return 0;
+  char* end = nullptr;
+  const long v = std::strtol(env, &end, 10);
+  if (*env == '\0' || *end != '\0' || v < 1 || v > 4096)
+    throw input_error("RUBREF_THREADS must be a whole number from 1 to 4096 (got '" + std::string(env) + "')");
+  return static_cast<unsigned>(v);
+}
+
+// Threads to use for `requested` (0: the default above if set, else the environment's
+// RUBREF_THREADS, else every hardware thread), never more than there are tasks. The environment
+// knob lets any command be run on any thread count, e.g. to check that its outputs do not depend
+// on it (tests/determinism_test.sh).
 inline unsigned thread_count(unsigned requested, std::size_t tasks) {
   unsigned n = requested;
-  if (n == 0) {
-    const char* env = std::getenv("RUBREF_THREADS");
-    const long v = env ? std::strtol(env, nullptr, 10) : 0;
-    n = v >= 1 && v <= 4096 ? static_cast<unsigned>(v) : std::max(1u, std::thread::hardware_concurrency());
-  }
+  if (n == 0) n = default_threads();
+  if (n == 0) n = threads_from_environment();
+  if (n == 0) n = std::max(1u, std::thread::hardware_concurrency());
   return static_cast<unsigned>(std::max<std::size_t>(1, std::min<std::size_t>(n, tasks)));
 }
 

@@ -130,7 +130,27 @@ std::string to_csv(const record& r, number_format format) {
   return out;
 }
 
+namespace {
+// What a header that does not start with t_s,x_m,y_m,speed_rpm most likely is, in the words a
+// user of a spreadsheet or pandas would recognise; "" when nothing specific fits.
+std::string explain_header(std::string_view line) {
+  const auto has = [&](std::string_view s) { return line.find(s) != std::string_view::npos; };
+  if (has(";") && !has(","))
+    return "columns are separated by ';' (a spreadsheet's export for decimal commas?): rubref reads ',' between columns and "
+           "'.' as the decimal point";
+  if (has("\t") && !has(",")) return "columns are separated by tabs: rubref reads ',' between columns";
+  if (has("\"") || has("'")) return "column names are quoted: write them bare, e.g. t_s,x_m,y_m,speed_rpm";
+  const std::string_view first = trim(line.substr(0, std::min(line.find(','), line.size())));
+  if (first.empty() || first == "index" || first == "Unnamed: 0" || first == "i" || first == "n")
+    if (has(",t_s,x_m,y_m,speed_rpm") || has(", t_s"))
+      return "the first column ('" + std::string(first) + "') looks like a row index: write the file without it (pandas: to_csv(index=False))";
+  return {};
+}
+}  // namespace
+
 record parse_record(std::string_view text, std::string_view source) {
+  if (text.substr(0, 3) == "\xEF\xBB\xBF")
+    fail(source, 1, "the file starts with a UTF-8 byte-order mark (BOM): save it as UTF-8 without BOM");
   record r;
   r.source = std::string(source);
   std::size_t line_no = 0;
@@ -166,7 +186,10 @@ record parse_record(std::string_view text, std::string_view source) {
       while (true) {
         const std::size_t comma = std::min(line.find(',', cpos), line.size());
         const std::string name(trim(line.substr(cpos, comma - cpos)));
-        if (name.empty()) fail(source, line_no, "empty column name in header");
+        if (name.empty()) {
+          const std::string why = explain_header(line);
+          fail(source, line_no, "empty column name in header" + (why.empty() ? "" : ": " + why));
+        }
         if (std::find(r.columns.begin(), r.columns.end(), name) != r.columns.end())
           fail(source, line_no, "column '" + name + "' appears twice");
         r.columns.push_back(name);
@@ -174,8 +197,10 @@ record parse_record(std::string_view text, std::string_view source) {
         cpos = comma + 1;
       }
       for (std::size_t i = 0; i < kRequiredColumns.size(); ++i)
-        if (r.columns.size() <= i || r.columns[i] != kRequiredColumns[i])
-          fail(source, line_no, "header must start with t_s,x_m,y_m,speed_rpm");
+        if (r.columns.size() <= i || r.columns[i] != kRequiredColumns[i]) {
+          const std::string why = explain_header(line);
+          fail(source, line_no, "header must start with t_s,x_m,y_m,speed_rpm" + (why.empty() ? "" : ": " + why));
+        }
       r.data.assign(r.columns.size(), {});
       header_seen = true;
       continue;

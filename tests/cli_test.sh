@@ -199,6 +199,20 @@ expect_error "is also an input of this run" simulate --params "$work/p.json" --r
 expect_error "directory $work/none does not exist" orbit --out "$work/none/o.csv"
 expect_error "parent directory $work/none does not exist" loop "$work/free.csv" --out "$work/none/loop"
 
+# Friendlier intake: a mistyped name gets the nearest one; a bad RUBREF_THREADS is refused before
+# any work; bare `rubref` shows what it can do; a clearance typed in millimetres is warned about.
+expect_error "unknown variant 'identifed'; did you mean 'identified'?" simulate --variant identifed "${out[@]}"
+expect_error "did you mean 'simulate'?" simulat
+expect_error "did you mean '--rpm'?" simulate --rmp 1600 "${out[@]}"
+expect_error "unknown effect 'hertz_contactt'; did you mean 'hertz_contact'?" rig --effect hertz_contactt --out "$work/o.csv"
+RUBREF_THREADS=abc expect_error "RUBREF_THREADS must be a whole number from 1 to 4096 (got 'abc')" rig --out "$work/o.csv"
+"$rubref" >"$work/stdout" 2>&1 || fail "bare rubref failed"
+grep -q "reproduce" "$work/stdout" || fail "bare rubref does not list the commands: $(head -3 "$work/stdout")"
+"$rubref" simulate --clearance 0.3 --revs 1 --settle-revs 1 --out "$work/mm.csv" >/dev/null 2>"$work/stderr" || fail "a large clearance was refused"
+grep -q "warning: clearance_m = 0.3 m is larger than any rotor kit's; if millimetres were meant, 0.3 mm is 0.0003 m" "$work/stderr" \
+  || fail "no warning for a clearance of 0.3 m: $(cat "$work/stderr")"
+rm -f "$work/mm.csv" "$work/mm.summary.json"
+
 # An interrupted run removes its unfinished output and dies of the signal (128 + signal): SIGTERM,
 # and SIGINT (Ctrl-C) with job control on, as in a terminal (a background job of a script ignores it).
 for sig in TERM INT; do

@@ -109,7 +109,14 @@ INSTANTIATE_TEST_SUITE_P(
         malformed{"empty_field", "t_s,x_m,y_m,speed_rpm\n0,,0,0\n", "bad.csv:2: column 'x_m'"},
         malformed{"late_metadata", "t_s,x_m,y_m,speed_rpm\n0,0,0,0\n# a: 1\n", "bad.csv:3: metadata after the column header"},
         malformed{"blank_inside", "t_s,x_m,y_m,speed_rpm\n0,0,0,0\n\n1,0,0,0\n", "bad.csv:3: empty line inside the data"},
-        malformed{"time_backwards", "t_s,x_m,y_m,speed_rpm\n0,0,0,0\n1,0,0,0\n1,0,0,0\n", "bad.csv:4: t_s is not strictly increasing"}),
+        malformed{"time_backwards", "t_s,x_m,y_m,speed_rpm\n0,0,0,0\n1,0,0,0\n1,0,0,0\n", "bad.csv:4: t_s is not strictly increasing"},
+        // What spreadsheets and pandas write, each named for what it is.
+        malformed{"byte_order_mark", "\xEF\xBB\xBFt_s,x_m,y_m,speed_rpm\n0,0,0,0\n", "bad.csv:1: the file starts with a UTF-8 byte-order mark"},
+        malformed{"semicolons", "t_s;x_m;y_m;speed_rpm\n0;0,1;0;0\n", "bad.csv:1: header must start with t_s,x_m,y_m,speed_rpm: columns are separated by ';'"},
+        malformed{"tabs", "t_s\tx_m\ty_m\tspeed_rpm\n0\t0\t0\t0\n", "columns are separated by tabs"},
+        malformed{"quoted_header", "\"t_s\",\"x_m\",\"y_m\",\"speed_rpm\"\n0,0,0,0\n", "bad.csv:1: header must start with t_s,x_m,y_m,speed_rpm: column names are quoted"},
+        malformed{"pandas_index", ",t_s,x_m,y_m,speed_rpm\n0,0,0,0,0\n", "bad.csv:1: empty column name in header: the first column ('') looks like a row index"},
+        malformed{"named_index", "index,t_s,x_m,y_m,speed_rpm\n0,0,0,0,0\n", "the first column ('index') looks like a row index"}),
     [](const ::testing::TestParamInfo<malformed>& info) { return std::string(info.param.name); });
 
 TEST(record, nul_byte_is_an_error) {

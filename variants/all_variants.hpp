@@ -4,6 +4,7 @@
 
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include "ref/errors.hpp"
 #include "variants/identified.hpp"
@@ -19,6 +20,11 @@ struct type_list {};
 using all_variants = type_list<restitution, piecewise_linear, piecewise_nonlinear, identified>;
 
 namespace detail {
+template <class... Vs>
+std::vector<std::string> variant_name_list(type_list<Vs...>) {
+  return {std::string(Vs::name)...};
+}
+
 template <class F, class... Vs>
 void for_each_in(F&& f, type_list<Vs...>) {
   (f(Vs::from(parameters{})), ...);
@@ -30,7 +36,7 @@ decltype(auto) visit_in(std::string_view name, F&& f, type_list<V, Rest...>) {
   if constexpr (sizeof...(Rest) > 0) {
     return visit_in(name, f, type_list<Rest...>{});
   } else {
-    throw input_error("unknown variant '" + std::string(name) + "'");
+    throw input_error("unknown variant '" + std::string(name) + "'" + did_you_mean(name, variant_name_list(all_variants{})));
   }
 }
 }  // namespace detail

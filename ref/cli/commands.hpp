@@ -17,4 +17,7 @@ void add_loop(CLI::App& app);
 // be compared (bad input, numerical failure) after every case ran and the JSON was written.
 void add_validate(CLI::App& app, int& exit_status);
 
+// "; did you mean '...'?" for a mistyped subcommand or option in a parse error, else "".
+std::string suggestion(CLI::App& app, const CLI::ParseError& e);
+
 }  // namespace rubref::cli

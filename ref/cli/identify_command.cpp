@@ -3,6 +3,7 @@
 
 #include "ref/atomic_output.hpp"
 #include "ref/cli/commands.hpp"
+#include "ref/cli/options.hpp"
 #include "ref/errors.hpp"
 #include "ref/identification/identify.hpp"
 #include "ref/parameter_io.hpp"
@@ -57,6 +58,7 @@ void add_identify(CLI::App& app) {
   sub->add_option("--reid-fit", st->reid_fit, "parameters to re-identify: any of k1,k3,c2,mu,e,delta")->capture_default_str();
   sub->add_flag("--global", s.reid.global, "DIRECT-L global stage before BOBYQA");
   sub->add_option("--out", st->out, "output directory: identification.json, identification.md")->required();
+  add_threads_option(*sub);
   sub->callback([st] {
     identify_settings s = st->settings;
     s.frols.stop = st->stop == "aic" ? frols_stop::aic : st->stop == "bic" ? frols_stop::bic : frols_stop::err_sum;

@@ -4,6 +4,7 @@
 
 #include "ref/atomic_output.hpp"
 #include "ref/cli/commands.hpp"
+#include "ref/cli/options.hpp"
 #include "ref/errors.hpp"
 #include "ref/loop/loop.hpp"
 #include "ref/loop/report.hpp"
@@ -34,6 +35,7 @@ void add_loop(CLI::App& app) {
   sub->add_option("--max-effects", s.max_effects, "trace rounds (effects added at most)")->capture_default_str()->check(CLI::Range(0, 11));
   sub->add_option("--refit", s.refit_candidates, "effects refitted per round (best scores)")->capture_default_str()->check(CLI::Range(1, 11));
   sub->add_flag("!--no-figures", st->figures, "write the report without drawing figures");
+  add_threads_option(*sub);
   sub->callback([st] {
     staged_directory dir(st->out);  // the output folder is checked before the work, not after it
     std::vector<std::pair<record, std::string>> records;

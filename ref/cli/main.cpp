@@ -9,6 +9,7 @@
 #include "ref/cli/commands.hpp"
 #include "ref/errors.hpp"
 #include "ref/interrupt.hpp"
+#include "ref/parallel.hpp"
 #include "ref/parameter_io.hpp"
 #include "ref/version.hpp"
 #include "variants/all_variants.hpp"
@@ -17,7 +18,8 @@ int main(int argc, char** argv) {
   using namespace rubref;
   install_interrupt_cleanup();  // before any thread starts (ref/interrupt.hpp)
   CLI::App app{"rubref " + std::string(version()) +
-               ": numerical reference for partial rotor-stator rub (anisotropic Jeffcott rotor, Eq. 1-6)"};
+                   ": numerical reference for partial rotor-stator rub (anisotropic Jeffcott rotor, Eq. 1-6)",
+               "rubref"};
   app.require_subcommand(1);
   app.set_version_flag("--version", "rubref " + std::string(version()) + " (" + std::string(commit()) + ")");
 
@@ -38,7 +40,12 @@ int main(int argc, char** argv) {
     for_each_variant([](auto law) { std::cout << decltype(law)::name << ": " << decltype(law)::equation << "\n"; });
   });
 
+  if (argc == 1) {  // bare `rubref`: what it can do
+    std::cout << app.help();
+    return 0;
+  }
   try {
+    threads_from_environment();  // a bad RUBREF_THREADS is bad input before any work
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {
     return app.exit(e);
@@ -47,7 +54,7 @@ int main(int argc, char** argv) {
   } catch (const CLI::CallForVersion& e) {
     return app.exit(e);
   } catch (const CLI::ParseError& e) {
-    std::cerr << "rubref: error: " << e.what() << "\n";
+    std::cerr << "rubref: error: " << e.what() << cli::suggestion(app, e) << "\n";
     return 2;
   } catch (const input_error& e) {
     std::cerr << "rubref: error: " << e.what() << "\n";

@@ -1,5 +1,11 @@
 #include "ref/cli/options.hpp"
 
+#include <iostream>
+#include <sstream>
+
+#include "ref/cli/commands.hpp"
+#include "ref/errors.hpp"
+#include "ref/parallel.hpp"
 #include "ref/parameter_io.hpp"
 #include "variants/all_variants.hpp"
 
@@ -33,6 +39,12 @@ parameters parameter_options::resolve() const {
   if (!file_.empty()) apply_parameter_file(p, file_);
   for (std::size_t i = 0; i < parameter_table.size(); ++i)
     if (options_[i]->count() > 0) p.*parameter_table[i].member = values_[i];
+  // Lengths are in metres: a clearance or unbalance of centimetres or more is no rotor kit's and
+  // most likely millimetres typed as metres. It still runs (a large clearance means no contact).
+  for (const auto& [value, key] : {std::pair{p.delta, "clearance_m"}, std::pair{p.e, "e_m"}})
+    if (value >= kImplausibleLength)
+      std::cerr << "warning: " << key << " = " << value << " m is larger than any rotor kit's; if millimetres were meant, " << value
+                << " mm is " << value * 1e-3 << " m\n";
   return p;
 }
 
@@ -54,6 +66,43 @@ integration_options integration_cli::resolve() const {
   integration_options out = opt_;
   out.stepper.kind = parse_stepper(stepper_);
   return out;
+}
+
+void add_threads_option(CLI::App& app) {
+  app.add_option_function<unsigned>("--threads", [](const unsigned& n) { set_default_threads(n); },
+                                    "threads for independent tasks; 0: RUBREF_THREADS, else all cores (results do not depend on it)")
+      ->check(CLI::Range(0u, 4096u));
+}
+
+std::string suggestion(CLI::App& app, const CLI::ParseError& e) {
+  // CLI11 names the unexpected arguments after the message's last ": " (ExtrasError) or the
+  // first unknown subcommand; the candidates are the subcommands, or the active one's options.
+  std::vector<std::string> words;
+  if (app.get_subcommands().empty()) {
+    words = app.remaining();  // "A subcommand is required": the mistyped one is left over
+  } else {
+    const std::string msg = e.what();
+    const auto colon = msg.rfind(": ");
+    if (colon == std::string::npos) return {};
+    std::istringstream rest(msg.substr(colon + 2));
+    for (std::string w; rest >> w;) words.push_back(w);
+  }
+  if (words.empty()) return {};
+  std::string word = words.front();
+  for (const auto& w : words)
+    if (w.rfind("-", 0) == 0) {
+      word = w.substr(0, w.find('='));
+      break;
+    }
+  std::vector<std::string> names;
+  const auto active = app.get_subcommands();
+  if (active.empty() || word.rfind("-", 0) != 0) {
+    for (const CLI::App* sub : app.get_subcommands({})) names.push_back(sub->get_name());
+  } else {
+    for (const CLI::Option* o : active.back()->get_options())
+      for (const auto& l : o->get_lnames()) names.push_back("--" + l);
+  }
+  return did_you_mean(word, names);
 }
 
 }  // namespace rubref::cli

@@ -13,6 +13,9 @@ namespace rubref::cli {
 std::string variant_names();  // "restitution, piecewise-linear, ..."
 
 // --params FILE and one --<flag> per row of parameter_table; the file first, flags override it.
+// A length parameter (clearance, unbalance) at or above this gets a warning (options.cpp).
+inline constexpr double kImplausibleLength = 0.01;  // m
+
 class parameter_options {
  public:
   void add_to(CLI::App& app);
@@ -24,6 +27,10 @@ class parameter_options {
   std::array<double, parameter_table.size()> values_{};
   std::array<CLI::Option*, parameter_table.size()> options_{};
 };
+
+// --threads for a command whose library calls run tasks in parallel: sets the process's default
+// thread count (ref/parallel.hpp); 0 keeps RUBREF_THREADS, else every core.
+void add_threads_option(CLI::App& app);
 
 // --stepper, --rtol, --atol, --dt, --max-dt, --event-tol, --stick-velocity.
 class integration_cli {

@@ -2,6 +2,7 @@
 #include <memory>
 
 #include "ref/cli/commands.hpp"
+#include "ref/parallel.hpp"
 #include "ref/reproduce.hpp"
 
 namespace rubref::cli {
@@ -10,9 +11,12 @@ void add_reproduce(CLI::App& app) {
   auto st = std::make_shared<reproduce_settings>();
   auto* sub = app.add_subcommand("reproduce", "the paper's Figs. 3, 6-12 and report.md from its default parameters (the main job)");
   sub->add_option("--out", st->out, "output directory (created; replaced if an earlier rubref run made it)")->capture_default_str();
-  sub->add_option("--threads", st->threads, "threads; 0: all cores")->capture_default_str();
+  sub->add_option("--threads", st->threads, "threads; 0: RUBREF_THREADS, else all cores (results do not depend on it)")
+      ->capture_default_str()
+      ->check(CLI::Range(0u, 4096u));
   sub->add_flag("!--no-figures", st->figures, "write data and report only, without drawing the figures");
   sub->callback([st] {
+    set_default_threads(st->threads);
     reproduce_settings s = *st;
     s.progress = [](std::string_view line) { std::cout << line << std::endl; };
     reproduce(s);

@@ -60,6 +60,7 @@ void add_rig(CLI::App& app) {
   sub->add_option("--truth", st->truth, "truth JSON to write (the effects; for tests); default: <out without .csv>.truth.json");
   st->params.add_to(*sub);
   st->integration.add_to(*sub);
+  add_threads_option(*sub);
   sub->callback([st] {
     rig_request req = st->req;
     req.params = st->params.resolve();

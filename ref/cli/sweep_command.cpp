@@ -3,6 +3,7 @@
 
 #include "ref/atomic_output.hpp"
 #include "ref/cli/commands.hpp"
+#include "ref/parallel.hpp"
 #include "ref/cli/options.hpp"
 #include "ref/orbit_io.hpp"
 #include "ref/sweep_io.hpp"
@@ -38,7 +39,9 @@ void add_sweep(CLI::App& app) {
                 "(no settling there; docs/orbits.md)");
   sub->add_option("--revs", s.record_revs, "revolutions recorded per speed (a multiple of 6)")->capture_default_str();
   sub->add_option("--samples-per-rev", s.samples_per_rev, "samples per revolution")->capture_default_str();
-  sub->add_option("--threads", st->threads, "threads for independent branches; 0: all cores")->capture_default_str();
+  sub->add_option("--threads", st->threads, "threads for independent branches; 0: RUBREF_THREADS, else all cores")
+      ->capture_default_str()
+      ->check(CLI::Range(0u, 4096u));
   sub->add_flag("--orbits", st->orbits,
                 "also write every recorded orbit (orbits/<direction>_<rpm>rpm.csv) and each branch as one "
                 "multi-dwell measurement record (record_<direction>.csv, input for `rubref identify`)");
@@ -46,6 +49,7 @@ void add_sweep(CLI::App& app) {
   st->integration.add_to(*sub);
   st->params.add_to(*sub);
   sub->callback([st] {
+    set_default_threads(st->threads);
     sweep_settings s = st->settings;
     s.params = st->params.resolve();
     s.integration = st->integration.resolve();

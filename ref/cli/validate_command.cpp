@@ -6,6 +6,7 @@
 
 #include "ref/atomic_output.hpp"
 #include "ref/cli/commands.hpp"
+#include "ref/cli/options.hpp"
 #include "ref/errors.hpp"
 #include "ref/validation/validate.hpp"
 
@@ -102,6 +103,7 @@ void add_validate(CLI::App& app, int& exit_status) {
       ->required();
   sub->add_option("--json", st->json, "also write the results (with machine-readable causes) as JSON to this file");
   sub->add_flag("--strict", st->strict, "directories: fail (exit 1) when a candidate file matches no case");
+  add_threads_option(*sub);
   sub->callback([st, &exit_status] {
     const batch b = pair_up(st->case_path, st->candidate_path);
     const bool single = b.pairs.size() == 1 && !fs::is_directory(st->case_path);

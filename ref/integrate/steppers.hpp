@@ -78,7 +78,9 @@ inline std::string_view to_string(stepper_kind k) {
 inline stepper_kind parse_stepper(std::string_view name) {
   for (const auto& [kind, n] : stepper_names)
     if (n == name) return kind;
-  throw input_error("unknown stepper '" + std::string(name) + "' (rk4, dopri5, rkf78, bulirsch-stoer)");
+  std::vector<std::string> names;
+  for (const auto& [kind, n] : stepper_names) names.emplace_back(n);
+  throw input_error("unknown stepper '" + std::string(name) + "'" + did_you_mean(name, names) + " (rk4, dopri5, rkf78, bulirsch-stoer)");
 }
 
 // A System that takes the unbalance direction instead of t (rotor_system does; the rig's does not).

@@ -40,7 +40,8 @@ continuation_parameter parse_continuation_parameter(const std::string& name) {
   for (auto p : {continuation_parameter::speed, continuation_parameter::clearance, continuation_parameter::unbalance,
                  continuation_parameter::mu})
     if (name == to_string(p)) return p;
-  throw input_error("unknown continuation parameter '" + name + "' (speed, clearance, unbalance, mu)");
+  throw input_error("unknown continuation parameter '" + name + "'" + did_you_mean(name, {"speed", "clearance", "unbalance", "mu"}) +
+                    " (speed, clearance, unbalance, mu)");
 }
 
 std::string_view to_string(special_kind k) {

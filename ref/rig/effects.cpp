@@ -82,11 +82,13 @@ const std::vector<effect_info>& effect_library() {
 
 const effect_info& find_effect(std::string_view name) {
   std::string known;
+  std::vector<std::string> names;
   for (const auto& e : effect_library()) {
     if (e.name == name) return e;
     known += (known.empty() ? "" : ", ") + std::string(e.name);
+    names.emplace_back(e.name);
   }
-  throw input_error("unknown effect '" + std::string(name) + "' (known: " + known + ")");
+  throw input_error("unknown effect '" + std::string(name) + "'" + did_you_mean(name, names) + " (known: " + known + ")");
 }
 
 bool has_effect(const effect_parameters& p, const effect_info& e) {
