@@ -352,6 +352,7 @@ void reproduce(const reproduce_settings& s) {
   s.progress("[4/6] data tables, orbits and the numbers of the report ...");
   t0 = std::chrono::steady_clock::now();
   numbers["settings"] = sweep_settings_json(grid_settings);
+  numbers["settings"]["settle_rounds"] = kSettleRounds;
   numbers["range"] = {{"from_rpm", from_rpm}, {"to_rpm", to_rpm}, {"step_rpm", kSweepStepRpm}, {"lowest_grazing_rpm", lowest},
                       {"highest_fold_or_grazing_rpm", highest}, {"pad_share", kRangePad}};
   {

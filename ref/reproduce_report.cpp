@@ -82,7 +82,7 @@ void header(std::ostringstream& md, const json& n) {
      << " rpm), widened by " << fixed(100.0 * r["pad_share"].get<double>(), 0) << " % of that span on each side and rounded out to 50 rpm. "
      << "Quasi-static sweeps hand each speed's end state to the next; a speed starts on the periodic orbit shot from there (Newton "
      << "on the one-revolution map, docs/orbits.md) when that orbit is stable, and settles for " << st["settle_revs"].get<int>()
-     << " revolutions where it is not; then " << st["record_revs"].get<int>() << " revolutions are recorded at "
+     << " revolutions and shoots again from there, up to " << st["settle_rounds"].get<int>() << " times, where it is not; then " << st["record_revs"].get<int>() << " revolutions are recorded at "
      << st["samples_per_rev"].get<int>() << " samples per revolution (" << st["stepper"].get<std::string>() << ", rtol "
      << sig(st["rtol"].get<double>(), 3) << ", located contact events). The period of each recorded response is the smallest n ≤ "
      << st["record_revs"].get<int>() / 2 << " "
