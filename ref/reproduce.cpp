@@ -54,8 +54,8 @@ constexpr double kRangeRoundRpm = 50.0;
 // upper one: far beyond any unbalance resonance of Eq. 1.
 constexpr double kScanStepRpm = 1.0;
 // Continuation starts this share of the touching band below it and first ends this many band
-// widths above it; the end doubles (up to kMaxRangeDoublings times) until the branch is back on
-// the contact-free orbit.
+// widths above it; the traced span doubles (up to kMaxRangeDoublings times) until the branch is
+// back on the contact-free orbit.
 constexpr double kContinuationLowShare = 0.25, kContinuationHighWidths = 2.0;
 constexpr int kMaxRangeDoublings = 3;
 // Fig. 3: an ellipse "horizontal" or "vertical" has its major axis within kAxisTolDeg of that
@@ -64,11 +64,7 @@ constexpr int kMaxRangeDoublings = 3;
 constexpr double kAxisTolDeg = 10.0;
 constexpr double kCircleRatio = 0.95;
 
-std::string fixed(double v, int digits) {
-  char buf[64];
-  std::snprintf(buf, sizeof buf, "%.*f", digits, v);
-  return buf;
-}
+std::string fixed(double v, int decimals) { return fixed_decimals(v, decimals); }
 std::string mm_label(double m) { return fixed(m * 1e3, 1) + "mm"; }
 std::string rpm_label(double rpm) { return fixed(rpm, 0) + "rpm"; }
 

@@ -7,6 +7,8 @@
 #include <sstream>
 #include <vector>
 
+#include "ref/record.hpp"
+
 namespace rubref {
 
 namespace {
@@ -27,16 +29,8 @@ struct table2_row {
 };
 constexpr table2_row kPaperTable2[] = {{"z1", "k1", 3.946e6}, {"z3", "k3", 1.408e11}, {"zd2", "c2", 3.720e4}};
 
-std::string fixed(double v, int digits) {
-  char buf[64];
-  std::snprintf(buf, sizeof buf, "%.*f", digits, v);
-  return buf;
-}
-std::string sig(double v, int digits = 4) {
-  char buf[64];
-  std::snprintf(buf, sizeof buf, "%.*g", digits, v);
-  return buf;
-}
+std::string fixed(double v, int decimals) { return fixed_decimals(v, decimals); }
+std::string sig(double v, int digits = 4) { return format_digits(v, digits); }
 
 // [[lo, hi], ...] in rpm as "lo–hi rpm, ..." ("none" when empty; a single speed once).
 std::string ranges(const json& r) {
@@ -349,6 +343,12 @@ void figures(std::ostringstream& md, const json& n) {
 }
 
 }  // namespace
+
+std::string fixed_decimals(double v, int decimals) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%.*f", decimals, v);
+  return buf;
+}
 
 std::string report_markdown(const json& n) {
   std::ostringstream md;

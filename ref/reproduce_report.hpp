@@ -9,4 +9,7 @@ namespace rubref {
 
 std::string report_markdown(const nlohmann::ordered_json& numbers);
 
+// v with `decimals` digits after the point (the report's and reproduce's labels: "0.3mm", "1600rpm").
+std::string fixed_decimals(double v, int decimals);
+
 }  // namespace rubref

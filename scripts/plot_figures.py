@@ -229,13 +229,15 @@ def clearance_numbers(numbers, clearance_mm):
     raise KeyError(clearance_mm)
 
 
-def hatch_ranges(ax, ranges, label=None):
+def hatch_ranges(ax, ranges, half_step, label=None):
+    """Bands of grid speeds, each widened by half a grid step on both sides."""
     for k, (lo, hi) in enumerate(ranges):
-        ax.axvspan(lo - 2.5, hi + 2.5, label=label if k == 0 else None, **HATCH)
+        ax.axvspan(lo - half_step, hi + half_step, label=label if k == 0 else None, **HATCH)
 
 
 def fig09(folder, man, numbers):
     c = clearance_numbers(numbers, man["clearance_mm"])
+    half_step = man["sweep_grid_rpm"][2] / 2
     fig, axes = plt.subplots(1, 2, figsize=(10, 4.0), layout="constrained", sharey=True)
     mesh = None
     for ax, direction in zip(axes, ("up", "down")):
@@ -260,7 +262,7 @@ def fig09(folder, man, numbers):
             ax.axvline(rub[0][0], color="c", ls=":", lw=1.0, label=f"rub, {rub[0][0]:.0f}–{rub[-1][1]:.0f} rpm")
             ax.axvline(rub[-1][1], color="c", ls=":", lw=1.0)
         for k, (lo, hi) in enumerate(c[f"periods_{direction}"]["non_periodic_rpm"]):
-            ax.axvspan(lo - 2.5, hi + 2.5, ymin=0.975, ymax=1.0, color="w", label="non-periodic" if k == 0 else None)
+            ax.axvspan(lo - half_step, hi + half_step, ymin=0.975, ymax=1.0, color="w", label="non-periodic" if k == 0 else None)
         ax.text(0.01, 0.955, "forward whirl", transform=ax.transAxes, va="top", color="w")
         ax.text(0.01, 0.03, "backward whirl", transform=ax.transAxes, va="bottom", color="w")
         ax.set_xlabel("speed [rpm]")
@@ -354,7 +356,7 @@ def fig10(folder, man, numbers):
         jump_arrows(side, c, d, "peak_to_peak_x_m", MM / 2)
         top.axhline(delta, color="tab:red", lw=0.8, ls=":", label="clearance δ" if first else None)
         for ax in (top, side):
-            hatch_ranges(ax, c["periods_up"]["non_periodic_rpm"] + c["periods_down"]["non_periodic_rpm"],
+            hatch_ranges(ax, c["periods_up"]["non_periodic_rpm"] + c["periods_down"]["non_periodic_rpm"], man["sweep_grid_rpm"][2] / 2,
                          label="non-periodic (a sweep)" if first and ax is top else None)
             ax.grid(True, lw=0.3)
         top.set_title(f"clearance δ = {delta:g} mm")
@@ -376,7 +378,8 @@ def fig11(folder, man, numbers):
     br, _ = branch_data(folder, man, delta)
     fig, ax = plt.subplots(figsize=(6.5, 3.8), layout="constrained")
     ax.axvspan(*PAPER_BACKWARD_RPM, color="0.85", label="paper: backward > forward (1550–1670 rpm)")
-    hatch_ranges(ax, c["periods_up"]["non_periodic_rpm"] + c["periods_down"]["non_periodic_rpm"], label="non-periodic (a sweep)")
+    hatch_ranges(ax, c["periods_up"]["non_periodic_rpm"] + c["periods_down"]["non_periodic_rpm"], man["sweep_grid_rpm"][2] / 2,
+                 label="non-periodic (a sweep)")
     plot_branch(ax, br["speed_rpm"], br["forward_1x_m"] * MM, br["stable"], "tab:blue", "forward 1X, period-1 branch")
     plot_branch(ax, br["speed_rpm"], br["backward_1x_m"] * MM, br["stable"], "tab:red", "backward 1X, period-1 branch")
     for direction, marker in (("up", "^"), ("down", "v")):
