@@ -14,7 +14,19 @@ extern char** environ;
 namespace rubref {
 
 std::filesystem::path default_python() { return RUBREF_PYTHON; }
-std::filesystem::path script_path(const char* name) { return std::filesystem::path(RUBREF_SCRIPTS_DIR) / name; }
+std::filesystem::path script_path(const char* name) {
+  namespace fs = std::filesystem;
+  std::vector<fs::path> where;
+  std::error_code ec;
+  if (const fs::path exe = fs::read_symlink("/proc/self/exe", ec); !ec) where.push_back(exe.parent_path() / RUBREF_SCRIPTS_FROM_BIN);
+  where.emplace_back(RUBREF_SCRIPTS_DIR);
+  where.emplace_back(RUBREF_INSTALLED_SCRIPTS_DIR);
+  for (const fs::path& dir : where)
+    if (fs::is_regular_file(dir / name, ec)) return (dir / name).lexically_normal();
+  std::string looked;
+  for (const fs::path& dir : where) looked += (looked.empty() ? "" : ", ") + dir.lexically_normal().string();
+  throw input_error(std::string("cannot find the plot script ") + name + " (looked in " + looked + ")");
+}
 
 void run_python_script(const std::filesystem::path& python, const std::filesystem::path& script, const std::filesystem::path& folder) {
   const std::string py = python.string(), sc = script.string(), dir = folder.string();

@@ -6,9 +6,11 @@
 
 namespace rubref {
 
-// The configured interpreter and this source tree's scripts/ folder.
+// The configured interpreter, and a plot script (e.g. "plot_figures.py"): next to an installed
+// rubref (<prefix>/share/rubref/scripts), else in the source tree it was built from, else where
+// it was installed; input_error if none has it.
 std::filesystem::path default_python();
-std::filesystem::path script_path(const char* name);  // e.g. "plot_figures.py"
+std::filesystem::path script_path(const char* name);
 
 // Runs `python script folder`; input_error naming the command if it cannot start or fails.
 void run_python_script(const std::filesystem::path& python, const std::filesystem::path& script, const std::filesystem::path& folder);

@@ -17,7 +17,31 @@ namespace rubref {
 template <class... Ts>
 struct type_list {};
 
-using all_variants = type_list<restitution, piecewise_linear, piecewise_nonlinear, identified>;
+// X(type) for every variant, and for the compliant ones (a force law, not an impact map): the
+// explicit instances of the integrator and the shooting (ref/integrate/instances_*.cpp) follow
+// these. `all_variants` is made from the first; the second is checked against it below.
+#define RUBREF_FOR_EACH_VARIANT(X) X(restitution) X(piecewise_linear) X(piecewise_nonlinear) X(identified)
+#define RUBREF_FOR_EACH_COMPLIANT_VARIANT(X) X(piecewise_linear) X(piecewise_nonlinear) X(identified)
+
+namespace detail {
+template <class T, class... Ts>
+type_list<Ts...> drop_first(type_list<T, Ts...>);
+template <class... Ts>
+constexpr int count_compliant(type_list<Ts...>) {
+  return (0 + ... + (compliant_law<Ts> ? 1 : 0));
+}
+}  // namespace detail
+
+#define RUBREF_DETAIL_COMMA_TYPE(T) , T
+using all_variants = decltype(detail::drop_first(type_list<void RUBREF_FOR_EACH_VARIANT(RUBREF_DETAIL_COMMA_TYPE)>{}));
+#define RUBREF_DETAIL_ASSERT_COMPLIANT(T) static_assert(compliant_law<T>, #T " is in RUBREF_FOR_EACH_COMPLIANT_VARIANT but not compliant");
+RUBREF_FOR_EACH_COMPLIANT_VARIANT(RUBREF_DETAIL_ASSERT_COMPLIANT)
+#define RUBREF_DETAIL_ONE(T) +1
+static_assert(detail::count_compliant(all_variants{}) == 0 RUBREF_FOR_EACH_COMPLIANT_VARIANT(RUBREF_DETAIL_ONE),
+              "every compliant variant belongs in RUBREF_FOR_EACH_COMPLIANT_VARIANT");
+#undef RUBREF_DETAIL_COMMA_TYPE
+#undef RUBREF_DETAIL_ASSERT_COMPLIANT
+#undef RUBREF_DETAIL_ONE
 
 namespace detail {
 template <class... Vs>

@@ -4,6 +4,7 @@
 // fails its case.
 
 #include <CLI/CLI.hpp>
+#include <functional>
 #include <iostream>
 
 #include "ref/cli/commands.hpp"
@@ -11,6 +12,7 @@
 #include "ref/interrupt.hpp"
 #include "ref/parallel.hpp"
 #include "ref/parameter_io.hpp"
+#include "ref/python_script.hpp"
 #include "ref/version.hpp"
 #include "variants/all_variants.hpp"
 
@@ -21,7 +23,16 @@ int main(int argc, char** argv) {
                    ": numerical reference for partial rotor-stator rub (anisotropic Jeffcott rotor, Eq. 1-6)",
                "rubref"};
   app.require_subcommand(1);
-  app.set_version_flag("--version", "rubref " + std::string(version()) + " (" + std::string(commit()) + ")");
+  // The version, and where the figures' scripts are found (an installed rubref: next to it).
+  app.set_version_flag("--version", std::function<std::string()>([] {
+    std::string scripts;
+    try {
+      scripts = script_path("plot_figures.py").parent_path().string();
+    } catch (const input_error& e) {
+      scripts = e.what();
+    }
+    return "rubref " + std::string(version()) + " (" + std::string(commit()) + ")\nplot scripts: " + scripts;
+  }));
 
   cli::add_reproduce(app);
   cli::add_simulate(app);

@@ -27,6 +27,7 @@
 #include "ref/integrate/free_flight.hpp"
 #include "ref/integrate/steppers.hpp"
 #include "ref/rotor_model.hpp"
+#include "variants/all_variants.hpp"
 
 namespace rubref {
 
@@ -551,18 +552,60 @@ basic_hybrid_state<state_of<System>> start_state(const System& sys, const state_
   return hs;
 }
 
+// Any observer behind one type per system, so the integrator is compiled once per system (in
+// ref/integrate/instances_*.cpp, for every variant) instead of once per observer in every file
+// that integrates. One indirect call per sample or event: nothing beside a step.
+template <class System>
+class observer_ref {
+ public:
+  using state = state_of<System>;
+  template <class Observer>
+    requires(!std::same_as<Observer, observer_ref>)
+  explicit observer_ref(Observer& obs) noexcept
+      : obs_(&obs),
+        sample_([](void* o, double t, const state& s, const System& sys) { static_cast<Observer*>(o)->on_sample(t, s, sys); }),
+        event_([](void* o, const basic_contact_event<state>& e) { static_cast<Observer*>(o)->on_event(e); }) {}
+  void on_sample(double t, const state& s, const System& sys) { sample_(obs_, t, s, sys); }
+  void on_event(const basic_contact_event<state>& e) { event_(obs_, e); }
+
+ private:
+  void* obs_;
+  void (*sample_)(void*, double, const state&, const System&);
+  void (*event_)(void*, const basic_contact_event<state>&);
+};
+
+namespace detail {
+template <contact_system System>
+basic_hybrid_state<state_of<System>> integrate_erased(const System& model, const basic_hybrid_state<state_of<System>>& start, double t_end,
+                                                      const integration_options& opt, const sample_grid& grid, observer_ref<System> obs,
+                                                      integration_counts* counts) {
+  integration_counts local;
+  integration_counts& c = counts ? *counts : local;
+  integration_options resolved = opt;
+  resolved.stepper = with_default_steps(opt.stepper, model.period());
+  return with_stepper<System>(resolved.stepper, [&](auto& st) { return hybrid_loop(model, st, start, t_end, resolved, grid, obs, c); });
+}
+}  // namespace detail
+
 // Integrates from `start` to t_end, reporting samples on `grid` and every located event.
 template <contact_system System, class Observer = null_observer>
 basic_hybrid_state<state_of<System>> integrate_hybrid(const System& model, const basic_hybrid_state<state_of<System>>& start,
                                                       double t_end, const integration_options& opt, const sample_grid& grid,
                                                       Observer& obs, integration_counts* counts = nullptr) {
-  integration_counts local;
-  integration_counts& c = counts ? *counts : local;
-  integration_options resolved = opt;
-  resolved.stepper = with_default_steps(opt.stepper, model.period());
-  return with_stepper<System>(resolved.stepper, [&](auto& st) {
-    return detail::hybrid_loop(model, st, start, t_end, resolved, grid, obs, c);
-  });
+  return detail::integrate_erased<System>(model, start, t_end, opt, grid, observer_ref<System>(obs), counts);
 }
+
+// The rotor models of every variant are integrated by the instances compiled once in
+// ref/integrate/instances_models.cpp; other systems (tests' own) instantiate here as usual.
+#define RUBREF_INTEGRATOR_INSTANCE(PREFIX, SYSTEM)                                                                                 \
+  PREFIX template basic_hybrid_state<state_of<SYSTEM>> detail::integrate_erased<SYSTEM>(                                            \
+      const SYSTEM&, const basic_hybrid_state<state_of<SYSTEM>>&, double, const integration_options&, const sample_grid&,        \
+      observer_ref<SYSTEM>, integration_counts*);
+#define RUBREF_EXTERN_MODEL_INTEGRATOR(LAW) RUBREF_INTEGRATOR_INSTANCE(extern, rotor_system<LAW>)
+#define RUBREF_EXTERN_EFFECTS_INTEGRATOR(LAW) RUBREF_INTEGRATOR_INSTANCE(extern, rotor_with_effects<LAW>)
+RUBREF_FOR_EACH_VARIANT(RUBREF_EXTERN_MODEL_INTEGRATOR)
+RUBREF_FOR_EACH_COMPLIANT_VARIANT(RUBREF_EXTERN_EFFECTS_INTEGRATOR)
+#undef RUBREF_EXTERN_MODEL_INTEGRATOR
+#undef RUBREF_EXTERN_EFFECTS_INTEGRATOR
 
 }  // namespace rubref

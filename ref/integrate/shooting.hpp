@@ -394,4 +394,19 @@ periodic_orbit<static_cast<int>(std::tuple_size_v<state_of<System>>)> shoot_peri
   return out;
 }
 
+// The rotor models' sensitivities and shooting are compiled once, in
+// ref/integrate/instances_shooting.cpp (see RUBREF_INTEGRATOR_INSTANCE).
+#define RUBREF_SHOOTING_INSTANCE(PREFIX, SYSTEM)                                                                             \
+  RUBREF_INTEGRATOR_INSTANCE(PREFIX, sensitivity_system<SYSTEM>)                                                            \
+  PREFIX template flow_with_monodromy<SYSTEM::N> flow_and_monodromy<SYSTEM>(const SYSTEM&, const state_of<SYSTEM>&, double,   \
+                                                                            double, const integration_options&);           \
+  PREFIX template periodic_orbit<SYSTEM::N> shoot_periodic_orbit<SYSTEM>(const SYSTEM&, const state_of<SYSTEM>&, double, int, \
+                                                                         const shooting_settings&);
+#define RUBREF_EXTERN_MODEL_SHOOTING(LAW) RUBREF_SHOOTING_INSTANCE(extern, rotor_system<LAW>)
+#define RUBREF_EXTERN_EFFECTS_SHOOTING(LAW) RUBREF_SHOOTING_INSTANCE(extern, rotor_with_effects<LAW>)
+RUBREF_FOR_EACH_VARIANT(RUBREF_EXTERN_MODEL_SHOOTING)
+RUBREF_FOR_EACH_COMPLIANT_VARIANT(RUBREF_EXTERN_EFFECTS_SHOOTING)
+#undef RUBREF_EXTERN_MODEL_SHOOTING
+#undef RUBREF_EXTERN_EFFECTS_SHOOTING
+
 }  // namespace rubref
