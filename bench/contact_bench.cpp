@@ -13,13 +13,13 @@
 #include <boost/numeric/odeint.hpp>
 #include <cmath>
 
+#include "ref/analysis/simulate.hpp"
+#include "ref/analysis/sweep.hpp"
 #include "ref/integrate/hybrid_integrator.hpp"
+#include "ref/integrate/steppers.hpp"
+#include "ref/model/rotor_model.hpp"
 #include "ref/orbits/continuation.hpp"
 #include "ref/orbits/periodic_orbit.hpp"
-#include "ref/rotor_model.hpp"
-#include "ref/simulate.hpp"
-#include "ref/integrate/steppers.hpp"
-#include "ref/sweep.hpp"
 #include "variants/all_variants.hpp"
 
 namespace rubref {
@@ -71,7 +71,7 @@ void rhs_with_libm_trig(benchmark::State& state) {
   time_rhs_at_t(state, libm_forcing<Law>{rotor_system<Law>(paper_case(), omega())});
 }
 
-// rubref's System at t: the forcing by phasor_of (ref/state.hpp), as the adaptive steppers use it.
+// rubref's System at t: the forcing by phasor_of (ref/model/state.hpp), as the adaptive steppers use it.
 template <class Law>
 void rhs_with_phasor_of(benchmark::State& state) {
   time_rhs_at_t(state, rotor_system<Law>(paper_case(), omega()));
@@ -143,7 +143,7 @@ void rk4_handwritten_libm_trig(benchmark::State& state) {
 
 template <class Law>
 void rk4_rubref(benchmark::State& state) {
-  // The library path: rubref's rk4 stepper (ref/steppers.hpp), forcing turned by a phasor.
+  // The library path: rubref's rk4 stepper (ref/integrate/steppers.hpp), forcing turned by a phasor.
   const rotor_system<Law> sys(paper_case(), omega());
   rk4_dense<rotor_system<Law>> st(sys.period() / kStepsPerRev);
   st.initialize(in_contact(), 0.0, 0.0);

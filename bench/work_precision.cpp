@@ -20,11 +20,11 @@
 #include <string>
 #include <vector>
 
-#include "ref/errors.hpp"
-#include "ref/golden.hpp"
-#include "ref/record.hpp"
-#include "ref/rotor_model.hpp"
-#include "ref/simulate.hpp"
+#include "ref/analysis/simulate.hpp"
+#include "ref/base/errors.hpp"
+#include "ref/format/record.hpp"
+#include "ref/model/rotor_model.hpp"
+#include "ref/validation/golden.hpp"
 #include "variants/all_variants.hpp"
 
 namespace rubref {

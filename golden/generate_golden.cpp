@@ -1,5 +1,5 @@
 // Makes the golden files (docs/validation.md, "Golden files"). Nobody edits them by hand; they
-// are made here, with the careful method of ref/golden.hpp, and only on purpose:
+// are made here, with the careful method of ref/validation/golden.hpp, and only on purpose:
 //
 //   RUBREF_REGENERATE_GOLDEN=1 build/golden/generate_golden [DIR]     (default: the source golden/)
 //
@@ -12,10 +12,10 @@
 #include <iostream>
 #include <string>
 
-#include "ref/atomic_output.hpp"
-#include "ref/errors.hpp"
-#include "ref/golden.hpp"
-#include "ref/parallel.hpp"
+#include "ref/base/errors.hpp"
+#include "ref/base/parallel.hpp"
+#include "ref/format/atomic_output.hpp"
+#include "ref/validation/golden.hpp"
 
 namespace {
 

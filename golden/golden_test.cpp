@@ -9,9 +9,9 @@
 #include <limits>
 #include <string>
 
-#include "ref/golden.hpp"
-#include "ref/orbit_io.hpp"
+#include "ref/analysis/orbit_io.hpp"
 #include "ref/orbits/periodic_orbit.hpp"
+#include "ref/validation/golden.hpp"
 #include "ref/validation/validate.hpp"
 
 namespace rubref {
@@ -57,7 +57,7 @@ TEST_P(golden_regression, fast_path_matches_the_golden_file) {
   EXPECT_TRUE(v.pass) << to_text(v);
 }
 
-// The exact free flight (ref/integrate/free_flight.hpp) with the files' own careful contact
+// The exact free flight (ref/model/free_flight.hpp) with the files' own careful contact
 // integration reproduces every orbit case to kExactFreeFlightTol: the files were made with the
 // free flight integrated by rkf78 at rtol 1e-13, the two differ by the integrators' errors only.
 constexpr double kExactFreeFlightTol = 1e-12;  // m
@@ -95,7 +95,7 @@ TEST_P(golden_regression, carries_its_provenance) {
     EXPECT_LE(r.number("cross_check_max_difference_m"), kReproducibleRelTol * g.statistics.max_radius);
     EXPECT_EQ(g.orbit_tolerance, kGoldenOrbitRelTol * g.statistics.max_radius);
   }
-  // A periodic case is the shot fixed point of its period map (ref/golden.cpp): converged to the
+  // A periodic case is the shot fixed point of its period map (ref/validation/golden.cpp): converged to the
   // shooting's tolerance, stable (a transient from rest reached it), and the settled transient
   // on it to the reproducibility share of the orbit.
   if (g.comparison == comparison_kind::orbit && g.period_revs > 0) {
@@ -113,7 +113,7 @@ TEST_P(golden_regression, carries_its_provenance) {
   EXPECT_EQ(line.substr(0, line.find(',')).size(), std::string("7.5000000000000000e+00").size()) << line;
 }
 
-// The attractor scan (ref/golden.hpp, scan_attractors): every file has been scanned, and every
+// The attractor scan (ref/validation/golden.hpp, scan_attractors): every file has been scanned, and every
 // coexisting attractor it records is one. Newton from its state with its period stays on it (the
 // state is a fixed point converged to 1e-12 m; the scan merged states closer than
 // kDistinctAttractorRelTol of the radius, so that is how close "the same" is), it is stable, and it
@@ -146,7 +146,7 @@ TEST_P(golden_regression, coexisting_attractors_are_stable_and_not_the_case) {
   }
 }
 
-// The long-contact case is what it was chosen for (ref/golden.cpp, long_contact_case): a periodic
+// The long-contact case is what it was chosen for (ref/validation/golden.cpp, long_contact_case): a periodic
 // orbit case whose contact share is 1.5 times any matrix case's or more, in one episode a revolution.
 TEST(golden_cases, long_contact_case_has_a_long_contact) {
   const golden_spec spec = long_contact_case();

@@ -15,9 +15,9 @@
 #include <numbers>
 #include <string>
 
-#include "ref/golden.hpp"
-#include "ref/orbit_io.hpp"
-#include "ref/parameter_io.hpp"
+#include "ref/analysis/orbit_io.hpp"
+#include "ref/model/parameter_io.hpp"
+#include "ref/validation/golden.hpp"
 #include "ref/validation/validate.hpp"
 #include "variants/all_variants.hpp"
 

@@ -11,8 +11,8 @@
 #include <numbers>
 #include <ostream>
 
-#include "ref/parameters.hpp"
-#include "ref/state.hpp"
+#include "ref/model/parameters.hpp"
+#include "ref/model/state.hpp"
 
 namespace rubref::props {
 

@@ -13,7 +13,7 @@
 #include <set>
 #include <string>
 
-#include "ref/golden.hpp"
+#include "ref/validation/golden.hpp"
 #include "ref/validation/validate.hpp"
 
 namespace rubref {

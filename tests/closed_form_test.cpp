@@ -1,5 +1,5 @@
 // Without contact Eq. 1 is linear with harmonic forcing; its steady state is closed form
-// (ref/closed_form.hpp). Every variant must reproduce it when the clearance is never reached.
+// (ref/model/closed_form.hpp). Every variant must reproduce it when the clearance is never reached.
 
 #include <gtest/gtest.h>
 
@@ -7,7 +7,7 @@
 #include <numbers>
 #include <vector>
 
-#include "ref/closed_form.hpp"
+#include "ref/model/closed_form.hpp"
 #include "test_support.hpp"
 
 namespace rubref::testing {
@@ -130,7 +130,7 @@ TEST(whirl_ellipse, matches_the_sampled_orbit) {
   }
 }
 
-// The forcing's (cos, sin) without libm (ref/state.hpp): within a few ulp of std::cos/std::sin
+// The forcing's (cos, sin) without libm (ref/model/state.hpp): within a few ulp of std::cos/std::sin
 // over every angle a run meets (w t + phi to ~1e5 rad) and at the reduction's seams. 4e-16 is
 // four ulp of 1: the node table and the final turn each round once, the polynomials twice.
 TEST(forcing_phasor, phasor_of_matches_libm) {

@@ -8,11 +8,11 @@
 #include <cmath>
 #include <complex>
 
-#include "ref/closed_form.hpp"
-#include "ref/errors.hpp"
+#include "ref/analysis/sweep.hpp"
+#include "ref/base/errors.hpp"
+#include "ref/model/closed_form.hpp"
 #include "ref/orbits/continuation.hpp"
 #include "ref/orbits/periodic_orbit.hpp"
-#include "ref/sweep.hpp"
 
 namespace rubref {
 namespace {

@@ -11,7 +11,7 @@
 #include <numbers>
 #include <vector>
 
-#include "ref/closed_form.hpp"
+#include "ref/model/closed_form.hpp"
 #include "test_support.hpp"
 
 namespace rubref::testing {

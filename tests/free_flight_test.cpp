@@ -1,4 +1,4 @@
-// Exact free flight (ref/integrate/free_flight.hpp): the closed-form arc against the careful
+// Exact free flight (ref/model/free_flight.hpp): the closed-form arc against the careful
 // stepper, its transition matrix against finite differences, and the onset search against grazing
 // orbits whose crossing is known in closed form.
 
@@ -10,8 +10,8 @@
 #include <iomanip>
 #include <random>
 
-#include "ref/integrate/free_flight.hpp"
-#include "ref/rotor_model.hpp"
+#include "ref/model/free_flight.hpp"
+#include "ref/model/rotor_model.hpp"
 #include "test_support.hpp"
 
 namespace rubref {

@@ -7,11 +7,11 @@
 #include <cmath>
 #include <numbers>
 
-#include "ref/errors.hpp"
+#include "ref/base/errors.hpp"
 #include "ref/loop/coordinates.hpp"
 #include "ref/loop/fit.hpp"
-#include "ref/loop/paper_fit.hpp"
 #include "ref/loop/loop.hpp"
+#include "ref/loop/paper_fit.hpp"
 #include "ref/rig/rig.hpp"
 
 namespace rubref::testing {

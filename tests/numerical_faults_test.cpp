@@ -2,12 +2,14 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <cstdio>
+#include <limits>
 #include <functional>
 #include <numbers>
 #include <string>
 
-#include "ref/simulate.hpp"
+#include "ref/analysis/simulate.hpp"
 #include "test_support.hpp"
 
 namespace rubref::testing {
@@ -68,6 +70,26 @@ TEST(numerical_faults, a_runaway_state_is_an_error_not_an_orbit) {
     // step size underflow; each names the time and state.
     EXPECT_NE(msg.find("t = "), std::string::npos) << msg;
   }
+}
+
+// simulate's last guard: an orbit that reached a displacement no rotor kit has (1 m) is an error
+// naming the first such sample, never an orbit, even when every number is finite.
+TEST(numerical_faults, a_bounded_but_absurd_orbit_is_refused_with_where) {
+  orbit o;
+  for (int k = 0; k < 8; ++k) o.samples.push_back({0.125 * k, state_type{1e-4, std::pow(10.0, k - 4), 0.0, 0.0}, 0.0});  // y: 1e-4 .. 1e3 m
+  o.end = {o.samples.back().s, 1.0, contact_phase::free, 0.0};
+  try {
+    require_bounded(o);
+    FAIL() << "a 1e3 m orbit passed";
+  } catch (const numerical_error& e) {
+    const std::string msg = e.what();
+    EXPECT_NE(msg.find("t = 0.625 s"), std::string::npos) << msg;  // the first sample beyond 1 m (y = 10 m)
+  }
+  o.samples.resize(5);  // up to y = 1 m: on the bound, accepted
+  o.end.s = o.samples.back().s;
+  EXPECT_NO_THROW(require_bounded(o));
+  o.samples[2].s[idx::x] = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_THROW(require_bounded(o), numerical_error);
 }
 
 // A step budget stops a run that would take too long (the loop's trial laws), naming where.

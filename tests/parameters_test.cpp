@@ -7,10 +7,10 @@
 #include <limits>
 #include <string>
 
-#include "ref/errors.hpp"
-#include "ref/parameter_io.hpp"
-#include "ref/record.hpp"
-#include "ref/simulate.hpp"
+#include "ref/analysis/simulate.hpp"
+#include "ref/base/errors.hpp"
+#include "ref/format/record.hpp"
+#include "ref/model/parameter_io.hpp"
 
 namespace rubref {
 namespace {

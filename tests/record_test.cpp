@@ -6,11 +6,11 @@
 #include <cstring>
 #include <string>
 
-#include "ref/errors.hpp"
-#include "ref/orbit_io.hpp"
-#include "ref/parameter_io.hpp"
-#include "ref/record.hpp"
-#include "ref/simulate.hpp"
+#include "ref/analysis/orbit_io.hpp"
+#include "ref/analysis/simulate.hpp"
+#include "ref/base/errors.hpp"
+#include "ref/format/record.hpp"
+#include "ref/model/parameter_io.hpp"
 
 namespace rubref {
 namespace {

@@ -9,8 +9,8 @@
 #include <numbers>
 #include <random>
 
-#include "ref/closed_form.hpp"
-#include "ref/errors.hpp"
+#include "ref/base/errors.hpp"
+#include "ref/model/closed_form.hpp"
 #include "ref/rig/rig.hpp"
 #include "test_support.hpp"
 
@@ -70,7 +70,7 @@ TYPED_TEST(rig_without_effects, is_the_papers_model) {
   for (const auto& s : rig.s) EXPECT_EQ(s[idx::w], 0.0);  // a rigid stator never moves
 }
 
-// One model (ref/rotor_model.hpp): Eq. 1 is written once, so with every effect off the model
+// One model (ref/model/rotor_model.hpp): Eq. 1 is written once, so with every effect off the model
 // with effect terms evaluates the paper's right-hand side and Jacobian to the bit, in every phase
 // and at any state, time and (signed) speed. Exact equality, not a tolerance: a second Eq. 1 that
 // drifted from the first by one rounding would fail here.
@@ -104,7 +104,7 @@ TYPED_TEST(rig_without_effects, evaluates_the_papers_equations_to_the_bit) {
 
 // Without contact the truth is linear: a bow b at phi_b is a 1X force (k_x b, k_y b) e^{j(wt + phi_b)}
 // and misalignment a 2X force F2 e^{j(2wt + phi2)}; their steady responses are closed form, like
-// the unbalance's (ref/closed_form.hpp).
+// the unbalance's (ref/model/closed_form.hpp).
 TEST(rig_truth, bow_and_misalignment_have_closed_form_responses) {
   parameters p;
   p.delta = kNoContactClearance;

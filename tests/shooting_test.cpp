@@ -10,10 +10,10 @@
 #include <filesystem>
 #include <string>
 
-#include "ref/golden.hpp"
+#include "ref/analysis/orbit_io.hpp"
 #include "ref/integrate/shooting.hpp"
-#include "ref/orbit_io.hpp"
-#include "ref/rotor_model.hpp"
+#include "ref/model/rotor_model.hpp"
+#include "ref/validation/golden.hpp"
 #include "test_support.hpp"
 
 namespace rubref {

@@ -10,7 +10,7 @@
 #include <random>
 #include <vector>
 
-#include "ref/spectrum.hpp"
+#include "ref/analysis/spectrum.hpp"
 
 namespace rubref {
 namespace {

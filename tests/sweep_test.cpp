@@ -7,10 +7,10 @@
 #include <cstring>
 #include <numbers>
 
-#include "ref/closed_form.hpp"
-#include "ref/errors.hpp"
-#include "ref/sweep.hpp"
-#include "ref/sweep_io.hpp"
+#include "ref/analysis/sweep.hpp"
+#include "ref/analysis/sweep_io.hpp"
+#include "ref/base/errors.hpp"
+#include "ref/model/closed_form.hpp"
 
 namespace rubref {
 namespace {

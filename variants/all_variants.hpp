@@ -6,7 +6,7 @@
 #include <string_view>
 #include <vector>
 
-#include "ref/errors.hpp"
+#include "ref/base/errors.hpp"
 #include "variants/identified.hpp"
 #include "variants/piecewise_linear.hpp"
 #include "variants/piecewise_nonlinear.hpp"
@@ -64,6 +64,9 @@ decltype(auto) visit_in(std::string_view name, F&& f, type_list<V, Rest...>) {
   }
 }
 }  // namespace detail
+
+// The variants' names, in list order.
+inline std::vector<std::string> variant_name_list() { return detail::variant_name_list(all_variants{}); }
 
 // Calls f(law) with every variant built from the paper's parameters, in list order.
 template <class F>

@@ -1,7 +1,7 @@
 #pragma once
 #include <array>
 
-#include "ref/contact_law.hpp"
+#include "ref/model/contact_law.hpp"
 
 namespace rubref {
 

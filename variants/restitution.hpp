@@ -1,5 +1,5 @@
 #pragma once
-#include "ref/contact_law.hpp"
+#include "ref/model/contact_law.hpp"
 
 namespace rubref {
 

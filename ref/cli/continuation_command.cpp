@@ -2,14 +2,14 @@
 #include <iostream>
 #include <memory>
 
-#include "ref/atomic_output.hpp"
+#include "ref/base/errors.hpp"
 #include "ref/cli/commands.hpp"
 #include "ref/cli/options.hpp"
-#include "ref/errors.hpp"
+#include "ref/format/atomic_output.hpp"
+#include "ref/format/record.hpp"
+#include "ref/format/table.hpp"
 #include "ref/orbits/continuation.hpp"
 #include "ref/orbits/continuation_io.hpp"
-#include "ref/record.hpp"
-#include "ref/table.hpp"
 
 namespace rubref::cli {
 

@@ -1,13 +1,13 @@
 #include <iostream>
 #include <memory>
 
-#include "ref/atomic_output.hpp"
+#include "ref/base/errors.hpp"
 #include "ref/cli/commands.hpp"
 #include "ref/cli/options.hpp"
-#include "ref/errors.hpp"
+#include "ref/format/atomic_output.hpp"
+#include "ref/format/record.hpp"
 #include "ref/identification/identify.hpp"
-#include "ref/parameter_io.hpp"
-#include "ref/record.hpp"
+#include "ref/model/parameter_io.hpp"
 
 namespace rubref::cli {
 

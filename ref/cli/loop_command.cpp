@@ -2,14 +2,14 @@
 #include <iostream>
 #include <memory>
 
-#include "ref/atomic_output.hpp"
+#include "ref/app/python_script.hpp"
+#include "ref/base/errors.hpp"
 #include "ref/cli/commands.hpp"
 #include "ref/cli/options.hpp"
-#include "ref/errors.hpp"
+#include "ref/format/atomic_output.hpp"
+#include "ref/format/record.hpp"
 #include "ref/loop/loop.hpp"
 #include "ref/loop/report.hpp"
-#include "ref/python_script.hpp"
-#include "ref/record.hpp"
 
 namespace rubref::cli {
 

@@ -7,18 +7,19 @@
 #include <functional>
 #include <iostream>
 
+#include "ref/app/python_script.hpp"
+#include "ref/base/errors.hpp"
+#include "ref/base/interrupt.hpp"
+#include "ref/base/parallel.hpp"
+#include "ref/base/version.hpp"
 #include "ref/cli/commands.hpp"
-#include "ref/errors.hpp"
-#include "ref/interrupt.hpp"
-#include "ref/parallel.hpp"
-#include "ref/parameter_io.hpp"
-#include "ref/python_script.hpp"
-#include "ref/version.hpp"
+#include "ref/cli/options.hpp"
+#include "ref/model/parameter_io.hpp"
 #include "variants/all_variants.hpp"
 
 int main(int argc, char** argv) {
   using namespace rubref;
-  install_interrupt_cleanup();  // before any thread starts (ref/interrupt.hpp)
+  install_interrupt_cleanup();  // before any thread starts (ref/base/interrupt.hpp)
   CLI::App app{"rubref " + std::string(version()) +
                    ": numerical reference for partial rotor-stator rub (anisotropic Jeffcott rotor, Eq. 1-6)",
                "rubref"};
@@ -68,10 +69,10 @@ int main(int argc, char** argv) {
     std::cerr << "rubref: error: " << e.what() << cli::suggestion(app, e) << "\n";
     return 2;
   } catch (const input_error& e) {
-    std::cerr << "rubref: error: " << e.what() << "\n";
+    std::cerr << "rubref: error: " << cli::with_flags(e.what()) << "\n";
     return 2;
   } catch (const numerical_error& e) {
-    std::cerr << "rubref: numerical failure: " << e.what() << "\n";
+    std::cerr << "rubref: numerical failure: " << cli::with_flags(e.what()) << "\n";
     return 3;
   } catch (const std::exception& e) {
     std::cerr << "rubref: error: " << e.what() << "\n";

@@ -1,15 +1,40 @@
 #include "ref/cli/options.hpp"
 
+#include <algorithm>
+#include <array>
 #include <iostream>
 #include <sstream>
 
+#include "ref/base/errors.hpp"
+#include "ref/base/parallel.hpp"
 #include "ref/cli/commands.hpp"
-#include "ref/errors.hpp"
-#include "ref/parallel.hpp"
-#include "ref/parameter_io.hpp"
+#include "ref/model/parameter_io.hpp"
 #include "variants/all_variants.hpp"
 
 namespace rubref::cli {
+
+std::string with_flags(std::string_view message) {
+  // The fields whose flag is not their name with dashes.
+  static const std::array<std::pair<std::string_view, std::string_view>, 4> renamed{
+      {{"from_rpm", "--from"}, {"to_rpm", "--to"}, {"step_rpm", "--step"}, {"record_revs", "--revs"}}};
+  std::string out;
+  for (std::size_t i = 0; i < message.size();) {
+    const std::size_t open = message.find('`', i), close = open == std::string_view::npos ? open : message.find('`', open + 1);
+    if (close == std::string_view::npos) {
+      out += message.substr(i);
+      break;
+    }
+    out += message.substr(i, open - i);
+    const std::string_view field = message.substr(open + 1, close - open - 1);
+    std::string flag = "--" + std::string(field);
+    std::replace(flag.begin(), flag.end(), '_', '-');
+    for (const auto& [name, f] : renamed)
+      if (name == field) flag = f;
+    out += flag;
+    i = close + 1;
+  }
+  return out;
+}
 
 std::string variant_names() {
   std::string out;

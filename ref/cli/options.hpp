@@ -6,11 +6,15 @@
 #include <string>
 
 #include "ref/integrate/hybrid_integrator.hpp"
-#include "ref/parameters.hpp"
+#include "ref/model/parameters.hpp"
 
 namespace rubref::cli {
 
 std::string variant_names();  // "restitution, piecewise-linear, ..."
+
+// A library message with its settings (`from_rpm`, `clearance`: ref/base/errors.hpp, setting)
+// spelled as this command line's flags (--from, --clearance).
+std::string with_flags(std::string_view message);
 
 // --params FILE and one --<flag> per row of parameter_table; the file first, flags override it.
 // A length parameter (clearance, unbalance) at or above this gets a warning (options.cpp).
@@ -29,7 +33,7 @@ class parameter_options {
 };
 
 // --threads for a command whose library calls run tasks in parallel: sets the process's default
-// thread count (ref/parallel.hpp); 0 keeps RUBREF_THREADS, else every core.
+// thread count (ref/base/parallel.hpp); 0 keeps RUBREF_THREADS, else every core.
 void add_threads_option(CLI::App& app);
 
 // --stepper, --rtol, --atol, --dt, --max-dt, --event-tol, --stick-velocity.

@@ -3,12 +3,13 @@
 #include <memory>
 #include <vector>
 
-#include "ref/atomic_output.hpp"
+#include "ref/analysis/orbit_io.hpp"
+#include "ref/base/version.hpp"
 #include "ref/cli/commands.hpp"
 #include "ref/cli/options.hpp"
-#include "ref/orbit_io.hpp"
+#include "ref/format/atomic_output.hpp"
 #include "ref/orbits/periodic_orbit.hpp"
-#include "ref/version.hpp"
+#include "ref/orbits/periodic_orbit_io.hpp"
 
 namespace rubref::cli {
 
@@ -56,29 +57,8 @@ void add_orbit(CLI::App& app) {
     if (!r.converged)
       std::cerr << "warning: Newton shooting did not converge (" << r.failure << "); the orbit written is the end of a "
                 << req.fallback_settle_revs << "-revolution transient, with no Floquet multipliers\n";
-    record rec = to_record(r.samples);
-    rec.set("generator", "rubref " + std::string(version()) + " orbit");
-    rec.set("method", r.method);
-    rec.set("period_revs", static_cast<double>(req.periods));
-    nlohmann::ordered_json j = to_json(summarize(r.samples), r.samples);
-    j["method"] = r.method;
-    j["start"] = r.start;
-    j["converged"] = r.converged;
-    if (!r.converged) j["failure"] = r.failure;
-    j["period_revs"] = req.periods;
-    j["period_s"] = req.periods * 60.0 / req.run.rpm;
-    j["newton_iterations"] = r.iterations;
-    if (r.converged) {
-      j["shooting_residual_m"] = r.residual;
-      j["stable"] = r.stable;
-      j["max_floquet_modulus"] = r.max_multiplier_modulus;
-      nlohmann::ordered_json mults = nlohmann::ordered_json::array();
-      for (const auto& m : r.multipliers) mults.push_back({{"re", m.real()}, {"im", m.imag()}, {"modulus", std::abs(m)}});
-      j["floquet_multipliers"] = mults;
-      j["events_per_period"] = r.events_per_period;
-    }
-    j["initial_state"] = {r.samples.request.initial_state[0], r.samples.request.initial_state[1], r.samples.request.initial_state[2],
-                          r.samples.request.initial_state[3]};
+    const record rec = periodic_orbit_record(req, r);
+    const nlohmann::ordered_json j = periodic_orbit_json(req, r);
     atomic_output files;
     files.stage(st->out, to_csv(rec));
     files.stage(summary, j.dump(2) + "\n");

@@ -1,9 +1,9 @@
 #include <iostream>
 #include <memory>
 
+#include "ref/app/reproduce.hpp"
+#include "ref/base/parallel.hpp"
 #include "ref/cli/commands.hpp"
-#include "ref/parallel.hpp"
-#include "ref/reproduce.hpp"
 
 namespace rubref::cli {
 

@@ -2,10 +2,10 @@
 #include <iostream>
 #include <memory>
 
-#include "ref/atomic_output.hpp"
-#include "ref/errors.hpp"
+#include "ref/base/errors.hpp"
 #include "ref/cli/commands.hpp"
 #include "ref/cli/options.hpp"
+#include "ref/format/atomic_output.hpp"
 #include "ref/rig/rig.hpp"
 
 namespace rubref::cli {

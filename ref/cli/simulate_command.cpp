@@ -2,11 +2,11 @@
 #include <iostream>
 #include <memory>
 
-#include "ref/atomic_output.hpp"
+#include "ref/analysis/orbit_io.hpp"
+#include "ref/analysis/simulate.hpp"
 #include "ref/cli/commands.hpp"
 #include "ref/cli/options.hpp"
-#include "ref/orbit_io.hpp"
-#include "ref/simulate.hpp"
+#include "ref/format/atomic_output.hpp"
 
 namespace rubref::cli {
 
@@ -55,7 +55,7 @@ void add_simulate(CLI::App& app) {
     files.stage(summary, to_json(s, o).dump(2) + "\n");
     files.commit();
     std::cout << "wrote " << st->out << " (" << o.samples.size() << " samples) and " << summary << "\n";
-    if (const std::string w = coarse_contact_warning(o.counts); !w.empty()) std::cerr << w << "\n";
+    if (const std::string w = coarse_contact_warning(o.counts); !w.empty()) std::cerr << with_flags(w) << "\n";
   });
 }
 

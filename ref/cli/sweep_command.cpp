@@ -1,12 +1,12 @@
 #include <iostream>
 #include <memory>
 
-#include "ref/atomic_output.hpp"
+#include "ref/analysis/orbit_io.hpp"
+#include "ref/analysis/sweep_io.hpp"
+#include "ref/base/parallel.hpp"
 #include "ref/cli/commands.hpp"
-#include "ref/parallel.hpp"
 #include "ref/cli/options.hpp"
-#include "ref/orbit_io.hpp"
-#include "ref/sweep_io.hpp"
+#include "ref/format/atomic_output.hpp"
 
 namespace rubref::cli {
 
@@ -77,7 +77,7 @@ void add_sweep(CLI::App& app) {
     std::cout << "wrote " << dir.target().string() << "/{sweep.csv, waterfall_*.csv, summary.json}\n";
     for (const auto& b : branches)
       if (const std::string w = coarse_contact_warning(b.counts); !w.empty())
-        std::cerr << to_string(b.direction) << " branch, first at " << format_number(b.first_coarse_contact_rpm) << " rpm: " << w << "\n";
+        std::cerr << to_string(b.direction) << " branch, first at " << format_number(b.first_coarse_contact_rpm) << " rpm: " << with_flags(w) << "\n";
   });
 }
 

@@ -4,10 +4,10 @@
 #include <memory>
 #include <optional>
 
-#include "ref/atomic_output.hpp"
+#include "ref/base/errors.hpp"
 #include "ref/cli/commands.hpp"
 #include "ref/cli/options.hpp"
-#include "ref/errors.hpp"
+#include "ref/format/atomic_output.hpp"
 #include "ref/validation/validate.hpp"
 
 namespace rubref::cli {

@@ -5,7 +5,7 @@
 #include <cmath>
 #include <set>
 
-#include "ref/errors.hpp"
+#include "ref/base/errors.hpp"
 #include "ref/identification/frols.hpp"
 
 namespace rubref {
@@ -142,7 +142,7 @@ linear_fit fit_linear_part(const std::vector<const dwell*>& no_contact, double m
   for (const auto* d : no_contact) speeds.insert(d->rpm);
   if (speeds.size() < 2)
     throw input_error("the linear part needs dwells without contact at 2 or more speeds (found " + std::to_string(speeds.size()) +
-                      "); give it with --linear instead");
+                      "); give it as " + setting("linear") + " instead");
   linear_fit out;
   out.method = method;
   linear_rows lr;

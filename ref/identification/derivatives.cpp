@@ -6,7 +6,7 @@
 #include <map>
 #include <tuple>
 
-#include "ref/errors.hpp"
+#include "ref/base/errors.hpp"
 
 namespace rubref {
 

@@ -4,8 +4,8 @@
 #include <cmath>
 #include <limits>
 
-#include "ref/errors.hpp"
-#include "ref/state.hpp"
+#include "ref/base/errors.hpp"
+#include "ref/model/state.hpp"
 
 namespace rubref {
 

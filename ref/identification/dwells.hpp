@@ -5,7 +5,7 @@
 #include <string>
 #include <vector>
 
-#include "ref/record.hpp"
+#include "ref/format/record.hpp"
 
 namespace rubref {
 

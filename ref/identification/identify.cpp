@@ -9,9 +9,9 @@
 #include <random>
 #include <sstream>
 
-#include "ref/errors.hpp"
+#include "ref/base/errors.hpp"
+#include "ref/format/record.hpp"
 #include "ref/identification/term_library.hpp"
-#include "ref/record.hpp"
 
 namespace rubref {
 
@@ -67,7 +67,6 @@ constexpr double kBeyond1xFloor = 1e-9;  // m
 // at onset and separation, where the law is near 0).
 constexpr double kPullShare = 0.1;
 
-std::string format_value(double v) { return format_digits(v, 4); }
 
 // law_method::automatic: the samples route serves while its f_N's noise is below this share of
 // f_N's variance: a tenth of the paper's rho (1 %), so that noise can never pass for a term.
@@ -180,7 +179,7 @@ identification identify(const std::vector<std::pair<record, std::string>>& recor
   for (const auto& [r, name] : records) {
     for (auto& d : split_dwells(r, name)) {
       if (!(d.clearance > 0.0)) d.clearance = s.clearance;
-      if (!(d.clearance > 0.0)) throw input_error(name + ": no clearance_m metadata; give --clearance");
+      if (!(d.clearance > 0.0)) throw input_error(name + ": no clearance_m metadata; give " + setting("clearance"));
       // Dwell times on the shaft's angle (the unbalance phase and Eq. 1's forcing need it).
       align_by_keyphasor(d, notes);
       dwells.push_back(std::move(d));
@@ -264,10 +263,10 @@ identification identify_law(const std::vector<dwell>& dwells, const identify_set
     }
     const double share = force_sq > 0.0 ? noise_sq / force_sq : 1.0;
     id.law_route = share > kNoiseShareLimit ? law_method::weak_form : law_method::samples;
-    id.law_route_reason = "probe noise " + format_value(sigma) + " m is " + format_value(100.0 * share) +
-                          " % of f_N's variance on the samples route (limit " + format_value(100.0 * kNoiseShareLimit) + " %)";
+    id.law_route_reason = "probe noise " + format_digits(sigma) + " m is " + format_digits(100.0 * share) +
+                          " % of f_N's variance on the samples route (limit " + format_digits(100.0 * kNoiseShareLimit) + " %)";
   } else {
-    id.law_route_reason = "chosen (--law-method)";
+    id.law_route_reason = "chosen (law_method)";
   }
   const bool weak = id.law_route == law_method::weak_form;
 
@@ -337,7 +336,7 @@ identification identify_law(const std::vector<dwell>& dwells, const identify_set
     if (sys.A.rows() <= static_cast<Eigen::Index>(library.size()))
       throw input_error("weak form: " + std::to_string(sys.A.rows()) + " rows from " + std::to_string(sys.episodes) +
                         " contact episodes cannot rank " + std::to_string(library.size()) +
-                        " candidate terms (record more dwells or revolutions, or use --law-method samples)");
+                        " candidate terms (record more dwells or revolutions, or set " + setting("law_method") + " to samples)");
     P = sys.A;
     y = sys.b;
   } else {
@@ -536,8 +535,8 @@ identification identify_law(const std::vector<dwell>& dwells, const identify_set
       peak = std::max(peak, f), least = std::min(least, f);
     }
     if (!kept_terms.empty() && least < -kPullShare * peak)
-      id.warnings.push_back("the identified law pulls the rotor into the stator: its f_N falls to " + format_value(least) +
-                            " N over the contact samples (peak " + format_value(peak) + " N); a contact force cannot pull");
+      id.warnings.push_back("the identified law pulls the rotor into the stator: its f_N falls to " + format_digits(least) +
+                            " N over the contact samples (peak " + format_digits(peak) + " N); a contact force cannot pull");
   }
 
   // The start of either output-error stage: the identified linear part and the first dwell's
@@ -630,27 +629,27 @@ void add_warnings(identification& id, const identify_settings& s) {
     for (std::size_t i = 0; i < values.size(); ++i) {
       const auto& [name, v] = values[i];
       if (!(v > 0.0))
-        w.push_back(std::string("linear part: ") + name + " = " + format_value(v) + " is unphysical (damping and stiffness are > 0)");
+        w.push_back(std::string("linear part: ") + name + " = " + format_digits(v) + " is unphysical (damping and stiffness are > 0)");
       else if (v <= kInterval95 * se[i])
-        w.push_back(std::string("linear part: ") + name + " = " + format_value(v) + " ± " + format_value(se[i]) +
+        w.push_back(std::string("linear part: ") + name + " = " + format_digits(v) + " ± " + format_digits(se[i]) +
                     " (standard error) is not determined by the contact-free dwells");
     }
     const auto& beyond = id.linear_fitted->beyond_1x_rms;
     const double limit = std::max(kBeyond1xNoiseFactor * id.probe_noise, kBeyond1xFloor);
     for (std::size_t k = 0; k < beyond.size(); ++k)
       if (beyond[k] > limit)
-        w.push_back("linear part: contact-free dwell " + std::to_string(k + 1) + " has " + format_value(beyond[k]) +
-                    " m RMS beyond its 1X response, above 3x the probe noise (" + format_value(id.probe_noise) +
+        w.push_back("linear part: contact-free dwell " + std::to_string(k + 1) + " has " + format_digits(beyond[k]) +
+                    " m RMS beyond its 1X response, above 3x the probe noise (" + format_digits(id.probe_noise) +
                     " m): not a steady linear response (a transient, a nonlinearity or a second frequency)");
   }
   for (const auto& e : id.estimates) {
     if (e.name == "z1" && !(e.value > 0.0))
-      w.push_back("term " + e.name + ": k1 = " + format_value(e.value) + " N/m is unphysical (a contact stiffness is > 0)");
+      w.push_back("term " + e.name + ": k1 = " + format_digits(e.value) + " N/m is unphysical (a contact stiffness is > 0)");
     const bool bootstrap_across_zero = std::isfinite(e.ci_low) && std::isfinite(e.ci_high) && e.ci_low <= 0.0 && e.ci_high >= 0.0;
     if (bootstrap_across_zero || std::abs(e.value) <= kInterval95 * e.standard_error)
-      w.push_back("term " + e.name + " = " + format_value(e.value) + ": its 95 % interval contains 0 (standard error " +
-                  format_value(e.standard_error) + (std::isfinite(e.ci_low) ? ", bootstrap [" + format_value(e.ci_low) + ", " +
-                  format_value(e.ci_high) + "]" : std::string()) + "): the data do not determine it");
+      w.push_back("term " + e.name + " = " + format_digits(e.value) + ": its 95 % interval contains 0 (standard error " +
+                  format_digits(e.standard_error) + (std::isfinite(e.ci_low) ? ", bootstrap [" + format_digits(e.ci_low) + ", " +
+                  format_digits(e.ci_high) + "]" : std::string()) + "): the data do not determine it");
   }
   if (id.orbit && !id.orbit->converged)
     w.push_back("orbit fit: " + id.orbit->status + " (" + std::to_string(id.orbit->failed_evaluations) +
@@ -658,20 +657,20 @@ void add_warnings(identification& id, const identify_settings& s) {
   if (id.orbit && id.orbit->converged)
     for (const auto& p : id.orbit->parameters)
       if ((p.name == "mu" || p.name == "c_x" || p.name == "c_y" || p.name == "k_x" || p.name == "k_y") && !(p.value >= 0.0))  // the law's terms: above
-        w.push_back("orbit fit: " + p.name + " = " + format_value(p.value) + " is unphysical (friction, damping and stiffness are >= 0)");
+        w.push_back("orbit fit: " + p.name + " = " + format_digits(p.value) + " is unphysical (friction, damping and stiffness are >= 0)");
   if (id.orbit && id.orbit->converged && id.orbit->final_chi2 > orbit_chi2_limit(*id.orbit))
-    w.push_back("orbit fit: the averaged cycles leave " + format_value(id.orbit->final_chi2) + "x the residual the probe noise leaves (limit " +
-                format_value(orbit_chi2_limit(*id.orbit)) + "; RMS " + format_value(id.orbit->final_rms) +
+    w.push_back("orbit fit: the averaged cycles leave " + format_digits(id.orbit->final_chi2) + "x the residual the probe noise leaves (limit " +
+                format_digits(orbit_chi2_limit(*id.orbit)) + "; RMS " + format_digits(id.orbit->final_rms) +
                 " m): the model misses something (a term, an effect outside Eq. 1, a wrong linear part); intervals widened by its square root");
   if (id.weak && id.weak->chi2_per_dof > id.weak->chi2_limit && 1.0 - id.frols.err_sum_kept > kWeakUnexplained)
-    w.push_back("weak form: the residual variance is " + format_value(id.weak->chi2_per_dof) + "x what the probe noise leaves (limit " +
-                format_value(id.weak->chi2_limit) + " under noise alone), " + format_value(100.0 * (1.0 - id.frols.err_sum_kept)) +
+    w.push_back("weak form: the residual variance is " + format_digits(id.weak->chi2_per_dof) + "x what the probe noise leaves (limit " +
+                format_digits(id.weak->chi2_limit) + " under noise alone), " + format_digits(100.0 * (1.0 - id.frols.err_sum_kept)) +
                 " % of the integrals' variance: the law leaves what noise cannot explain (a missing term, an effect outside Eq. 1, "
                 "or a wrong linear part)");
   if (!(id.mu >= 0.0 && id.mu <= 1.0))
-    w.push_back("friction: mu = " + format_value(id.mu) + " is outside [0, 1]: implausible for a rub");
+    w.push_back("friction: mu = " + format_digits(id.mu) + " is outside [0, 1]: implausible for a rub");
   else if (id.dwells.size() > 1 && id.mu_spread > id.mu_mean)
-    w.push_back("friction: the per-speed means of mu scatter by " + format_value(id.mu_spread) + " around " + format_value(id.mu_mean) +
+    w.push_back("friction: the per-speed means of mu scatter by " + format_digits(id.mu_spread) + " around " + format_digits(id.mu_mean) +
                 ": not determined by the data");
   std::string failed;
   for (const auto& t : id.validity)
@@ -681,7 +680,7 @@ void add_warnings(identification& id, const identify_settings& s) {
   // residual is the derivatives' truncation error, correlated but ~1e-6 of the force.
   const double unexplained = id.force_rms > 0.0 ? std::pow(id.residual_rms / id.force_rms, 2) : 0.0;
   if (!failed.empty() && unexplained > s.frols.rho)
-    w.push_back("residual tests failed (" + failed + ") with " + format_value(100.0 * unexplained) +
+    w.push_back("residual tests failed (" + failed + ") with " + format_digits(100.0 * unexplained) +
                 " % of the force's variance unexplained: the law leaves structure in the residual, or noise dominates the forces");
   if (id.reid) {
     const auto& r = *id.reid;
@@ -695,8 +694,8 @@ void add_warnings(identification& id, const identify_settings& s) {
       w.push_back("re-identification: the start (FROLS's law) does not simulate (" + r.failure + ")");
     for (const auto& p : r.parameters) {
       if (p.at_bound)
-        w.push_back("re-identification: " + p.name + " = " + format_value(p.value) + " is at its bound (0 or 10x its start " +
-                    format_value(p.initial) + ")");
+        w.push_back("re-identification: " + p.name + " = " + format_digits(p.value) + " is at its bound (0 or 10x its start " +
+                    format_digits(p.initial) + ")");
     }
   }
 }

@@ -24,7 +24,7 @@
 #include "ref/identification/output_error.hpp"
 #include "ref/identification/validity.hpp"
 #include "ref/identification/weak_form.hpp"
-#include "ref/parameters.hpp"
+#include "ref/model/parameters.hpp"
 
 namespace rubref {
 

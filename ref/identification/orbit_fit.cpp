@@ -6,11 +6,11 @@
 #include <limits>
 #include <unsupported/Eigen/LevenbergMarquardt>
 
-#include "ref/errors.hpp"
+#include "ref/base/errors.hpp"
+#include "ref/base/parallel.hpp"
 #include "ref/identification/output_error.hpp"
 #include "ref/integrate/hybrid_integrator.hpp"
 #include "ref/integrate/shooting.hpp"
-#include "ref/parallel.hpp"
 #include "variants/identified.hpp"
 
 namespace rubref {

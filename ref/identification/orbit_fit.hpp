@@ -25,7 +25,7 @@
 #include <vector>
 
 #include "ref/identification/contact_forces.hpp"
-#include "ref/parameters.hpp"
+#include "ref/model/parameters.hpp"
 
 namespace rubref {
 

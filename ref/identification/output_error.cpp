@@ -8,10 +8,10 @@
 #include <nlopt.hpp>
 #include <sstream>
 
-#include "ref/errors.hpp"
+#include "ref/base/errors.hpp"
+#include "ref/base/parallel.hpp"
 #include "ref/integrate/hybrid_integrator.hpp"
 #include "ref/integrate/shooting.hpp"
-#include "ref/parallel.hpp"
 #include "variants/identified.hpp"
 
 namespace rubref {

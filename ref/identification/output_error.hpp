@@ -15,7 +15,7 @@
 
 #include "ref/identification/contact_forces.hpp"
 #include "ref/integrate/hybrid_integrator.hpp"
-#include "ref/parameters.hpp"
+#include "ref/model/parameters.hpp"
 
 namespace rubref {
 

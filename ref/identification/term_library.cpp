@@ -3,8 +3,8 @@
 #include <charconv>
 #include <cmath>
 
-#include "ref/errors.hpp"
-#include "ref/record.hpp"
+#include "ref/base/errors.hpp"
+#include "ref/format/record.hpp"
 
 namespace rubref {
 

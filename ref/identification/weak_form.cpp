@@ -4,7 +4,7 @@
 #include <array>
 #include <cmath>
 
-#include "ref/errors.hpp"
+#include "ref/base/errors.hpp"
 
 namespace rubref {
 

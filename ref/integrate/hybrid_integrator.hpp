@@ -23,10 +23,11 @@
 #include <sstream>
 #include <string>
 
-#include "ref/errors.hpp"
-#include "ref/integrate/free_flight.hpp"
+#include "ref/base/errors.hpp"
+#include "ref/base/number_text.hpp"
 #include "ref/integrate/steppers.hpp"
-#include "ref/rotor_model.hpp"
+#include "ref/model/free_flight.hpp"
+#include "ref/model/rotor_model.hpp"
 #include "variants/all_variants.hpp"
 
 namespace rubref {
@@ -80,7 +81,7 @@ concept contact_system = odeint_system<S> && requires(const S sys, const state_o
   { sys.clearance() } -> std::same_as<double>;
 };
 
-// A model whose free flight is linear says so (ref/integrate/free_flight.hpp): its dynamics, or
+// A model whose free flight is linear says so (ref/model/free_flight.hpp): its dynamics, or
 // nothing when a nonlinear term acts out of contact too.
 template <class S>
 concept linear_free_flight = requires(const S sys) {
@@ -90,7 +91,7 @@ concept linear_free_flight = requires(const S sys) {
 struct event_settings {
   double time_tolerance = 1e-13;   // s, width of the bracket around each event (issue: <= 1e-12 s)
   // An exact free-flight arc passes over no contact episode deeper than this fraction of the
-  // clearance (ref/integrate/free_flight.hpp): 3e-16 m at the paper's 0.3 mm.
+  // clearance (ref/model/free_flight.hpp): 3e-16 m at the paper's 0.3 mm.
   double min_depth_fraction = 1e-12;
   double stick_velocity = 1e-6;    // m/s, rebound speed below which chatter ends in sticking
   double max_events_per_rev = 1e3; // more is an accumulation that does not terminate: an error
@@ -99,7 +100,7 @@ struct event_settings {
 struct integration_options {
   stepper_settings stepper;
   event_settings events;
-  // Free flight in closed form where the model's is linear (ref/integrate/free_flight.hpp); else,
+  // Free flight in closed form where the model's is linear (ref/model/free_flight.hpp); else,
   // and with false, the stepper integrates it too.
   bool exact_free_flight = true;
   std::size_t max_steps = 0;  // accepted steps per call before a numerical_error (0: no limit);
@@ -152,23 +153,11 @@ struct null_observer {
 
 namespace detail {
 
-// A step or time in messages: 4 significant digits whatever its size (std::to_string prints a
-// 1e-20 s step as "0.000000").
-inline std::string seconds_text(double v) {
-  std::ostringstream out;
-  out.precision(4);
-  out << v;
-  return out.str();
-}
-
 template <std::size_t N>
 std::string describe_state(double t, const std::array<double, N>& s) {
-  std::ostringstream out;
-  out.precision(17);
-  out << "t = " << t << " s, state (x, y, vx, vy" << (N > 4 ? ", ..." : "") << ") = (";
-  for (std::size_t i = 0; i < N; ++i) out << (i ? ", " : "") << s[i];
-  out << ")";
-  return out.str();
+  std::string out = "t = " + format_digits(t, 17) + " s, state (x, y, vx, vy" + (N > 4 ? ", ..." : "") + ") = (";
+  for (std::size_t i = 0; i < N; ++i) out += (i ? ", " : "") + format_digits(s[i], 17);
+  return out + ")";
 }
 
 template <contact_system System>
@@ -322,7 +311,7 @@ basic_hybrid_state<state_of<System>> hybrid_loop(const System& base, Stepper& st
     }
   };
 
-  // Exact free flight (ref/integrate/free_flight.hpp) where the model's is linear.
+  // Exact free flight (ref/model/free_flight.hpp) where the model's is linear.
   auto exact = exact_free_flight_of(base, opt.exact_free_flight);
   const double min_depth = opt.events.min_depth_fraction * base.clearance();
   double step_hint = first_dt;  // the next numeric step's size
@@ -436,7 +425,7 @@ basic_hybrid_state<state_of<System>> hybrid_loop(const System& base, Stepper& st
       throw numerical_error("more than " + std::to_string(opt.max_steps) + " steps at " + describe_state(tb, st.current_state()));
     const double next_dt = st.current_time_step();
     if (!(next_dt > 16.0 * std::numeric_limits<double>::epsilon() * std::max(1.0, std::abs(tb))))
-      throw numerical_error("step size underflow (dt = " + seconds_text(next_dt) + " s) at " +
+      throw numerical_error("step size underflow (dt = " + format_digits(next_dt) + " s) at " +
                             describe_state(tb, st.current_state()));
 
     if constexpr (requires { sys.contact_rate(st.current_state()); }) {
@@ -474,7 +463,7 @@ basic_hybrid_state<state_of<System>> hybrid_loop(const System& base, Stepper& st
         // whole episode inside one step: an adaptive step is accurate through it by its error
         // control, a fixed rk4 step has not resolved it and its result cannot be trusted.
         if (!adaptive && sys.phase() == contact_phase::contact)
-          throw numerical_error("the fixed rk4 step (dt = " + seconds_text(opt.stepper.dt) +
+          throw numerical_error("the fixed rk4 step (dt = " + format_digits(opt.stepper.dt) +
                                 " s) does not resolve a contact episode: it began and ended within one step from " +
                                 describe_state(ta, hs.s) + "; use a smaller dt or an adaptive stepper");
         double t_in = ta, h_in = 0.0;

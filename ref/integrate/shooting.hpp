@@ -2,7 +2,7 @@
 // Periodic orbits by shooting (docs/orbits.md). A steady orbit of period n T (T = 2 pi / |w|) is a
 // fixed point of the n-revolution map P: s(t0) -> s(t0 + n T). Newton on P(s) - s = 0 needs
 // the monodromy M = dP/ds, here exact to the integrator's accuracy:
-//  - free arcs: e^{A tau}, in closed form (ref/integrate/free_flight.hpp);
+//  - free arcs: e^{A tau}, in closed form (ref/model/free_flight.hpp);
 //  - contact and stuck phases: the variational equations Phi' = J(s) Phi beside the state;
 //  - at each event, the saltation matrix S = R + (f+ - R f-) g^T / (g . f-), with g the gradient
 //    of the event's function (z), f-/f+ the vector fields before and after, R the reset's Jacobian
@@ -23,9 +23,9 @@
 #include <string>
 #include <vector>
 
-#include "ref/errors.hpp"
-#include "ref/integrate/free_flight.hpp"
+#include "ref/base/errors.hpp"
 #include "ref/integrate/hybrid_integrator.hpp"
+#include "ref/model/free_flight.hpp"
 
 namespace rubref {
 
@@ -267,13 +267,6 @@ struct periodic_orbit {
 // Newton on P(s) - s = 0 from `guess` at t0, with backtracking when a step does not reduce the
 // residual (a contact that the step creates or removes makes P non-smooth). Never throws for a
 // failed iteration: the result says why (`failure`).
-namespace detail {
-inline std::string format_metres(double v) {
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%.3g m", v);
-  return buf;
-}
-}  // namespace detail
 
 template <differentiable_system System>
 periodic_orbit<static_cast<int>(std::tuple_size_v<state_of<System>>)> shoot_periodic_orbit(const System& sys, const state_of<System>& guess,
@@ -339,7 +332,7 @@ periodic_orbit<static_cast<int>(std::tuple_size_v<state_of<System>>)> shoot_peri
     if (!f || !(res < best_res)) {
       // Worse than the best point: a shorter step from it.
       if (!at_best || damping < 1.0 / 64.0) {
-        if (out.failure.empty()) out.failure = "Newton's steps stopped reducing the residual (" + detail::format_metres(best_res) + ")";
+        if (out.failure.empty()) out.failure = "Newton's steps stopped reducing the residual (" + (format_digits(best_res, 3) + " m") + ")";
         break;
       }
       damping *= 0.5;
@@ -390,7 +383,7 @@ periodic_orbit<static_cast<int>(std::tuple_size_v<state_of<System>>)> shoot_peri
               [](const auto& a, const auto& b) { return std::abs(a) > std::abs(b); });
   }
   if (!out.converged && out.failure.empty())
-    out.failure = "no convergence in " + std::to_string(set.max_iterations) + " Newton iterations (residual " + detail::format_metres(best_res) + ")";
+    out.failure = "no convergence in " + std::to_string(set.max_iterations) + " Newton iterations (residual " + (format_digits(best_res, 3) + " m") + ")";
   return out;
 }
 

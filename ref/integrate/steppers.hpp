@@ -33,8 +33,8 @@
 #include <string_view>
 #include <utility>
 
-#include "ref/errors.hpp"
-#include "ref/state.hpp"
+#include "ref/base/errors.hpp"
+#include "ref/model/state.hpp"
 
 namespace rubref {
 
@@ -119,7 +119,7 @@ class rk4_dense {
         half_turn_ = phasor_of(0.5 * sys.omega() * dt_);
       }
       if (since_sync_ >= kPhasorResync) {
-        phasor_ = phasor_of(sys.forcing_angle(t_prev_));  // (ref/state.hpp)
+        phasor_ = phasor_of(sys.forcing_angle(t_prev_));  // (ref/model/state.hpp)
         since_sync_ = 0;
       }
       phasor_prev_ = phasor_;

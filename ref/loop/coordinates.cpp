@@ -4,7 +4,7 @@
 #include <cmath>
 #include <numbers>
 
-#include "ref/errors.hpp"
+#include "ref/base/errors.hpp"
 
 namespace rubref {
 

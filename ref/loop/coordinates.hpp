@@ -10,7 +10,7 @@
 #include <vector>
 
 #include "ref/loop/predictor.hpp"
-#include "ref/rig/effects.hpp"
+#include "ref/model/effects.hpp"
 
 namespace rubref {
 

@@ -4,7 +4,7 @@
 #include <cmath>
 #include <limits>
 
-#include "ref/errors.hpp"
+#include "ref/base/errors.hpp"
 #include "ref/loop/paper_fit.hpp"
 
 namespace rubref {

@@ -11,11 +11,11 @@
 #include <utility>
 #include <vector>
 
+#include "ref/format/record.hpp"
 #include "ref/loop/fit.hpp"
 #include "ref/loop/preprocess.hpp"
 #include "ref/loop/residuals.hpp"
 #include "ref/loop/trace.hpp"
-#include "ref/record.hpp"
 
 namespace rubref {
 

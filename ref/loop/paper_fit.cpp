@@ -4,7 +4,7 @@
 #include <cmath>
 #include <complex>
 
-#include "ref/errors.hpp"
+#include "ref/base/errors.hpp"
 #include "ref/identification/identify.hpp"
 
 namespace rubref {

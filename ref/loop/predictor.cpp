@@ -4,9 +4,9 @@
 #include <cmath>
 #include <numbers>
 
-#include "ref/errors.hpp"
+#include "ref/base/errors.hpp"
+#include "ref/base/parallel.hpp"
 #include "ref/integrate/shooting.hpp"
-#include "ref/parallel.hpp"
 
 namespace rubref {
 

@@ -1,7 +1,7 @@
 #pragma once
 // Stage 2 of `rubref loop` (docs/loop.md): what the model predicts the probes read. The model is
 // the paper's rotor with the identified law (Eq. 1, 2, 5) plus any set of the library's effects
-// (`rotor_with_effects`, ref/rotor_model.hpp), seen through probes that may be turned and read a
+// (`rotor_with_effects`, ref/model/rotor_model.hpp), seen through probes that may be turned and read a
 // runout (ref/rig/probes.hpp).
 //
 // Every dwell is taken as steady and synchronous: its orbit repeats each revolution. The model's
@@ -22,10 +22,10 @@
 
 #include "ref/integrate/hybrid_integrator.hpp"
 #include "ref/loop/preprocess.hpp"
-#include "ref/parameters.hpp"
-#include "ref/rig/effects.hpp"
+#include "ref/model/effects.hpp"
+#include "ref/model/parameters.hpp"
+#include "ref/model/rotor_model.hpp"
 #include "ref/rig/probes.hpp"
-#include "ref/rotor_model.hpp"
 #include "variants/identified.hpp"
 
 namespace rubref {

@@ -4,8 +4,8 @@
 #include <cmath>
 #include <complex>
 
-#include "ref/errors.hpp"
-#include "ref/parameters.hpp"
+#include "ref/base/errors.hpp"
+#include "ref/model/parameters.hpp"
 
 namespace rubref {
 
@@ -57,7 +57,7 @@ prepared_dwells prepare_dwells(const std::vector<std::pair<record, std::string>>
   for (const auto& [r, name] : records) {
     for (auto& d : split_dwells(r, name)) {
       if (!(d.clearance > 0.0)) d.clearance = clearance;
-      if (!(d.clearance > 0.0)) throw input_error(name + ": no clearance_m metadata; give the clearance");
+      if (!(d.clearance > 0.0)) throw input_error(name + ": no clearance_m metadata; give " + setting("clearance"));
       loop_dwell ld{std::move(d), name};
       align_by_keyphasor(ld, out.notes);
       all.push_back(std::move(ld));

@@ -9,8 +9,8 @@
 #include <utility>
 #include <vector>
 
+#include "ref/format/record.hpp"
 #include "ref/identification/dwells.hpp"
-#include "ref/record.hpp"
 
 namespace rubref {
 

@@ -3,7 +3,7 @@
 #include <cmath>
 #include <sstream>
 
-#include "ref/parameter_io.hpp"
+#include "ref/model/parameter_io.hpp"
 
 namespace rubref {
 

@@ -4,7 +4,7 @@
 #include <cmath>
 #include <limits>
 
-#include "ref/record.hpp"
+#include "ref/format/record.hpp"
 
 namespace rubref {
 

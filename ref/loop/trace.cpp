@@ -5,9 +5,9 @@
 #include <map>
 #include <optional>
 
+#include "ref/format/record.hpp"
 #include "ref/loop/residuals.hpp"
 #include "ref/loop/search.hpp"
-#include "ref/record.hpp"
 
 namespace rubref {
 

@@ -8,10 +8,10 @@
 #include <limits>
 #include <optional>
 
-#include "ref/errors.hpp"
+#include "ref/base/errors.hpp"
+#include "ref/format/record.hpp"
 #include "ref/integrate/shooting.hpp"
 #include "ref/orbits/periodic_orbit.hpp"
-#include "ref/record.hpp"
 #include "variants/all_variants.hpp"
 
 namespace rubref {
@@ -74,7 +74,7 @@ run_request request_at(const continuation_request& req, double parameter) {
 
 void validate(const continuation_request& req) {
   const std::string name(to_string(req.parameter));
-  require(std::isfinite(req.from) && std::isfinite(req.to), "continuation range --from/--to must be finite");
+  require(std::isfinite(req.from) && std::isfinite(req.to), "continuation range " + setting("from") + "/" + setting("to") + " must be finite");
   require(req.from < req.to, "continuation range must have from < to (got from " + format_digits(req.from, 10) + ", to " +
                                  format_digits(req.to, 10) + "; to trace down, keep from < to and set the direction down)");
   require(req.periods >= 1 && req.periods <= 64, "periods must be in [1, 64] (got " + std::to_string(req.periods) + ")");
@@ -338,7 +338,7 @@ class branch_tracer {
         return e;
       }
       if (it >= 2 && !(res < last)) {
-        failure_ = "the corrector stopped converging (residual " + detail::format_metres(res) + ")";
+        failure_ = "the corrector stopped converging (residual " + (format_digits(res, 3) + " m") + ")";
         return std::nullopt;
       }
       last = res;
@@ -412,7 +412,7 @@ class branch_tracer {
       // shallower than the integrator's min_depth is passed over by design).
       if (p.max_z > set_.integration.events.min_depth_fraction * r.params.delta)
         throw numerical_error("continuation: the orbit at " + std::string(column_name(req_.parameter)) + " = " +
-                              format_digits(p.parameter, 10) + " reaches " + detail::format_metres(p.max_z) +
+                              format_digits(p.parameter, 10) + " reaches " + (format_digits(p.max_z, 3) + " m") +
                               " into the stator without a contact event");
     }
     return p;

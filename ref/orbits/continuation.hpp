@@ -9,8 +9,8 @@
 #include <string_view>
 #include <vector>
 
-#include "ref/orbit_summary.hpp"
-#include "ref/simulate.hpp"
+#include "ref/analysis/orbit_summary.hpp"
+#include "ref/analysis/simulate.hpp"
 
 namespace rubref {
 

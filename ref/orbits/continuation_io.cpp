@@ -1,8 +1,8 @@
 #include "ref/orbits/continuation_io.hpp"
 
-#include "ref/parameter_io.hpp"
-#include "ref/record.hpp"
-#include "ref/version.hpp"
+#include "ref/base/version.hpp"
+#include "ref/format/record.hpp"
+#include "ref/model/parameter_io.hpp"
 
 namespace rubref {
 

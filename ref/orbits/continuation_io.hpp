@@ -4,8 +4,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include "ref/format/table.hpp"
 #include "ref/orbits/continuation.hpp"
-#include "ref/table.hpp"
 
 namespace rubref {
 

@@ -2,9 +2,9 @@
 
 #include <cmath>
 
-#include "ref/errors.hpp"
+#include "ref/base/errors.hpp"
+#include "ref/format/record.hpp"
 #include "ref/integrate/shooting.hpp"
-#include "ref/record.hpp"
 #include "variants/all_variants.hpp"
 
 namespace rubref {

@@ -8,7 +8,7 @@
 #include <string>
 #include <vector>
 
-#include "ref/simulate.hpp"
+#include "ref/analysis/simulate.hpp"
 
 namespace rubref {
 

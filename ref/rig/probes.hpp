@@ -1,12 +1,12 @@
 #pragma once
-// What the virtual rig's probes read (measurement-only effects of ref/rig/effects.hpp): the
-// rotor model (ref/rotor_model.hpp) moves the shaft, the probes see it through these.
+// What the virtual rig's probes read (measurement-only effects of ref/model/effects.hpp): the
+// rotor model (ref/model/rotor_model.hpp) moves the shaft, the probes see it through these.
 
 #include <array>
 #include <cmath>
 #include <numbers>
 
-#include "ref/rig/effects.hpp"
+#include "ref/model/effects.hpp"
 
 namespace rubref {
 

@@ -6,19 +6,18 @@
 #include <numbers>
 #include <random>
 
-#include "ref/errors.hpp"
-#include "ref/record.hpp"
-#include "ref/parallel.hpp"
-#include "ref/parameter_io.hpp"
-#include "ref/simulate.hpp"
-#include "ref/version.hpp"
+#include "ref/analysis/simulate.hpp"
+#include "ref/base/errors.hpp"
+#include "ref/base/parallel.hpp"
+#include "ref/base/version.hpp"
+#include "ref/format/record.hpp"
+#include "ref/model/parameter_io.hpp"
 #include "variants/all_variants.hpp"
 
 namespace rubref {
 
 namespace {
 
-std::string str(double v) { return format_number(v); }  // shortest text that reads back exactly
 
 struct truth_samples {
   std::vector<std::array<double, 6>> s;
@@ -77,13 +76,13 @@ void validate(const rig_request& req) {
   require(compliant, "the rig's truth needs a contact force law; '" + req.variant + "' is an impact map");
   require(!req.speeds_rpm.empty(), "the rig needs at least one speed");
   for (const double rpm : req.speeds_rpm)
-    require(std::isfinite(rpm) && rpm > 0.0 && rpm <= kMaxSpeedRpm, "speed " + str(rpm) + " rpm must be finite, > 0 and <= " + str(kMaxSpeedRpm));
+    require(std::isfinite(rpm) && rpm > 0.0 && rpm <= kMaxSpeedRpm, "speed " + format_number(rpm) + " rpm must be finite, > 0 and <= " + format_number(kMaxSpeedRpm));
   require(req.settle_revs >= 0, "settle-revs must be >= 0");
   require(req.record_revs >= 1, "revs must be >= 1");
   const auto& pr = req.probes;
-  require(std::isfinite(pr.sample_rate) && pr.sample_rate > 0.0 && pr.sample_rate <= 1e7, "sample rate must be in (0, 1e7] Hz (got " + str(pr.sample_rate) + ")");
-  require(std::isfinite(pr.noise) && pr.noise >= 0.0, "probe noise must be finite and >= 0 (got " + str(pr.noise) + ")");
-  require(std::isfinite(pr.quantisation) && pr.quantisation >= 0.0, "quantisation must be finite and >= 0 (got " + str(pr.quantisation) + ")");
+  require(std::isfinite(pr.sample_rate) && pr.sample_rate > 0.0 && pr.sample_rate <= 1e7, "sample rate must be in (0, 1e7] Hz (got " + format_number(pr.sample_rate) + ")");
+  require(std::isfinite(pr.noise) && pr.noise >= 0.0, "probe noise must be finite and >= 0 (got " + format_number(pr.noise) + ")");
+  require(std::isfinite(pr.quantisation) && pr.quantisation >= 0.0, "quantisation must be finite and >= 0 (got " + format_number(pr.quantisation) + ")");
   require(std::isfinite(pr.keyphasor_angle), "keyphasor angle must be finite");
   require(pr.keyphasor || req.time_base == rig_time_base::shaft,
           "a record without a keyphasor needs shaft-synchronous time (time base 'shaft'), else no tool can tell the shaft angle");
@@ -97,7 +96,7 @@ void validate(const rig_request& req) {
     for (const auto& q : e.parameters) {
       const double v = req.effects.*q.member;
       require(std::isfinite(v) && ((q.is_switch && v == q.off) || (v >= q.lo && v <= q.hi)),
-              "effect " + std::string(e.name) + ": " + std::string(q.key) + " = " + str(v) + " is outside [" + str(q.lo) + ", " + str(q.hi) + "]");
+              "effect " + std::string(e.name) + ": " + std::string(q.key) + " = " + format_number(v) + " is outside [" + format_number(q.lo) + ", " + format_number(q.hi) + "]");
     }
   double samples = 0.0;
   for (const double rpm : req.speeds_rpm) samples += req.record_revs * 60.0 / rpm * pr.sample_rate;

@@ -1,6 +1,6 @@
 #pragma once
 // The virtual test rig (`rubref rig`, docs/loop.md): a lab rotor kit as two proximity probes see
-// it. The truth is the paper's model plus any set of library effects (ref/rig/effects.hpp); the
+// it. The truth is the paper's model plus any set of library effects (ref/model/effects.hpp); the
 // probes sample it at a fixed rate, not synchronised with the shaft, add their runout and white
 // noise, are turned by their misorientation, and quantise; a keyphasor marks each revolution.
 // The record states what a lab would write down (clearance, sample rate, speeds), never the
@@ -10,12 +10,12 @@
 #include <string>
 #include <vector>
 
+#include "ref/format/record.hpp"
 #include "ref/integrate/hybrid_integrator.hpp"
-#include "ref/parameters.hpp"
-#include "ref/record.hpp"
-#include "ref/rig/effects.hpp"
+#include "ref/model/effects.hpp"
+#include "ref/model/parameters.hpp"
+#include "ref/model/rotor_model.hpp"
 #include "ref/rig/probes.hpp"
-#include "ref/rotor_model.hpp"
 
 namespace rubref {
 

@@ -10,9 +10,9 @@
 #include <optional>
 #include <sstream>
 
-#include "ref/errors.hpp"
+#include "ref/base/errors.hpp"
+#include "ref/base/parallel.hpp"
 #include "ref/integrate/shooting.hpp"
-#include "ref/parallel.hpp"
 #include "variants/all_variants.hpp"
 
 namespace rubref {
@@ -24,12 +24,6 @@ constexpr double kTwoPi = 2.0 * std::numbers::pi;
 constexpr double kStandardGravity = 9.80665;  // m/s^2
 constexpr double kMaxStaticLoad = 3.0;        // m g: the static loads searched (gravity, a bearing offset)
 
-std::string num(double v, int digits = 4) {
-  std::ostringstream out;
-  out.precision(digits);
-  out << v;
-  return out.str();
-}
 
 double period_of(const golden_case& g) { return 60.0 / g.request.rpm; }
 
@@ -413,8 +407,8 @@ struct diagnosis {
                      confirmed_ ? 0 : evidence});
   }
   std::string reproduces(const model_fit& f) const {
-    return f.max <= tolerance ? "reproduces the candidate to " + num(f.max, 2) + " m (tolerance " + num(tolerance, 3) + " m)"
-                              : "comes closest, " + num(f.rms, 2) + " m RMS (" + num(baseline_rms / f.rms, 2) + " times closer than the case)";
+    return f.max <= tolerance ? "reproduces the candidate to " + format_digits(f.max, 2) + " m (tolerance " + format_digits(tolerance, 3) + " m)"
+                              : "comes closest, " + format_digits(f.rms, 2) + " m RMS (" + format_digits(baseline_rms / f.rms, 2) + " times closer than the case)";
   }
 
   // Where a hypothesis's orbit is shot from: the candidate's own state (with its own period when
@@ -459,7 +453,7 @@ void diagnosis::header_stage() {
       return;
     }
     if (std::abs(got - want) <= 1e-9 * std::abs(want)) return;
-    differ.push_back(std::string(key) + " " + num(got, 8) + " (the case's is " + num(want, 8) + ")");
+    differ.push_back(std::string(key) + " " + format_digits(got, 8) + " (the case's is " + format_digits(want, 8) + ")");
     fitted[std::string(key)] = got;
     apply(got);
   };
@@ -496,7 +490,7 @@ int diagnosis::periodicity_stage() {
   }
   if (pc == 0) {
     add(cause_code::non_periodic, false,
-        "the candidate does not repeat itself within its " + num(spanned_revolutions(g, c), 3) + " revolutions where the case's orbit repeats every " +
+        "the candidate does not repeat itself within its " + format_digits(spanned_revolutions(g, c), 3) + " revolutions where the case's orbit repeats every " +
             std::to_string(g.period_revs) + ": it has not settled, or it is chaotic; " + advice,
         {{"candidate_period_revs", 0}}, 2);
     return pc;
@@ -522,8 +516,8 @@ int diagnosis::periodicity_stage() {
     if (f.converged && f.max_multiplier < 1.0 && (f.max <= tolerance || f.rms * kLikelyReduction <= baseline_rms)) {
       const bool ok = f.max <= tolerance;
       add(cause_code::other_attractor, ok,
-          "the case's own model has a stable period-" + std::to_string(pc) + " orbit (largest multiplier " + num(f.max_multiplier, 3) + ") that " +
-              (ok ? "reproduces the candidate to " + num(f.max, 2) + " m" : "comes within " + num(f.rms, 2) + " m RMS of the candidate") +
+          "the case's own model has a stable period-" + std::to_string(pc) + " orbit (largest multiplier " + format_digits(f.max_multiplier, 3) + ") that " +
+              (ok ? "reproduces the candidate to " + format_digits(f.max, 2) + " m" : "comes within " + format_digits(f.rms, 2) + " m RMS of the candidate") +
               ": the candidate settled there, not on the orbit from rest (period " + std::to_string(g.period_revs) + ")" +
               (ok ? "" : ", and differs from it a little more") + "; " + advice,
           {{"candidate_period_revs", pc}, {"max_multiplier", f.max_multiplier}, {"max_error_m", f.max}});
@@ -628,13 +622,13 @@ std::optional<transform_fit> diagnosis::transform_stage() {
   }
   const model_fit f = evaluate(case_hypothesis(g), back, {golden_start(g)});
   const bool ok = f.converged && f.max <= tolerance;
-  const std::string verdict = f.converged ? (ok ? ": with it the golden orbit reproduces the candidate to " + num(f.max, 2) + " m"
-                                                : ": with it the golden orbit comes within " + num(f.rms, 2) + " m RMS of the candidate")
+  const std::string verdict = f.converged ? (ok ? ": with it the golden orbit reproduces the candidate to " + format_digits(f.max, 2) + " m"
+                                                : ": with it the golden orbit comes within " + format_digits(f.rms, 2) + " m RMS of the candidate")
                                           : "";
   const double tau_fold = fold(best.tau, T);
   if (best.scale != 1.0)
     add(cause_code::units, ok,
-        "the candidate's displacements are " + num(best.scale, 6) + " times the golden's: written in " + std::string(best.unit) +
+        "the candidate's displacements are " + format_digits(best.scale, 6) + " times the golden's: written in " + std::string(best.unit) +
             ", not m" + verdict + "; the record's columns are SI (x_m, y_m)",
         {{"factor", best.scale}, {"unit", best.unit}});
   const bool half_turn = best.map == 1 && shifted && std::abs(std::abs(tau_fold) - T / 2) <= 1e-3 * T;
@@ -651,16 +645,16 @@ std::optional<transform_fit> diagnosis::transform_stage() {
     if (shifted) {
       const double phase_deg = fold(best.tau * g.omega(), kTwoPi) * 180.0 / std::numbers::pi;
       add(cause_code::time_origin_or_unbalance_phase, ok,
-          "the candidate is the golden orbit " + num(tau_fold, 6) + " s (" + num(phase_deg, 4) +
+          "the candidate is the golden orbit " + format_digits(tau_fold, 6) + " s (" + format_digits(phase_deg, 4) +
               " deg of shaft rotation) " + (tau_fold > 0 ? "later" : "earlier") + " in phase" + verdict +
-              ": its times count from another origin, or its unbalance starts at phase " + num(phase_deg, 4) +
+              ": its times count from another origin, or its unbalance starts at phase " + format_digits(phase_deg, 4) +
               " deg; rubref's t is absolute from rest and the force is m e w^2 (cos wt, sin wt)",
           {{"time_shift_s", tau_fold}, {"unbalance_phase_deg", phase_deg}});
     }
   }
   if (offset)
     add(cause_code::static_offset, ok,
-        "the candidate is the golden orbit moved by (" + num(best.bx, 4) + ", " + num(best.by, 4) + ") m" + verdict +
+        "the candidate is the golden orbit moved by (" + format_digits(best.bx, 4) + ", " + format_digits(best.by, 4) + ") m" + verdict +
             (ok ? ": a constant offset of its output (another origin)" : ": a static load (gravity?) or an offset of its origin"),
         {{"offset_x_m", best.bx}, {"offset_y_m", best.by}});
   return best;
@@ -804,23 +798,23 @@ void diagnosis::refit_stage(const std::optional<transform_fit>& transform) {
       case cause_code::friction_coefficient:
         if (value < 0.0) {
           add(cause_code::friction_sign, ok,
-              "rubref with f_x = -mu f_N (mu = " + num(-value) + ") " + fit_text +
+              "rubref with f_x = -mu f_N (mu = " + format_digits(-value) + ") " + fit_text +
                   "; for a shaft spinning counter-clockwise (x towards y) the stator pushes the rotor's top towards +x, f_x = +mu f_N (docs/model.md)",
               fitted);
         } else {
-          add(cause_code::friction_coefficient, ok, "rubref with mu = " + num(value) + " instead of " + num(p.mu) + " " + fit_text, fitted);
+          add(cause_code::friction_coefficient, ok, "rubref with mu = " + format_digits(value) + " instead of " + format_digits(p.mu) + " " + fit_text, fitted);
         }
         break;
       case cause_code::contact_law_form:
         add(cause_code::contact_law_form, ok,
-            "rubref with c2 |z_dot| z_dot (a damper, c2 = " + num(value) + " kg/m) in place of Eq. 5's c2 z_dot^2 " + fit_text +
+            "rubref with c2 |z_dot| z_dot (a damper, c2 = " + format_digits(value) + " kg/m) in place of Eq. 5's c2 z_dot^2 " + fit_text +
                 "; Eq. 5's term has the same sign in and out of contact (docs/model.md)",
             fitted);
         break;
       case cause_code::rotation_sense:
         add(cause_code::rotation_sense, ok,
             "rubref with the unbalance turning clockwise, m e w^2 (cos(-wt + phi), sin(-wt + phi)) with phi = " +
-                num(value * 180.0 / std::numbers::pi, 4) + " deg (friction as rubref's) " + fit_text +
+                format_digits(value * 180.0 / std::numbers::pi, 4) + " deg (friction as rubref's) " + fit_text +
                 (std::abs(value - std::numbers::pi / 2) < 0.05 ? ": sin and cos swapped in the force?" : "") +
                 "; rubref's force is m e w^2 (cos wt, sin wt)",
             {{"unbalance_phase_rad", value}, {"clockwise", true}});
@@ -828,7 +822,7 @@ void diagnosis::refit_stage(const std::optional<transform_fit>& transform) {
       case cause_code::time_origin_or_unbalance_phase: {
         const double deg = fold(value, kTwoPi) * 180.0 / std::numbers::pi;
         add(cause_code::time_origin_or_unbalance_phase, ok,
-            "rubref with the unbalance at " + num(deg, 4) + " deg at t = 0 (the file's is " + num(p.unbalance_phase * 180.0 / std::numbers::pi, 4) +
+            "rubref with the unbalance at " + format_digits(deg, 4) + " deg at t = 0 (the file's is " + format_digits(p.unbalance_phase * 180.0 / std::numbers::pi, 4) +
                 " deg) " + fit_text + "; its time origin or unbalance phase differs from the case's",
             {{"unbalance_phase_rad", value}, {"unbalance_phase_deg", deg}});
         // No shift of the golden orbit matched (the transforms came first): from that start the
@@ -842,18 +836,18 @@ void diagnosis::refit_stage(const std::optional<transform_fit>& transform) {
       }
       case cause_code::static_offset:
         add(cause_code::static_offset, ok,
-            "rubref with a static vertical load of " + num(value, 4) + " N (" + num(value / (p.m * kStandardGravity), 3) + " m g) " + fit_text +
+            "rubref with a static vertical load of " + format_digits(value, 4) + " N (" + format_digits(value / (p.m * kStandardGravity), 3) + " m g) " + fit_text +
                 ": the candidate has gravity or a preload that the paper's Eq. 1 does not",
             {{"preload_y_N", value}});
         break;
       default: {
         std::string what = item.name, extra;
         if (item.code == cause_code::contact_law_coefficient && item.name == "r") {
-          if (std::abs(value - std::sqrt(p.r)) <= 2e-3) extra = " (sqrt(" + num(p.r) + ") = " + num(std::sqrt(p.r)) + ": r applied to the kinetic energy instead of the velocity?)";
-          if (std::abs(value - p.r * p.r) <= 2e-3) extra = " (" + num(p.r) + "^2 = " + num(p.r * p.r) + ": r applied twice?)";
+          if (std::abs(value - std::sqrt(p.r)) <= 2e-3) extra = " (sqrt(" + format_digits(p.r) + ") = " + format_digits(std::sqrt(p.r)) + ": r applied to the kinetic energy instead of the velocity?)";
+          if (std::abs(value - p.r * p.r) <= 2e-3) extra = " (" + format_digits(p.r) + "^2 = " + format_digits(p.r * p.r) + ": r applied twice?)";
         }
         add(item.code, ok,
-            "rubref with " + what + " = " + num(value, 6) + " instead of " + num(item.value0, 6) + " (" + num(100.0 * (value / item.value0 - 1.0), 3) +
+            "rubref with " + what + " = " + format_digits(value, 6) + " instead of " + format_digits(item.value0, 6) + " (" + format_digits(100.0 * (value / item.value0 - 1.0), 3) +
                 " %) " + fit_text + extra,
             fitted);
       }
@@ -938,12 +932,12 @@ void diagnosis::event_stage() {
   for (const double y : g.y) golden_depth = std::max(golden_depth, y - delta);
   if (rigid && depth > scale)
     add(cause_code::missed_events, false,
-        "the candidate goes " + num(depth) + " m into the stator at t = " + num(c.t[deepest], 10) +
+        "the candidate goes " + format_digits(depth) + " m into the stator at t = " + format_digits(c.t[deepest], 10) +
             " s, which the restitution law (Eq. 6) never allows; impacts are detected late (only at step ends?) or missed between steps",
         {{"max_penetration_m", depth}, {"t_s", c.t[deepest]}});
   if (!rigid && golden_depth > 0.0 && depth > 1.5 * golden_depth + scale)
     add(cause_code::missed_events, false,
-        "the candidate penetrates " + num(depth) + " m where the golden's deepest sample is " + num(golden_depth) +
+        "the candidate penetrates " + format_digits(depth) + " m where the golden's deepest sample is " + format_digits(golden_depth) +
             " m: contact onsets are detected late or missed between steps",
         {{"max_penetration_m", depth}, {"golden_max_penetration_m", golden_depth}}, 2);
   if (pts) {
@@ -970,9 +964,9 @@ void diagnosis::event_stage() {
       const double rms = rms_of(run, c, &worst);
       if (worst <= tolerance || rms * kLikelyReduction <= exact_rms) {
         add(cause_code::coarse_step, worst <= tolerance,
-            "a fixed RK4 step of " + num(h / div, 4) + " s (" + num(period_of(g) * div / h, 4) +
-                " a revolution) with the contact force switched inside the steps reproduces the candidate to " + num(worst, 2) +
-                " m: its step is too coarse for a contact of ~" + num(1.0 / std::sqrt(p.k1 / p.m), 2) +
+            "a fixed RK4 step of " + format_digits(h / div, 4) + " s (" + format_digits(period_of(g) * div / h, 4) +
+                " a revolution) with the contact force switched inside the steps reproduces the candidate to " + format_digits(worst, 2) +
+                " m: its step is too coarse for a contact of ~" + format_digits(1.0 / std::sqrt(p.k1 / p.m), 2) +
                 " s time scale; locate the contact events or step finer (docs/robustness.md)",
             {{"dt_s", h / div}, {"max_error_m", worst}});
         break;
@@ -1038,7 +1032,7 @@ std::vector<cause> diagnose(const golden_case& g, const candidate_data& c, const
   const double spanned = spanned_revolutions(g, c), required = required_revolutions(g);
   if (spanned < required * (1.0 - 1e-6)) {
     d.add(cause_code::coverage, true,
-          "the candidate spans " + num(spanned, 3) + " revolution(s); the case needs at least " + num(required, 3) +
+          "the candidate spans " + format_digits(spanned, 3) + " revolution(s); the case needs at least " + format_digits(required, 3) +
               " (one period of its orbit) to be compared: record whole periods (best: the file's " + std::to_string(g.request.record_revs) +
               " revolutions at its own t_s)",
           {{"spanned_revs", spanned}, {"required_revs", required}});

@@ -18,10 +18,10 @@
 #include <string_view>
 #include <vector>
 
-#include "ref/golden.hpp"
-#include "ref/orbit_summary.hpp"
-#include "ref/record.hpp"
+#include "ref/analysis/orbit_summary.hpp"
+#include "ref/format/record.hpp"
 #include "ref/validation/causes.hpp"
+#include "ref/validation/golden.hpp"
 
 namespace rubref {
 
@@ -57,7 +57,7 @@ double required_revolutions(const golden_case& g);
 double spanned_revolutions(const golden_case& g, const candidate_data& c);
 
 // The smallest p in 1..kMaxCandidatePeriod after which the candidate repeats itself (to
-// kRepeatRelTol (ref/orbit_summary.hpp) of its size, plus the linear interpolation's error when its sampling does not
+// kRepeatRelTol (ref/analysis/orbit_summary.hpp) of its size, plus the linear interpolation's error when its sampling does not
 // divide the revolution); 0 when it does not repeat; -1 when it is too short to tell.
 inline constexpr int kMaxCandidatePeriod = 8;
 int candidate_period(const golden_case& g, const candidate_data& c);

@@ -7,7 +7,7 @@
 #include <span>
 #include <sstream>
 
-#include "ref/errors.hpp"
+#include "ref/base/errors.hpp"
 #include "ref/validation/diagnosis.hpp"
 #include "variants/all_variants.hpp"
 
@@ -15,12 +15,6 @@ namespace rubref {
 
 namespace {
 
-std::string num(double v, int digits = 4) {
-  std::ostringstream out;
-  out.precision(digits);
-  out << v;
-  return out.str();
-}
 
 }  // namespace
 
@@ -37,8 +31,8 @@ candidate_data read_candidate(const golden_case& g, const record& c, const std::
   const auto& speed = c.column("speed_rpm");
   for (std::size_t i = 0; i < speed.size(); ++i)
     if (std::abs(speed[i] - g.request.rpm) > 1e-9 * g.request.rpm)
-      throw input_error((c.source.empty() ? name + ": " : c.where_row(i)) + "speed_rpm is " + num(speed[i], 17) + " at t = " + num(d.t[i], 17) + " s, the case runs at " +
-                        num(g.request.rpm, 17) + " rpm");
+      throw input_error((c.source.empty() ? name + ": " : c.where_row(i)) + "speed_rpm is " + format_digits(speed[i], 17) + " at t = " + format_digits(d.t[i], 17) + " s, the case runs at " +
+                        format_digits(g.request.rpm, 17) + " rpm");
   if (d.t.size() < 4) throw input_error(name + ": " + std::to_string(d.t.size()) + " samples; at least 4 are needed");
   return d;
 }
@@ -88,12 +82,12 @@ comparison_points pair_with_golden(const golden_case& g, const candidate_data& c
   double drift = again.size() == n ? 0.0 : std::numeric_limits<double>::infinity();
   for (std::size_t i = 0; i < again.size(); ++i) drift = std::max(drift, std::hypot(again[i][idx::x] - g.x[i], again[i][idx::y] - g.y[i]));
   if (!(drift <= kReintegrationTol))
-    throw numerical_error("integrating " + g.name + " again does not reproduce its samples (difference " + num(drift, 3) +
+    throw numerical_error("integrating " + g.name + " again does not reproduce its samples (difference " + format_digits(drift, 3) +
                           " m): the file was made by another rubref; compare at the case's own sample times");
 
   // An orbit that repeats is compared by phase, whatever the time origin (a shifted origin is
   // diagnosed); one that does not is compared at absolute times.
-  if (g.period_revs == 0 && c.t.front() < 0.0) throw input_error(name + ": t_s starts at " + num(c.t.front(), 17) + " s; time is absolute, from rest at t = 0");
+  if (g.period_revs == 0 && c.t.front() < 0.0) throw input_error(name + ": t_s starts at " + format_digits(c.t.front(), 17) + " s; time is absolute, from rest at t = 0");
   const double t0 = g.t.front(), window = g.period_revs * period;
   double best = std::numeric_limits<double>::infinity();
   for (int shift = 0; shift < std::max(1, g.period_revs); ++shift) {
@@ -130,7 +124,7 @@ comparison_points pair_with_golden(const golden_case& g, const candidate_data& c
                  (g.period_revs > 0 ? ", taken modulo the orbit's period (" + std::to_string(g.period_revs) + " rev)" +
                                           (g.period_revs > 1 ? " " + std::to_string(shift) + " rev on" : "") + " into the case's record"
                                     : "") +
-                 "; the golden orbit there integrated again with the golden method (it reproduces the file to " + num(drift, 2) + " m)";
+                 "; the golden orbit there integrated again with the golden method (it reproduces the file to " + format_digits(drift, 2) + " m)";
     }
   }
   return out;
@@ -195,23 +189,23 @@ validation_result validate_candidate(const golden_case& g, const record& candida
 
 std::string to_text(const validation_result& r) {
   std::ostringstream out;
-  out << "case      " << r.case_name << " (" << r.variant << ", clearance " << num(r.clearance * 1e3) << " mm, " << num(r.rpm)
+  out << "case      " << r.case_name << " (" << r.variant << ", clearance " << format_digits(r.clearance * 1e3) << " mm, " << format_digits(r.rpm)
       << " rpm; compared as " << to_string(r.comparison);
   if (r.period_revs > 0) out << ", period " << r.period_revs << " rev";
   out << ")\n";
   out << "candidate " << r.candidate_name << ": " << r.sampling << "\n";
   if (r.comparison == comparison_kind::orbit) {
     const double phase = std::fmod(r.worst_t * r.rpm / 60.0, 1.0) * 360.0;
-    out << "orbit     max error " << num(r.max_error, 3) << " m (t = " << num(r.worst_t, 10) << " s, " << num(phase, 3)
-        << " deg: golden (" << num(r.worst_golden[0], 6) << ", " << num(r.worst_golden[1], 6) << "), candidate ("
-        << num(r.worst_candidate[0], 6) << ", " << num(r.worst_candidate[1], 6) << ") m), RMS " << num(r.rms_error, 3)
-        << " m; tolerance " << num(r.tolerance, 3) << " m: " << (r.max_error <= r.tolerance ? "ok" : "FAIL") << "\n";
+    out << "orbit     max error " << format_digits(r.max_error, 3) << " m (t = " << format_digits(r.worst_t, 10) << " s, " << format_digits(phase, 3)
+        << " deg: golden (" << format_digits(r.worst_golden[0], 6) << ", " << format_digits(r.worst_golden[1], 6) << "), candidate ("
+        << format_digits(r.worst_candidate[0], 6) << ", " << format_digits(r.worst_candidate[1], 6) << ") m), RMS " << format_digits(r.rms_error, 3)
+        << " m; tolerance " << format_digits(r.tolerance, 3) << " m: " << (r.max_error <= r.tolerance ? "ok" : "FAIL") << "\n";
   }
   for (const auto& s : r.statistics)
-    out << "          " << s.key << std::string(s.key.size() < 18 ? 18 - s.key.size() : 1, ' ') << "golden " << num(s.golden, 6)
-        << ", candidate " << num(s.candidate, 6) << ", error " << num(std::abs(s.candidate - s.golden), 3) << " (tolerance "
-        << num(s.tolerance, 3) << "): " << (s.pass() ? "ok" : "FAIL") << "\n";
-  out << "coverage  " << num(r.spanned_revs, 4) << " revolution(s)";
+    out << "          " << s.key << std::string(s.key.size() < 18 ? 18 - s.key.size() : 1, ' ') << "golden " << format_digits(s.golden, 6)
+        << ", candidate " << format_digits(s.candidate, 6) << ", error " << format_digits(std::abs(s.candidate - s.golden), 3) << " (tolerance "
+        << format_digits(s.tolerance, 3) << "): " << (s.pass() ? "ok" : "FAIL") << "\n";
+  out << "coverage  " << format_digits(r.spanned_revs, 4) << " revolution(s)";
   if (r.candidate_period_revs > 0) out << ", repeats every " << r.candidate_period_revs << " rev";
   if (r.candidate_period_revs == 0) out << ", does not repeat";
   out << (r.covered ? "" : ": FAIL (less than one period of the case)") << "\n";

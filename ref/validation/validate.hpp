@@ -20,10 +20,10 @@
 #include <string>
 #include <vector>
 
-#include "ref/golden.hpp"
-#include "ref/record.hpp"
+#include "ref/format/record.hpp"
 #include "ref/validation/causes.hpp"
 #include "ref/validation/diagnosis.hpp"
+#include "ref/validation/golden.hpp"
 
 namespace rubref {
 

@@ -13,12 +13,12 @@
 #include <string>
 #include <string_view>
 
-#include "ref/errors.hpp"
-#include "ref/golden.hpp"
+#include "ref/base/errors.hpp"
+#include "ref/format/record.hpp"
 #include "ref/identification/dwells.hpp"
 #include "ref/loop/loop.hpp"
-#include "ref/parameter_io.hpp"
-#include "ref/record.hpp"
+#include "ref/model/parameter_io.hpp"
+#include "ref/validation/golden.hpp"
 #include "ref/validation/validate.hpp"
 
 namespace rubref::fuzz {

@@ -1,0 +1,110 @@
+"""rubref: numerical reference for partial rotor-stator rub (docs/python.md).
+
+The C++ library's front doors, as the command line has them: SI units, the paper's parameters by
+default, parameters overridden by keyword arguments named as in a parameter file
+(``rubref.default_parameters()``: ``m_kg``, ``clearance_m``, ``mu``, ``k1_N_m``, ...;
+``clearance=`` is a shorthand for ``clearance_m``). Arrays are numpy arrays; every JSON the command
+line writes comes back as the same dict. Bad input raises ``rubref.InputError`` (a ``ValueError``)
+with the library's one-line message; a failed integration raises ``rubref.NumericalError`` (a
+``RuntimeError``).
+"""
+
+import numpy as _np
+
+from ._rubref import (  # noqa: F401  (re-exported)
+    InputError,
+    NumericalError,
+    __version__,
+    commit,
+    continuation,
+    default_parameters,
+    orbit,
+    rig,
+    simulate,
+    variants,
+)
+from . import _rubref
+
+__all__ = [
+    "InputError", "NumericalError", "__version__", "commit", "continuation", "default_parameters", "identify", "loop", "orbit",
+    "read_record", "rig", "simulate", "simulate_batch", "validate", "variants", "write_record",
+]
+
+_REQUIRED_COLUMNS = ("t_s", "x_m", "y_m", "speed_rpm")
+
+
+def _paths(paths):
+    if isinstance(paths, (str, bytes)) or hasattr(paths, "__fspath__"):
+        paths = [paths]
+    return [str(p) for p in paths]
+
+
+def identify(paths, **settings):
+    """Identification of paper section 4 on record files (one path or a list): the same dict as
+    ``rubref identify``'s identification.json. Settings: clearance, linear (a dict of the linear
+    part's parameters, as a parameter file has them, when it is known), average_revolutions,
+    law_method ('auto', 'samples', 'weak-form'), library, rho, orbit_fit, reidentify, bootstrap."""
+    return _rubref.identify(_paths(paths), **settings)
+
+
+def loop(paths, **settings):
+    """The loop on record files (one path or a list): fit, residual trace, effects, refit; the
+    same dict as ``rubref loop``'s report.json. Settings: clearance, mass, max_effects."""
+    return _rubref.loop(_paths(paths), **settings)
+
+
+def validate(case, candidate):
+    """Another code's output (a record file) against a golden case file: the same dict as
+    ``rubref validate --json`` gives for one case (verdict, errors, diagnosis)."""
+    return _rubref.validate(str(case), str(candidate))
+
+
+def read_record(path):
+    """A record file (docs/data-format.md) as ``{'columns': {name: array}, 'metadata': {key: text}}``."""
+    return _rubref.read_record(str(path))
+
+
+def write_record(path, columns, metadata=None):
+    """Writes a record file: ``columns`` maps names to equal-length 1-D arrays and must hold
+    t_s, x_m, y_m and speed_rpm (written first, in that order); ``metadata`` maps keys to values
+    (numbers are written in the shortest form that reads back exactly). The file is checked to
+    read back before it replaces anything (written atomically)."""
+    cols = {str(k): _np.asarray(v, dtype=float) for k, v in columns.items()}
+    for name, values in cols.items():
+        if values.ndim != 1:
+            raise InputError(f"column '{name}' must be 1-D (got shape {values.shape})")
+    order = [c for c in _REQUIRED_COLUMNS if c in cols] + [c for c in cols if c not in _REQUIRED_COLUMNS]
+    meta = {}
+    for k, v in (metadata or {}).items():
+        meta[str(k)] = repr(float(v)) if isinstance(v, (int, float)) and not isinstance(v, bool) else str(v)
+    _rubref.write_record(str(path), {k: v.tolist() for k, v in cols.items()}, meta, order)
+
+
+def simulate_batch(rpm, variant="identified", clearance=None, settle_revs=200, revs=20, samples_per_rev=128, stepper="dopri5",
+                   threads=0, **params):
+    """Steady runs over arrays: ``rpm`` and any parameter (``clearance`` or a parameter file's key)
+    may be a scalar or a 1-D array; arrays must have one length n, scalars are repeated. The n
+    runs go to the thread pool with the GIL released (``threads``: 0 = RUBREF_THREADS, else every
+    core; the results do not depend on it). Returns a dict of length-n arrays of the orbit
+    summaries (max_radius_m, max_y_m, max_normal_force_N, period_revs, ..., regime,
+    backward_whirl), in row order."""
+    if clearance is not None:
+        if "clearance_m" in params:
+            raise InputError("give the clearance once: clearance or clearance_m")
+        params["clearance_m"] = clearance
+    columns = {"rpm": rpm, **params}
+    arrays = {k: _np.asarray(v, dtype=float) for k, v in columns.items()}
+    n = None
+    for k, a in arrays.items():
+        if a.ndim > 1:
+            raise InputError(f"'{k}' must be a scalar or a 1-D array (got shape {a.shape})")
+        if a.ndim == 1:
+            if n is not None and a.shape[0] != n:
+                raise InputError(f"'{k}' has {a.shape[0]} values, another array has {n}")
+            n = a.shape[0]
+    n = 1 if n is None else n
+    full = {k: (_np.full(n, float(a)) if a.ndim == 0 else a).tolist() for k, a in arrays.items()}
+    speeds = full.pop("rpm")
+    if threads < 0:
+        raise InputError("threads must be >= 0")
+    return _rubref._simulate_batch(variant, speeds, full, settle_revs, revs, samples_per_rev, stepper, threads)

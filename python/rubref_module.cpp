@@ -1,0 +1,424 @@
+// rubref's Python module (docs/python.md): the library's front doors, with parameters as keyword
+// arguments (the parameter files' keys), arrays as numpy arrays and every JSON the command line
+// writes as the same dict. Long calls release the GIL; batch calls also run on the thread pool.
+// Errors: rubref.InputError (a ValueError) for bad input, rubref.NumericalError (a RuntimeError)
+// for a failed integration, each with the library's one-line message.
+
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
+#include <map>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "ref/analysis/orbit_io.hpp"
+#include "ref/analysis/orbit_summary.hpp"
+#include "ref/analysis/simulate.hpp"
+#include "ref/base/errors.hpp"
+#include "ref/base/parallel.hpp"
+#include "ref/base/version.hpp"
+#include "ref/format/atomic_output.hpp"
+#include "ref/format/record.hpp"
+#include "ref/identification/identify.hpp"
+#include "ref/loop/loop.hpp"
+#include "ref/loop/report.hpp"
+#include "ref/model/parameter_io.hpp"
+#include "ref/orbits/continuation.hpp"
+#include "ref/orbits/continuation_io.hpp"
+#include "ref/orbits/periodic_orbit.hpp"
+#include "ref/orbits/periodic_orbit_io.hpp"
+#include "ref/rig/rig.hpp"
+#include "ref/validation/golden.hpp"
+#include "ref/validation/validate.hpp"
+
+namespace py = pybind11;
+using namespace rubref;
+
+namespace {
+
+// A library message with its settings (`field`, ref/base/errors.hpp) as this module's keyword
+// arguments: 'start' and 'end' for a continuation's range, else the field's own name.
+std::string with_keywords(std::string_view message) {
+  std::string out;
+  for (std::size_t i = 0; i < message.size();) {
+    const std::size_t open = message.find('`', i), close = open == std::string_view::npos ? open : message.find('`', open + 1);
+    if (close == std::string_view::npos) {
+      out += message.substr(i);
+      break;
+    }
+    const std::string_view field = message.substr(open + 1, close - open - 1);
+    out += std::string(message.substr(i, open - i)) + "'" + std::string(field == "from" ? "start" : field == "to" ? "end" : field) + "'";
+    i = close + 1;
+  }
+  return out;
+}
+
+py::array_t<double> to_array(const std::vector<double>& v) { return py::array_t<double>(static_cast<py::ssize_t>(v.size()), v.data()); }
+
+// nlohmann JSON -> Python objects, through Python's own json (numbers stay numbers, order kept).
+py::object to_python(const nlohmann::ordered_json& j) { return py::module_::import("json").attr("loads")(j.dump()); }
+
+// The paper's parameters overridden by keyword arguments named as in a parameter file
+// (`rubref params`: m_kg, clearance_m, mu, k1_N_m, ...); `clearance` in m is a shorthand.
+parameters parameters_from(std::optional<double> clearance, const py::dict& kw) {
+  parameters p;
+  nlohmann::json j = nlohmann::json::object();
+  for (const auto& [key, value] : kw) {
+    const std::string k = py::str(key);
+    if (!py::isinstance<py::float_>(value) && !py::isinstance<py::int_>(value))
+      throw input_error("parameter '" + k + "' must be a number (got " + std::string(py::str(py::type::of(value).attr("__name__"))) + ")");
+    j[k] = value.cast<double>();
+  }
+  if (clearance) {
+    if (j.contains("clearance_m")) throw input_error("give the clearance once: clearance or clearance_m");
+    j["clearance_m"] = *clearance;
+  }
+  apply_json(p, j, "keyword arguments");
+  validate(p);
+  return p;
+}
+
+integration_options integration_from(const std::string& stepper, std::optional<double> rtol, std::optional<double> atol,
+                                     std::optional<double> dt) {
+  integration_options o;
+  o.stepper.kind = parse_stepper(stepper);
+  if (rtol) o.stepper.rtol = *rtol;
+  if (atol) o.stepper.atol = *atol;
+  if (dt) o.stepper.dt = *dt;
+  return o;
+}
+
+py::dict samples_of(const orbit& o) {
+  std::vector<double> t, x, y, vx, vy, fn;
+  for (const auto& s : o.samples) {
+    t.push_back(s.t), x.push_back(s.s[0]), y.push_back(s.s[1]), vx.push_back(s.s[2]), vy.push_back(s.s[3]), fn.push_back(s.fn);
+  }
+  py::dict d;
+  d["t"] = to_array(t), d["x"] = to_array(x), d["y"] = to_array(y), d["vx"] = to_array(vx), d["vy"] = to_array(vy), d["fn"] = to_array(fn);
+  return d;
+}
+
+py::dict record_to_python(const record& r) {
+  py::dict columns, metadata;
+  for (std::size_t c = 0; c < r.columns.size(); ++c) columns[py::str(r.columns[c])] = to_array(r.data[c]);
+  for (const auto& [k, v] : r.metadata) metadata[py::str(k)] = v;
+  py::dict d;
+  d["columns"] = columns;
+  d["metadata"] = metadata;
+  return d;
+}
+
+std::vector<std::pair<record, std::string>> read_records(const std::vector<std::string>& paths) {
+  if (paths.empty()) throw input_error("give at least one record file");
+  std::vector<std::pair<record, std::string>> out;
+  for (const auto& p : paths) out.emplace_back(read_record(p), p);
+  return out;
+}
+
+run_request run_from(const std::string& variant, double rpm, int settle_revs, int revs, int samples_per_rev, const parameters& p,
+                     const integration_options& integration, std::optional<std::vector<double>> initial) {
+  run_request req;
+  req.variant = variant;
+  req.rpm = rpm;
+  req.settle_revs = settle_revs;
+  req.record_revs = revs;
+  req.samples_per_rev = samples_per_rev;
+  req.params = p;
+  req.integration = integration;
+  if (initial) {
+    if (initial->size() != 4) throw input_error("initial must be 4 numbers: x, y, vx, vy (m, m, m/s, m/s)");
+    req.initial_state = {(*initial)[0], (*initial)[1], (*initial)[2], (*initial)[3]};
+  }
+  return req;
+}
+
+}  // namespace
+
+PYBIND11_MODULE(_rubref, m) {
+  m.doc() = "rubref: numerical reference for partial rotor-stator rub (docs/python.md)";
+  m.attr("__version__") = std::string(version());
+  m.attr("commit") = std::string(commit());
+  static py::exception<input_error> input_exc(m, "InputError", PyExc_ValueError);
+  static py::exception<numerical_error> numerical_exc(m, "NumericalError", PyExc_RuntimeError);
+  py::register_exception_translator([](std::exception_ptr p) {
+    try {
+      if (p) std::rethrow_exception(p);
+    } catch (const input_error& e) {
+      input_exc(with_keywords(e.what()).c_str());
+    } catch (const numerical_error& e) {
+      numerical_exc(with_keywords(e.what()).c_str());
+    }
+  });
+
+  m.def("default_parameters", [] { return to_python(to_json(parameters{})); }, "The paper's parameters, as a parameter file has them.");
+  m.def("variants", [] { return variant_name_list(); }, "The contact laws' names.");
+
+  m.def(
+      "simulate",
+      [](const std::string& variant, double rpm, std::optional<double> clearance, int settle_revs, int revs, int samples_per_rev,
+         const std::string& stepper, std::optional<double> rtol, std::optional<double> atol, std::optional<double> dt,
+         std::optional<std::vector<double>> initial, const py::kwargs& params) {
+        const run_request req = run_from(variant, rpm, settle_revs, revs, samples_per_rev, parameters_from(clearance, params),
+                                         integration_from(stepper, rtol, atol, dt), initial);
+        orbit o;
+        {
+          py::gil_scoped_release free;
+          o = simulate(req);
+        }
+        py::dict d = samples_of(o);
+        d["summary"] = to_python(to_json(summarize(o), o));
+        const std::string warn = coarse_contact_warning(o.counts);
+        if (!warn.empty()) py::module_::import("warnings").attr("warn")(with_keywords(warn));
+        return d;
+      },
+      py::arg("variant") = "identified", py::arg("rpm") = 1600.0, py::arg("clearance") = py::none(), py::arg("settle_revs") = 200,
+      py::arg("revs") = 20, py::arg("samples_per_rev") = 128, py::arg("stepper") = "dopri5", py::arg("rtol") = py::none(),
+      py::arg("atol") = py::none(), py::arg("dt") = py::none(), py::arg("initial") = py::none());
+
+  // One steady run per row of `rpm` and `params` (columns of equal length, made by the Python
+  // wrapper from scalars and arrays); the runs share the thread pool, results in row order.
+  m.def(
+      "_simulate_batch",
+      [](const std::string& variant, const std::vector<double>& rpm, const std::map<std::string, std::vector<double>>& columns,
+         int settle_revs, int revs, int samples_per_rev, const std::string& stepper, unsigned threads) {
+        const integration_options integration = integration_from(stepper, std::nullopt, std::nullopt, std::nullopt);
+        std::vector<run_request> runs;
+        for (std::size_t i = 0; i < rpm.size(); ++i) {
+          parameters p;
+          nlohmann::json j = nlohmann::json::object();
+          for (const auto& [k, v] : columns) j[k] = v.at(i);
+          apply_json(p, j, "keyword arguments (row " + std::to_string(i) + ")");
+          validate(p);
+          runs.push_back(run_from(variant, rpm[i], settle_revs, revs, samples_per_rev, p, integration, std::nullopt));
+          validate(runs.back());
+        }
+        std::vector<orbit_summary> out(runs.size());
+        {
+          py::gil_scoped_release free;
+          parallel_for(runs.size(), threads, [&](std::size_t i) { out[i] = summarize(simulate(runs[i])); });
+        }
+        std::vector<double> max_radius, max_y, ppx, ppy, force, penetration, per_rev, fraction, period;
+        std::vector<std::string> regime;
+        std::vector<bool> backward;
+        for (const auto& s : out) {
+          max_radius.push_back(s.max_radius), max_y.push_back(s.max_y), ppx.push_back(s.peak_to_peak_x), ppy.push_back(s.peak_to_peak_y);
+          force.push_back(s.max_normal_force), penetration.push_back(s.max_penetration), per_rev.push_back(s.contact_episodes_per_rev);
+          fraction.push_back(s.contact_fraction), period.push_back(s.period_revs);
+          regime.emplace_back(to_string(s.regime));
+          backward.push_back(s.backward_whirl());
+        }
+        py::dict d;
+        d["max_radius_m"] = to_array(max_radius), d["max_y_m"] = to_array(max_y);
+        d["peak_to_peak_x_m"] = to_array(ppx), d["peak_to_peak_y_m"] = to_array(ppy);
+        d["max_normal_force_N"] = to_array(force), d["max_penetration_m"] = to_array(penetration);
+        d["contact_episodes_per_rev"] = to_array(per_rev), d["contact_fraction"] = to_array(fraction);
+        d["period_revs"] = to_array(period);
+        d["regime"] = regime;
+        d["backward_whirl"] = py::array(py::cast(backward));
+        return d;
+      },
+      py::arg("variant"), py::arg("rpm"), py::arg("columns"), py::arg("settle_revs"), py::arg("revs"), py::arg("samples_per_rev"),
+      py::arg("stepper"), py::arg("threads"));
+
+  m.def(
+      "orbit",
+      [](const std::string& variant, double rpm, std::optional<double> clearance, int periods, double tolerance, int samples_per_rev,
+         std::optional<std::vector<double>> initial, const py::kwargs& params) {
+        periodic_orbit_request req;
+        req.run = run_from(variant, rpm, req.run.settle_revs, req.run.record_revs, samples_per_rev, parameters_from(clearance, params),
+                           integration_options{}, std::nullopt);
+        req.periods = periods;
+        req.tolerance = tolerance;
+        if (initial) {
+          if (initial->size() != 4) throw input_error("initial must be 4 numbers: x, y, vx, vy (m, m, m/s, m/s)");
+          req.initial_guess = state_type{(*initial)[0], (*initial)[1], (*initial)[2], (*initial)[3]};
+        }
+        periodic_orbit_result r;
+        {
+          py::gil_scoped_release free;
+          r = find_periodic_orbit(req);
+        }
+        if (!r.converged)
+          py::module_::import("warnings").attr("warn")("Newton shooting did not converge (" + r.failure +
+                                                        "); the orbit is the end of a transient, with no Floquet multipliers");
+        py::dict d = samples_of(r.samples);
+        d["summary"] = to_python(periodic_orbit_json(req, r));
+        return d;
+      },
+      py::arg("variant") = "identified", py::arg("rpm") = 1600.0, py::arg("clearance") = py::none(), py::arg("periods") = 1,
+      py::arg("tolerance") = 1e-12, py::arg("samples_per_rev") = 128, py::arg("initial") = py::none());
+
+  m.def(
+      "continuation",
+      [](const std::string& variant, const std::string& parameter, std::optional<double> from, std::optional<double> to,
+         const std::string& direction, double rpm, std::optional<double> clearance, int periods, double max_step, int max_points,
+         double tolerance, const py::kwargs& params) {
+        continuation_request req;
+        req.variant = variant;
+        req.parameter = parse_continuation_parameter(parameter);
+        if (req.parameter != continuation_parameter::speed && (!from || !to))
+          throw input_error("parameter '" + parameter + "' needs start and end (in " + std::string(column_name(req.parameter)) + "'s unit)");
+        if (from) req.from = *from;
+        if (to) req.to = *to;
+        if (direction != "up" && direction != "down") throw input_error("direction must be up or down (got '" + direction + "')");
+        req.downward = direction == "down";
+        req.rpm = rpm;
+        req.periods = periods;
+        req.max_step = max_step;
+        req.initial_step = std::min(req.initial_step, req.max_step);
+        req.max_points = max_points;
+        req.tolerance = tolerance;
+        req.params = parameters_from(clearance, params);
+        validate(req);
+        continuation_result res;
+        {
+          py::gil_scoped_release free;
+          res = continue_branch(req);
+        }
+        const table t = branch_table(req, res);
+        py::dict branch;
+        for (std::size_t c = 0; c < t.columns.size(); ++c) {
+          std::vector<double> v;
+          py::list text;
+          bool numeric = true;
+          for (const auto& row : t.rows) {
+            try {
+              std::size_t used = 0;
+              v.push_back(std::stod(row[c], &used));
+              numeric = numeric && used == row[c].size();
+            } catch (const std::exception&) {
+              numeric = false;
+            }
+            text.append(row[c]);
+          }
+          branch[py::str(t.columns[c])] = numeric ? py::object(to_array(v)) : py::object(text);
+        }
+        py::dict d;
+        d["branch"] = branch;
+        d["summary"] = to_python(branch_summary_json(req, res));
+        return d;
+      },
+      py::arg("variant") = "identified", py::arg("parameter") = "speed", py::arg("start") = py::none(), py::arg("end") = py::none(),
+      py::arg("direction") = "up", py::arg("rpm") = 1600.0, py::arg("clearance") = py::none(), py::arg("periods") = 1,
+      py::arg("max_step") = 0.25, py::arg("max_points") = 5000, py::arg("tolerance") = 1e-12);
+
+  m.def(
+      "read_record", [](const std::string& path) { return record_to_python(read_record(path)); }, py::arg("path"),
+      "A record file (docs/data-format.md) as {'columns': {name: array}, 'metadata': {key: text}}.");
+
+  m.def(
+      "write_record",
+      [](const std::string& path, const std::map<std::string, std::vector<double>>& columns,
+         const std::map<std::string, std::string>& metadata, const std::vector<std::string>& order) {
+        record r;
+        for (const auto& [k, v] : metadata) r.set(k, v);
+        for (const auto& name : order) {
+          const auto it = columns.find(name);
+          if (it == columns.end()) throw input_error("column '" + name + "' is in the order but has no values");
+          r.add_column(name, it->second);
+        }
+        const std::string text = to_csv(r);
+        parse_record(text, path);  // what is written must read back (required columns, lengths, finite numbers)
+        atomic_output out;
+        out.stage(path, text);
+        out.commit();
+      },
+      py::arg("path"), py::arg("columns"), py::arg("metadata"), py::arg("order"));
+
+  m.def(
+      "identify",
+      [](const std::vector<std::string>& paths, std::optional<double> clearance, std::optional<py::dict> linear, bool average_revolutions,
+         const std::string& law_method, const std::string& library, double rho, bool orbit_fit, bool reidentify, int bootstrap) {
+        identify_settings s;
+        if (linear) s.linear = parameters_from(std::nullopt, *linear);  // the linear part known: the parameter file's keys
+        if (clearance) s.clearance = *clearance;
+        s.average_revolutions = average_revolutions;
+        s.law_route = parse_law_method(law_method);
+        s.library = library;
+        if (!(rho >= 0.0 && rho < 1.0)) throw input_error("rho must be in [0, 1)");
+        s.frols.rho = rho;
+        s.orbit_fit = orbit_fit;
+        s.reidentify = reidentify;
+        if (bootstrap < 0) throw input_error("bootstrap must be >= 0");
+        s.bootstrap = bootstrap;
+        const auto records = read_records(paths);
+        identification id;
+        {
+          py::gil_scoped_release free;
+          id = identify(records, s);
+        }
+        for (const auto& w : id.warnings) py::module_::import("warnings").attr("warn")(w);
+        return to_python(to_json(id, s));
+      },
+      py::arg("paths"), py::arg("clearance") = py::none(), py::arg("linear") = py::none(), py::arg("average_revolutions") = false, py::arg("law_method") = "auto",
+      py::arg("library") = identify_settings{}.library, py::arg("rho") = identify_settings{}.frols.rho, py::arg("orbit_fit") = true,
+      py::arg("reidentify") = false, py::arg("bootstrap") = identify_settings{}.bootstrap);
+
+  m.def(
+      "validate",
+      [](const std::string& case_path, const std::string& candidate_path) {
+        const golden_case g = read_golden_case(read_record(case_path), case_path);
+        const record candidate = read_record(candidate_path);
+        validation_result r;
+        {
+          py::gil_scoped_release free;
+          r = validate_candidate(g, candidate, candidate_path);
+        }
+        return to_python(to_json(r));
+      },
+      py::arg("case"), py::arg("candidate"));
+
+  m.def(
+      "rig",
+      [](const std::vector<std::string>& effects, std::optional<std::vector<double>> speeds, std::optional<double> noise, bool keyphasor,
+         bool carry_over, int settle_revs, int revs, unsigned seed, const std::string& variant, std::optional<double> clearance,
+         const py::kwargs& params) {
+        rig_request req;
+        req.variant = variant;
+        req.params = parameters_from(clearance, params);
+        for (const auto& e : effects) apply_effect(req.effects, e);
+        if (speeds) req.speeds_rpm = *speeds;
+        if (noise) req.probes.noise = *noise;
+        req.probes.keyphasor = keyphasor;
+        req.probes.seed = seed;
+        req.time_base = keyphasor ? rig_time_base::acquisition : rig_time_base::shaft;
+        req.carry_over = carry_over;
+        req.settle_revs = settle_revs;
+        req.record_revs = revs;
+        validate(req);
+        rig_output o;
+        {
+          py::gil_scoped_release free;
+          o = run_rig(req);
+        }
+        py::dict d = record_to_python(o.measurement);
+        d["truth"] = to_python(o.truth);
+        return d;
+      },
+      py::arg("effects") = std::vector<std::string>{}, py::arg("speeds") = py::none(), py::arg("noise") = py::none(),
+      py::arg("keyphasor") = true, py::arg("carry_over") = false, py::arg("settle_revs") = rig_request{}.settle_revs,
+      py::arg("revs") = rig_request{}.record_revs, py::arg("seed") = probe_settings{}.seed, py::arg("variant") = "identified",
+      py::arg("clearance") = py::none());
+
+  m.def(
+      "loop",
+      [](const std::vector<std::string>& paths, std::optional<double> clearance, std::optional<double> mass, int max_effects) {
+        loop_settings s;
+        if (clearance) s.clearance = *clearance;
+        if (mass) s.mass = *mass;
+        if (max_effects < 0) throw input_error("max_effects must be >= 0");
+        s.max_effects = max_effects;
+        const auto records = read_records(paths);
+        loop_result r;
+        {
+          py::gil_scoped_release free;
+          r = run_loop(records, s);
+        }
+        for (const auto& w : r.warnings) py::module_::import("warnings").attr("warn")(w);
+        return to_python(to_json(r));
+      },
+      py::arg("paths"), py::arg("clearance") = py::none(), py::arg("mass") = py::none(), py::arg("max_effects") = loop_settings{}.max_effects);
+}

@@ -1,0 +1,227 @@
+#include "ref/format/record.hpp"
+
+#include <algorithm>
+#include <charconv>
+#include <cmath>
+#include <fstream>
+#include <sstream>
+
+#include "ref/base/errors.hpp"
+#include "ref/format/table.hpp"
+
+namespace rubref {
+
+namespace {
+
+std::string_view trim(std::string_view s) {
+  const auto first = s.find_first_not_of(" \t\r");
+  if (first == std::string_view::npos) return {};
+  const auto last = s.find_last_not_of(" \t\r");
+  return s.substr(first, last - first + 1);
+}
+
+bool parse_double(std::string_view s, double& out) {
+  s = trim(s);
+  if (!s.empty() && s.front() == '+') s.remove_prefix(1);
+  const auto [ptr, ec] = std::from_chars(s.data(), s.data() + s.size(), out);
+  return ec == std::errc() && ptr == s.data() + s.size() && !s.empty();
+}
+
+[[noreturn]] void fail(std::string_view source, std::size_t line, const std::string& what) {
+  throw input_error(std::string(source) + ":" + std::to_string(line) + ": " + what);
+}
+
+}  // namespace
+
+const std::string* record::find(std::string_view key) const {
+  for (const auto& [k, v] : metadata)
+    if (k == key) return &v;
+  return nullptr;
+}
+
+std::string record::where(std::string_view key) const {
+  if (source.empty()) return {};
+  for (std::size_t i = 0; i < metadata.size() && i < metadata_lines.size(); ++i)
+    if (metadata[i].first == key) return source + ":" + std::to_string(metadata_lines[i]) + ": ";
+  return source + ": ";
+}
+
+std::string record::where_row(std::size_t row) const {
+  if (source.empty()) return {};
+  if (first_data_line == 0) return source + ": ";
+  return source + ":" + std::to_string(first_data_line + row) + ": ";
+}
+
+double record::number(std::string_view key) const {
+  const std::string* v = find(key);
+  if (!v) throw input_error(where(key) + "no metadata key '" + std::string(key) + "'");
+  double out = 0.0;
+  if (!parse_double(*v, out)) throw input_error(where(key) + "metadata '" + std::string(key) + "' is not a number: '" + *v + "'");
+  return out;
+}
+
+const std::vector<double>& record::column(std::string_view name) const {
+  for (std::size_t c = 0; c < columns.size(); ++c)
+    if (columns[c] == name) return data[c];
+  throw input_error(where({}) + "no column '" + std::string(name) + "'");
+}
+
+void record::set(std::string key, std::string value) {
+  for (auto& [k, v] : metadata)
+    if (k == key) {
+      v = std::move(value);
+      return;
+    }
+  metadata.emplace_back(std::move(key), std::move(value));
+}
+
+void record::set(std::string key, double value) { set(std::move(key), format_number(value)); }
+
+void record::add_column(std::string name, std::vector<double> values) {
+  columns.push_back(std::move(name));
+  data.push_back(std::move(values));
+}
+
+std::string to_csv(const record& r, number_format format) {
+  const auto number = format == number_format::shortest ? format_number : format_number_17;
+  for (std::size_t i = 0; i < kRequiredColumns.size(); ++i)
+    if (r.columns.size() <= i || r.columns[i] != kRequiredColumns[i])
+      throw input_error("record columns must start with t_s,x_m,y_m,speed_rpm");
+  const std::size_t n = r.rows();
+  for (const auto& col : r.data)
+    if (col.size() != n) throw input_error("record columns have different lengths");
+
+  std::string out;
+  out.reserve(64 * (n + r.metadata.size() + 2) * std::max<std::size_t>(1, r.columns.size() / 2));
+  std::vector<std::pair<std::string, std::string>> meta{{"format", std::string(kRecordFormat)}};
+  for (const auto& kv : r.metadata)
+    if (kv.first != "format") meta.push_back(kv);
+  write_metadata(out, meta);
+  for (std::size_t c = 0; c < r.columns.size(); ++c) {
+    if (c) out += ',';
+    out += r.columns[c];
+  }
+  out += '\n';
+  for (std::size_t i = 0; i < n; ++i) {
+    for (std::size_t c = 0; c < r.columns.size(); ++c) {
+      if (c) out += ',';
+      out += number(r.data[c][i]);
+    }
+    out += '\n';
+  }
+  return out;
+}
+
+namespace {
+// What a header that does not start with t_s,x_m,y_m,speed_rpm most likely is, in the words a
+// user of a spreadsheet or pandas would recognise; "" when nothing specific fits.
+std::string explain_header(std::string_view line) {
+  const auto has = [&](std::string_view s) { return line.find(s) != std::string_view::npos; };
+  if (has(";") && !has(","))
+    return "columns are separated by ';' (a spreadsheet's export for decimal commas?): rubref reads ',' between columns and "
+           "'.' as the decimal point";
+  if (has("\t") && !has(",")) return "columns are separated by tabs: rubref reads ',' between columns";
+  if (has("\"") || has("'")) return "column names are quoted: write them bare, e.g. t_s,x_m,y_m,speed_rpm";
+  const std::string_view first = trim(line.substr(0, std::min(line.find(','), line.size())));
+  if (first.empty() || first == "index" || first == "Unnamed: 0" || first == "i" || first == "n")
+    if (has(",t_s,x_m,y_m,speed_rpm") || has(", t_s"))
+      return "the first column ('" + std::string(first) + "') looks like a row index: write the file without it (pandas: to_csv(index=False))";
+  return {};
+}
+}  // namespace
+
+record parse_record(std::string_view text, std::string_view source) {
+  if (text.substr(0, 3) == "\xEF\xBB\xBF")
+    fail(source, 1, "the file starts with a UTF-8 byte-order mark (BOM): save it as UTF-8 without BOM");
+  record r;
+  r.source = std::string(source);
+  std::size_t line_no = 0;
+  std::size_t& first_data_line = r.first_data_line;
+  bool header_seen = false;
+  std::size_t pos = 0;
+  while (pos < text.size()) {
+    const std::size_t end = std::min(text.find('\n', pos), text.size());
+    std::string_view line = text.substr(pos, end - pos);
+    pos = end + 1;
+    ++line_no;
+    if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
+    if (line.find('\0') != std::string_view::npos) fail(source, line_no, "NUL byte in text");
+
+    if (!header_seen) {
+      if (trim(line).empty()) continue;
+      if (line.front() == '#') {
+        const std::string_view body = trim(line.substr(1));
+        const auto colon = body.find(':');
+        if (colon == std::string_view::npos || trim(body.substr(0, colon)).empty())
+          fail(source, line_no, "metadata line is not '# key: value'");
+        std::string key(trim(body.substr(0, colon)));
+        std::string value(trim(body.substr(colon + 1)));
+        if (r.find(key)) fail(source, line_no, "metadata key '" + key + "' given twice");
+        if (key == "format" && value != kRecordFormat)
+          fail(source, line_no, "unsupported format '" + value + "' (this reader knows '" + std::string(kRecordFormat) + "')");
+        r.metadata.emplace_back(std::move(key), std::move(value));
+        r.metadata_lines.push_back(line_no);
+        continue;
+      }
+      // The column header.
+      std::size_t cpos = 0;
+      while (true) {
+        const std::size_t comma = std::min(line.find(',', cpos), line.size());
+        const std::string name(trim(line.substr(cpos, comma - cpos)));
+        if (name.empty()) {
+          const std::string why = explain_header(line);
+          fail(source, line_no, "empty column name in header" + (why.empty() ? "" : ": " + why));
+        }
+        if (std::find(r.columns.begin(), r.columns.end(), name) != r.columns.end())
+          fail(source, line_no, "column '" + name + "' appears twice");
+        r.columns.push_back(name);
+        if (comma >= line.size()) break;
+        cpos = comma + 1;
+      }
+      for (std::size_t i = 0; i < kRequiredColumns.size(); ++i)
+        if (r.columns.size() <= i || r.columns[i] != kRequiredColumns[i]) {
+          const std::string why = explain_header(line);
+          fail(source, line_no, "header must start with t_s,x_m,y_m,speed_rpm" + (why.empty() ? "" : ": " + why));
+        }
+      r.data.assign(r.columns.size(), {});
+      header_seen = true;
+      continue;
+    }
+
+    if (trim(line).empty()) {
+      if (pos >= text.size()) break;  // a final newline
+      fail(source, line_no, "empty line inside the data");
+    }
+    if (line.front() == '#') fail(source, line_no, "metadata after the column header");
+    if (first_data_line == 0) first_data_line = line_no;
+    std::size_t cpos = 0;
+    for (std::size_t c = 0; c < r.columns.size(); ++c) {
+      const std::size_t comma = std::min(line.find(',', cpos), line.size());
+      if (cpos > line.size()) fail(source, line_no, "expected " + std::to_string(r.columns.size()) + " values, got " + std::to_string(c));
+      double v = 0.0;
+      if (!parse_double(line.substr(cpos, comma - cpos), v) || !std::isfinite(v))
+        fail(source, line_no, "column '" + r.columns[c] + "': not a finite number: '" +
+                                  std::string(trim(line.substr(cpos, std::min<std::size_t>(comma - cpos, 40)))) + "'");
+      r.data[c].push_back(v);
+      cpos = comma + 1;
+    }
+    if (cpos <= line.size()) fail(source, line_no, "more than " + std::to_string(r.columns.size()) + " values");
+  }
+  if (!header_seen) fail(source, line_no, "no column header (t_s,x_m,y_m,speed_rpm,...)");
+  if (r.rows() == 0) fail(source, line_no, "no data rows");
+  const auto& t = r.data[0];
+  for (std::size_t i = 1; i < t.size(); ++i)
+    if (!(t[i] > t[i - 1])) fail(source, first_data_line + i, "t_s is not strictly increasing");
+  return r;
+}
+
+record read_record(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw input_error(path.string() + ": cannot open for reading");
+  std::ostringstream buf;
+  buf << in.rdbuf();
+  if (in.bad()) throw input_error(path.string() + ": read error");
+  return parse_record(buf.str(), path.string());
+}
+
+}  // namespace rubref

@@ -1,0 +1,362 @@
+#pragma once
+// Exact free flight (docs/orbits.md). Between contacts Eq. 1 (and the linear effects of the rig)
+// is linear with harmonic forcing,
+//   s' = A s + b + Re sum_h F_h e^{i h w t},
+// so from (t0, s0) the flow is, with A = V Lambda V^-1,
+//   s(t) = p(t) + Re V e^{Lambda (t - t0)} V^-1 (s0 - p(t0)),
+//   p(t) = -A^-1 b + Re sum_h (i h w - A)^-1 F_h e^{i h w t}       (the periodic particular solution)
+// A free arc then costs a few dozen flops per evaluation whatever its length, and its state
+// transition matrix e^{A (t - t0)} = Re V e^{Lambda (t - t0)} V^-1 is exact (the monodromy's free
+// factors).
+//
+// Contact onset, the first t with z(t) = l.s(t) - offset > 0, is found by guaranteed safe steps:
+// from a point a with z(a) < 0, |z''| <= M on [a, a + H] (M from the modal amplitudes, below)
+// gives z(a + tau) <= z(a) + z'(a) tau + M tau^2 / 2, which stays <= 0 up to the root tau* of that
+// parabola. The march from a to a + tau* never steps over a crossing; near a crossing the steps
+// shrink like Newton steps from below. A step is never shorter than sqrt(2 d / M), so an episode
+// shallower than d (the `min_depth`, 1e-12 of the clearance by default) may be passed over, and no
+// deeper one can be. The crossing found is bracketed by TOMS 748 on the exact z.
+
+#include <Eigen/Dense>
+#include <array>
+#include <boost/math/tools/toms748_solve.hpp>
+#include <cmath>
+#include <complex>
+#include <cstdint>
+#include <cstring>
+#include <limits>
+#include <optional>
+#include <string>
+#include <utility>
+
+#include "ref/base/errors.hpp"
+#include "ref/model/state.hpp"
+
+namespace rubref {
+
+// What a System says its free flight is (`free_dynamics()`): s' = A s + b + Re sum_h F_h e^{i h w t},
+// and the penetration z = normal . s - offset whose first zero ends the arc.
+template <int N>
+struct linear_dynamics {
+  static constexpr int kMaxHarmonics = 2;  // the unbalance (and bow) at 1X, misalignment at 2X
+  using matrix = Eigen::Matrix<double, N, N>;
+  using vector = Eigen::Matrix<double, N, 1>;
+  using complex_vector = Eigen::Matrix<std::complex<double>, N, 1>;
+
+  matrix A = matrix::Zero();
+  vector b = vector::Zero();
+  std::array<complex_vector, kMaxHarmonics> F{complex_vector::Zero(), complex_vector::Zero()};  // orders 1 and 2
+  double omega = 0.0;                                                                               // rad/s, signed
+  vector normal = vector::Zero();
+  double offset = 0.0;  // m
+};
+
+// The flow of a linear_dynamics. Components whose row of A, b and F is zero (a rigid stator's) are
+// constants of the flow and kept out of the eigenproblem.
+template <int N>
+class free_flight {
+ public:
+  using state = std::array<double, N>;
+  using dynamics = linear_dynamics<N>;
+  using cscalar = std::complex<double>;
+
+ private:
+  using sub_matrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, N, N>;
+  using sub_vector = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, N, 1>;
+  using sub_cmatrix = Eigen::Matrix<cscalar, Eigen::Dynamic, Eigen::Dynamic, 0, N, N>;
+  using sub_cvector = Eigen::Matrix<cscalar, Eigen::Dynamic, 1, 0, N, 1>;
+  struct eigenbasis {
+    sub_matrix a;  // the moving components' A
+    sub_cvector lambda;
+    sub_cmatrix V, Vinv;
+  };
+
+ public:
+
+  explicit free_flight(const dynamics& d) : d_(d) {
+    for (int i = 0; i < N; ++i) {
+      bool moves = d.b[i] != 0.0;
+      for (int j = 0; j < N && !moves; ++j) moves = d.A(i, j) != 0.0;
+      for (const auto& f : d.F) moves = moves || f[i] != 0.0;
+      if (moves) active_[static_cast<std::size_t>(n_++)] = i;
+    }
+    for (int i = 0; i < N; ++i)
+      for (int k = 0; k < n_; ++k)
+        if (!is_active(i) && d.A(active_[static_cast<std::size_t>(k)], i) != 0.0)
+          throw numerical_error("free flight: a moving component depends on a constant one");
+    sub_matrix a(n_, n_);
+    for (int r = 0; r < n_; ++r)
+      for (int c = 0; c < n_; ++c) a(r, c) = d.A(active_[static_cast<std::size_t>(r)], active_[static_cast<std::size_t>(c)]);
+    // The eigenbasis depends on A alone, which a continuation in speed, unbalance or mu and the
+    // flows of one shooting share: the last one is kept per thread (a pure function of A's bits,
+    // compared as bits so that even a zero's sign matches, so the results are the same bits with
+    // or without it, on any number of threads).
+    thread_local std::optional<eigenbasis> last;
+    const auto same_bits = [&](const sub_matrix& m) {
+      return m.rows() == n_ && std::memcmp(m.data(), a.data(), sizeof(double) * static_cast<std::size_t>(n_ * n_)) == 0;
+    };
+    if (!(last && same_bits(last->a))) {
+      last.reset();
+      eigenbasis e;
+      e.a = a;
+      Eigen::EigenSolver<sub_matrix> eig(a);
+      if (eig.info() != Eigen::Success) throw numerical_error("free flight: no eigendecomposition of the linear dynamics");
+      e.lambda = eig.eigenvalues();
+      e.V = eig.eigenvectors();
+      const Eigen::PartialPivLU<sub_cmatrix> lu(e.V);
+      e.Vinv = lu.inverse();
+      // A defective (or nearly so) A, e.g. exactly critical damping, has no usable eigenbasis.
+      const double cond = e.V.cwiseAbs().colwise().sum().maxCoeff() * e.Vinv.cwiseAbs().colwise().sum().maxCoeff();
+      if (!(cond < 1e8)) throw numerical_error("free flight: the linear dynamics have no well-conditioned eigenbasis");
+      last = std::move(e);
+    }
+    lambda_ = last->lambda;
+    V_ = last->V;
+    Vinv_ = last->Vinv;
+    // The particular solution: constant and harmonic parts.
+    p0_ = dynamics::vector::Zero();
+    sub_vector bs(n_);
+    for (int r = 0; r < n_; ++r) bs[r] = d.b[active_[static_cast<std::size_t>(r)]];
+    if (largest(bs) > 0.0) {
+      const sub_vector p = a.fullPivLu().solve(-bs);
+      if (!(a * p + bs).isZero(1e-9 * bs.norm())) throw numerical_error("free flight: no static equilibrium of the linear dynamics");
+      for (int r = 0; r < n_; ++r) p0_[active_[static_cast<std::size_t>(r)]] = p[r];
+    }
+    for (int h = 0; h < dynamics::kMaxHarmonics; ++h) {
+      P_[static_cast<std::size_t>(h)] = dynamics::complex_vector::Zero();
+      sub_cvector f(n_);
+      for (int r = 0; r < n_; ++r) f[r] = d.F[static_cast<std::size_t>(h)][active_[static_cast<std::size_t>(r)]];
+      if (largest(f) == 0.0) continue;
+      const sub_cmatrix m = cscalar(0.0, (h + 1) * d.omega) * sub_cmatrix::Identity(n_, n_) - a.template cast<cscalar>();
+      const Eigen::PartialPivLU<sub_cmatrix> mlu(m);
+      const sub_cvector p = mlu.solve(f);
+      if (!p.allFinite() || !(largest(sub_cvector(m * p - f)) <= 1e-9 * largest(f)))
+        throw numerical_error("free flight: the forcing is at an undamped resonance");
+      for (int r = 0; r < n_; ++r) P_[static_cast<std::size_t>(h)][active_[static_cast<std::size_t>(r)]] = p[r];
+    }
+    // What the onset search reads: l.V_j, l.P_h.
+    lV_.resize(n_);
+    for (int j = 0; j < n_; ++j) {
+      cscalar s = 0.0;
+      for (int r = 0; r < n_; ++r) s += d.normal[active_[static_cast<std::size_t>(r)]] * V_(r, j);
+      lV_[j] = s;
+    }
+    particular_bound_ = 0.0;
+    for (int h = 0; h < dynamics::kMaxHarmonics; ++h) {
+      const double w = (h + 1) * d.omega;
+      lP_[static_cast<std::size_t>(h)] = d.normal.template cast<cscalar>().dot(P_[static_cast<std::size_t>(h)]);
+      particular_bound_ += std::abs(lP_[static_cast<std::size_t>(h)]) * w * w;
+    }
+    lp0_ = d.normal.dot(p0_);
+    // A real A's complex eigenvalues come in conjugate pairs with conjugate eigenvectors (Eigen
+    // builds them so, exactly), and a real state has conjugate modal coordinates on them: the
+    // pair's share of z is twice the real part of one term, which halves the onset search's
+    // complex exponentials.
+    weight_.resize(n_);
+    for (int j = 0; j < n_; ++j) weight_[j] = 1.0;
+    for (int j = 0; j + 1 < n_; ++j)
+      if (weight_[j] == 1.0 && lambda_[j].imag() != 0.0 && lambda_[j + 1] == std::conj(lambda_[j]) &&
+          V_.col(j + 1) == V_.col(j).conjugate()) {
+        weight_[j] = 2.0;
+        weight_[j + 1] = 0.0;
+      }
+  }
+
+  // The particular (periodic) solution at t.
+  state particular(double t) const {
+    const forcing_phasor u = phasor_of(d_.omega * t);
+    const cscalar z1(u.cos, u.sin), z2 = z1 * z1;
+    state p{};
+    for (int i = 0; i < N; ++i) p[static_cast<std::size_t>(i)] = p0_[i] + (P_[0][i] * z1).real() + (P_[1][i] * z2).real();
+    return p;
+  }
+
+  // One free arc from (t0, s0).
+  class arc {
+   public:
+    arc(const free_flight& ff, double t0, const state& s0) : ff_(&ff), t0_(t0), s0_(s0) {
+      const state p = ff.particular(t0);
+      c_.resize(ff.n_);
+      for (int j = 0; j < ff.n_; ++j) {
+        cscalar s = 0.0;
+        for (int r = 0; r < ff.n_; ++r) {
+          const auto i = static_cast<std::size_t>(ff.active_[static_cast<std::size_t>(r)]);
+          s += ff.Vinv_(j, r) * (s0[i] - p[i]);
+        }
+        c_[j] = s;
+      }
+      modal_.resize(ff.n_);
+      q_.resize(ff.n_);
+      lc_.resize(ff.n_);
+      for (int j = 0; j < ff.n_; ++j) {
+        q_[j] = std::abs(ff.lV_[j]) * std::norm(ff.lambda_[j]) * std::abs(c_[j]);
+        lc_[j] = ff.weight_[j] * ff.lV_[j] * c_[j];
+      }
+      z_const_ = ff.lp0_ - ff.d_.offset;
+      for (int i = 0; i < N; ++i)
+        if (!ff.is_active(i)) z_const_ += ff.d_.normal[i] * s0[static_cast<std::size_t>(i)];
+    }
+
+    double start_time() const noexcept { return t0_; }
+
+    // The state at t.
+    state at(double t) const {
+      state s = ff_->particular(t);
+      const double tau = t - t0_;
+      for (int j = 0; j < ff_->n_; ++j) modal_[j] = std::exp(ff_->lambda_[j] * tau) * c_[j];
+      for (int r = 0; r < ff_->n_; ++r) {
+        cscalar v = 0.0;
+        for (int j = 0; j < ff_->n_; ++j) v += ff_->V_(r, j) * modal_[j];
+        s[static_cast<std::size_t>(ff_->active_[static_cast<std::size_t>(r)])] += v.real();
+      }
+      for (int i = 0; i < N; ++i)
+        if (!ff_->is_active(i)) s[static_cast<std::size_t>(i)] = s0_[static_cast<std::size_t>(i)];
+      return s;
+    }
+
+    // z and z' at t (z = normal . s - offset), from the projections of the solution on the
+    // normal alone: z = l.p0 - offset + Re sum_h (l.P_h) e^{i h w t} + Re sum_j (l.V_j) c_j e^{lambda_j tau}.
+    std::pair<double, double> penetration(double t) const {
+      const double w = ff_->d_.omega;
+      const forcing_phasor u = phasor_of(w * t);
+      const cscalar z1(u.cos, u.sin), z2 = z1 * z1;
+      const cscalar p1 = ff_->lP_[0] * z1, p2 = ff_->lP_[1] * z2;
+      double z = z_const_ + p1.real() + p2.real();
+      double zd = -w * (p1.imag() + 2.0 * p2.imag());  // d/dt Re(a e^{i w t}) = -w Im(a e^{i w t})
+      const double tau = t - t0_;
+      for (int j = 0; j < ff_->n_; ++j) {
+        if (ff_->weight_[j] == 0.0) continue;  // the conjugate of the term before
+        const cscalar m = std::exp(ff_->lambda_[j] * tau) * lc_[j];
+        z += m.real();
+        zd += (ff_->lambda_[j] * m).real();
+      }
+      return {z, zd};
+    }
+
+    // A bound on |z''| over [ta, tb] (ta >= t0): the modal terms' largest size there plus the
+    // forcing's, widened by a margin for rounding.
+    double curvature_bound(double ta, double tb) const {
+      double m = ff_->particular_bound_;
+      for (int j = 0; j < ff_->n_; ++j) {
+        const double re = ff_->lambda_[j].real();
+        m += q_[j] * std::exp(re * ((re > 0.0 ? tb : ta) - t0_));
+      }
+      return m * (1.0 + 1e-9) + std::numeric_limits<double>::min();
+    }
+
+    // The first contact onset in (from, t_end]: a bracket [outside, inside] of width <= time_tol
+    // around the first zero of z reached by an episode deeper than min_depth, or none. z(from)
+    // may be slightly positive only on the boundary the arc starts from (after an event).
+    std::optional<std::pair<double, double>> first_onset(double from, double t_end, double min_depth, double time_tol,
+                                                         double window, std::size_t* marching_steps = nullptr) const {
+      constexpr std::size_t kMaxSteps = 10'000'000;  // a bound that always holds makes steps of at least sqrt(2 d / M)
+      double a = from;
+      auto [za, zda] = penetration(a);
+      // An arc starts on the boundary after an event (z = 0 to rounding): leaving it or grazing it.
+      if (za > min_depth) return std::pair{from, from};
+      za = std::min(za, 0.0);
+      // z is a difference of numbers of the clearance's size: a few ulps of it are rounding, not a
+      // contact (after a release on y = delta the rotor would otherwise "touch" again at once).
+      const double z_noise = 64.0 * std::numeric_limits<double>::epsilon() * std::abs(ff_->d_.offset);
+      for (std::size_t k = 0; a < t_end; ++k) {
+        if (k == kMaxSteps) throw numerical_error("free flight: the onset search does not advance");
+        if (marching_steps) ++*marching_steps;
+        const double b_max = std::min(t_end, a + window);
+        const double M = curvature_bound(a, b_max);
+        if (!std::isfinite(za) || !std::isfinite(zda) || !std::isfinite(M))
+          throw numerical_error("free flight: a non-finite state at t = " + std::to_string(a) + " s (a growing mode)");
+        // Largest tau with za + zda tau + M tau^2 / 2 <= 0 (za <= 0), in a cancellation-free form.
+        const double disc = std::sqrt(zda * zda - 2.0 * M * za);
+        double tau = zda > 0.0 ? -2.0 * za / (zda + disc) : (disc - zda) / M;
+        tau = std::max(tau, std::sqrt(2.0 * min_depth / M));
+        if (!(tau > 0.0)) throw numerical_error("free flight: the onset search lost its step at t = " + std::to_string(a) + " s");
+        const double b = std::min(a + tau, b_max);
+        const auto [zb, zdb] = penetration(b);
+        if (zb > z_noise) {
+          const auto f = [this](double t) { return penetration(t).first; };
+          return bracket(f, a, b, za, zb, time_tol);
+        }
+        a = b;
+        za = std::min(zb, 0.0);  // (a rounding-level z > 0 is on the boundary)
+        zda = zdb;
+      }
+      return std::nullopt;
+    }
+
+   private:
+    template <class F>
+    static std::pair<double, double> bracket(F&& f, double a, double b, double fa, double fb, double tol) {
+      std::uintmax_t iterations = 200;
+      const auto done = [tol](double lo, double hi) {
+        return hi - lo <= std::max(tol, 4.0 * std::numeric_limits<double>::epsilon() * std::abs(hi));
+      };
+      // The contact phase must start strictly inside (z > 0): a rounded z of exactly 0 counts as
+      // outside, so TOMS 748 never stops on an exact zero and the inner end always has z > 0.
+      const auto g = [&f](double t) {
+        const double z = f(t);
+        return z == 0.0 ? -std::numeric_limits<double>::denorm_min() : z;
+      };
+      auto r = boost::math::tools::toms748_solve(g, a, b, fa < 0.0 ? fa : -std::numeric_limits<double>::denorm_min(), fb, done,
+                                                    iterations);
+      if (!(f(r.second) > 0.0)) throw numerical_error("free flight: the onset bracket lost its inner end");
+      return r;
+    }
+
+    const free_flight* ff_;
+    double t0_;
+    state s0_;
+    sub_cvector c_;               // modal coordinates of s0 - p(t0)
+    sub_cvector lc_;              // weight_j (l.V_j) c_j: each mode's share of z
+    double z_const_ = 0.0;        // l.p0 - offset + the constant components' share of z
+    Eigen::Matrix<double, Eigen::Dynamic, 1, 0, N, 1> q_;  // |l.V_j| |lambda_j|^2 |c_j|
+    mutable sub_cvector modal_;  // scratch
+  };
+
+  arc from(double t0, const state& s0) const { return arc(*this, t0, s0); }
+
+  // e^{A tau}: the state transition matrix of a free arc of length tau (exact; identity rows for
+  // the constant components).
+  Eigen::Matrix<double, N, N> transition(double tau) const {
+    Eigen::Matrix<double, N, N> phi = Eigen::Matrix<double, N, N>::Identity();
+    sub_cmatrix e = V_;
+    for (int j = 0; j < n_; ++j) e.col(j) *= std::exp(lambda_[j] * tau);
+    const sub_cmatrix m = e * Vinv_;
+    for (int r = 0; r < n_; ++r)
+      for (int c = 0; c < n_; ++c)
+        phi(active_[static_cast<std::size_t>(r)], active_[static_cast<std::size_t>(c)]) = m(r, c).real();
+    return phi;
+  }
+
+  const dynamics& model() const noexcept { return d_; }
+
+ private:
+  // max |v_i| (a plain loop: GCC 12 misreads Eigen's vectorised reduction over a vector of
+  // dynamic size with a fixed maximum as out of bounds).
+  template <class Vec>
+  static double largest(const Vec& v) {
+    double m = 0.0;
+    for (Eigen::Index i = 0; i < v.size(); ++i) m = std::max(m, std::abs(v[i]));
+    return m;
+  }
+
+  bool is_active(int i) const noexcept {
+    for (int k = 0; k < n_; ++k)
+      if (active_[static_cast<std::size_t>(k)] == i) return true;
+    return false;
+  }
+
+  dynamics d_;
+  int n_ = 0;
+  std::array<int, N> active_{};
+  sub_cvector lambda_;
+  sub_cmatrix V_, Vinv_;
+  typename dynamics::vector p0_;
+  std::array<typename dynamics::complex_vector, dynamics::kMaxHarmonics> P_;
+  sub_cvector lV_;
+  std::array<cscalar, dynamics::kMaxHarmonics> lP_{};  // l.P_h
+  double lp0_ = 0.0;                                    // l.p0
+  Eigen::Matrix<double, Eigen::Dynamic, 1, 0, N, 1> weight_;  // 2: a pair's first mode, 0: its second, 1: a real mode
+  double particular_bound_ = 0.0;
+};
+
+}  // namespace rubref
