@@ -1,6 +1,7 @@
 #pragma once
 // The one list of contact variants. Generic code (CLI dispatch, record metadata) and every
-// typed test iterate over it, so a new variant is one header plus one entry here.
+// typed test iterate over it, so a new variant is one header plus its entry here (in both lists
+// below if it is a force law).
 
 #include <string>
 #include <string_view>

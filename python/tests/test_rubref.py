@@ -162,3 +162,13 @@ def test_validate_passes_a_golden_case_against_itself():
 
 def test_version():
     assert rubref.__version__.count(".") == 2
+
+
+def test_loop_on_records_without_an_effect_claims_none(tmp_path):
+    # The rig's truth is the paper's model: the loop must fit it and claim no effect.
+    rec = rubref.rig(noise=0.5e-6, seed=3)
+    rubref.write_record(tmp_path / "rig.csv", rec["columns"], rec["metadata"])
+    report = rubref.loop(tmp_path / "rig.csv")
+    assert report["effects"] == []
+    assert report["unexplained"] is False
+    assert report["error_after"] <= report["error_before"]

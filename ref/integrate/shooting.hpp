@@ -267,7 +267,6 @@ struct periodic_orbit {
 // Newton on P(s) - s = 0 from `guess` at t0, with backtracking when a step does not reduce the
 // residual (a contact that the step creates or removes makes P non-smooth). Never throws for a
 // failed iteration: the result says why (`failure`).
-
 template <differentiable_system System>
 periodic_orbit<static_cast<int>(std::tuple_size_v<state_of<System>>)> shoot_periodic_orbit(const System& sys, const state_of<System>& guess,
                                                                                             double t0, int periods,
