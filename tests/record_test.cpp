@@ -113,6 +113,7 @@ INSTANTIATE_TEST_SUITE_P(
         // What spreadsheets and pandas write, each named for what it is.
         malformed{"byte_order_mark", "\xEF\xBB\xBFt_s,x_m,y_m,speed_rpm\n0,0,0,0\n", "bad.csv:1: the file starts with a UTF-8 byte-order mark"},
         malformed{"semicolons", "t_s;x_m;y_m;speed_rpm\n0;0,1;0;0\n", "bad.csv:1: header must start with t_s,x_m,y_m,speed_rpm: columns are separated by ';'"},
+        malformed{"decimal_commas", "t_s,x_m,y_m,speed_rpm\n0,0,1,0,2,1600\n", "bad.csv:2: more than 4 values: decimal commas?"},
         malformed{"tabs", "t_s\tx_m\ty_m\tspeed_rpm\n0\t0\t0\t0\n", "columns are separated by tabs"},
         malformed{"quoted_header", "\"t_s\",\"x_m\",\"y_m\",\"speed_rpm\"\n0,0,0,0\n", "bad.csv:1: header must start with t_s,x_m,y_m,speed_rpm: column names are quoted"},
         malformed{"pandas_index", ",t_s,x_m,y_m,speed_rpm\n0,0,0,0,0\n", "bad.csv:1: empty column name in header: the first column ('') looks like a row index"},

@@ -205,7 +205,14 @@ record parse_record(std::string_view text, std::string_view source) {
       r.data[c].push_back(v);
       cpos = comma + 1;
     }
-    if (cpos <= line.size()) fail(source, line_no, "more than " + std::to_string(r.columns.size()) + " values");
+    if (cpos <= line.size()) {
+      // A row with up to twice the columns' values and no '.' at all: numbers written with decimal
+      // commas (a European spreadsheet's CSV) split in two.
+      const std::size_t values = static_cast<std::size_t>(std::count(line.begin(), line.end(), ',')) + 1;
+      const bool decimal_commas = values <= 2 * r.columns.size() && line.find('.') == std::string_view::npos;
+      fail(source, line_no, "more than " + std::to_string(r.columns.size()) + " values" +
+                                (decimal_commas ? ": decimal commas? rubref reads '.' as the decimal point and ',' between columns" : ""));
+    }
   }
   if (!header_seen) fail(source, line_no, "no column header (t_s,x_m,y_m,speed_rpm,...)");
   if (r.rows() == 0) fail(source, line_no, "no data rows");
