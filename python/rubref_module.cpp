@@ -19,6 +19,7 @@
 #include "ref/analysis/simulate.hpp"
 #include "ref/base/errors.hpp"
 #include "ref/base/parallel.hpp"
+#include "ref/base/setting_names.hpp"
 #include "ref/base/version.hpp"
 #include "ref/format/atomic_output.hpp"
 #include "ref/format/record.hpp"
@@ -42,18 +43,9 @@ namespace {
 // A library message with its settings (`field`, ref/base/errors.hpp) as this module's keyword
 // arguments: 'start' and 'end' for a continuation's range, else the field's own name.
 std::string with_keywords(std::string_view message) {
-  std::string out;
-  for (std::size_t i = 0; i < message.size();) {
-    const std::size_t open = message.find('`', i), close = open == std::string_view::npos ? open : message.find('`', open + 1);
-    if (close == std::string_view::npos) {
-      out += message.substr(i);
-      break;
-    }
-    const std::string_view field = message.substr(open + 1, close - open - 1);
-    out += std::string(message.substr(i, open - i)) + "'" + std::string(field == "from" ? "start" : field == "to" ? "end" : field) + "'";
-    i = close + 1;
-  }
-  return out;
+  return spell_settings(message, [](std::string_view field) {
+    return "'" + std::string(field == "from" ? "start" : field == "to" ? "end" : field) + "'";
+  });
 }
 
 py::array_t<double> to_array(const std::vector<double>& v) { return py::array_t<double>(static_cast<py::ssize_t>(v.size()), v.data()); }

@@ -7,6 +7,7 @@
 
 #include "ref/base/errors.hpp"
 #include "ref/base/parallel.hpp"
+#include "ref/base/setting_names.hpp"
 #include "ref/cli/commands.hpp"
 #include "ref/model/parameter_io.hpp"
 #include "variants/all_variants.hpp"
@@ -17,23 +18,13 @@ std::string with_flags(std::string_view message) {
   // The fields whose flag is not their name with dashes.
   static const std::array<std::pair<std::string_view, std::string_view>, 4> renamed{
       {{"from_rpm", "--from"}, {"to_rpm", "--to"}, {"step_rpm", "--step"}, {"record_revs", "--revs"}}};
-  std::string out;
-  for (std::size_t i = 0; i < message.size();) {
-    const std::size_t open = message.find('`', i), close = open == std::string_view::npos ? open : message.find('`', open + 1);
-    if (close == std::string_view::npos) {
-      out += message.substr(i);
-      break;
-    }
-    out += message.substr(i, open - i);
-    const std::string_view field = message.substr(open + 1, close - open - 1);
+  return spell_settings(message, [](std::string_view field) {
+    for (const auto& [name, flag] : renamed)
+      if (name == field) return std::string(flag);
     std::string flag = "--" + std::string(field);
     std::replace(flag.begin(), flag.end(), '_', '-');
-    for (const auto& [name, f] : renamed)
-      if (name == field) flag = f;
-    out += flag;
-    i = close + 1;
-  }
-  return out;
+    return flag;
+  });
 }
 
 std::string variant_names() {
