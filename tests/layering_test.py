@@ -9,7 +9,7 @@ import sys
 
 # In order; folders on one line share a layer.
 LAYERS = [["base"], ["format"], ["model", "variants"], ["integrate"], ["analysis", "orbits"], ["identification"], ["rig"], ["loop"],
-          ["validation"], ["app"], ["cli"]]
+          ["validation"], ["study"], ["app"], ["cli"]]
 RANK = {folder: i for i, layer in enumerate(LAYERS) for folder in layer}
 
 

@@ -43,6 +43,7 @@ int main(int argc, char** argv) {
   cli::add_identify(app);
   cli::add_rig(app);
   cli::add_loop(app);
+  cli::add_study(app);
   int exit_status = 0;
   cli::add_validate(app, exit_status);
   app.add_subcommand("params", "print the paper's default parameters as a JSON parameter file")->callback([] {

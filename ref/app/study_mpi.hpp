@@ -1,0 +1,29 @@
+#pragma once
+// A study over MPI ranks (docs/studies.md, "MPI"): `mpirun -np K rubref study SPEC --out DIR`.
+// Rank 0 owns the folder; the points not yet written are dealt out in rounds, each rank taking a
+// contiguous block of the round; the rows are gathered to rank 0, which journals them. The files
+// are the same, byte for byte, as from one process: a row depends on its index alone.
+
+#include <filesystem>
+#include <iosfwd>
+
+#include "ref/study/study_run.hpp"
+
+namespace rubref::study {
+
+// Whether this process was started by mpirun/srun (OpenMPI's, PMI's or PMIx's environment).
+bool launched_by_mpi();
+// Whether this rubref was built with -DRUBREF_MPI=ON.
+bool built_with_mpi();
+
+struct mpi_outcome {
+  bool root = false;    // rank 0: the only one that reports
+  int ranks = 1;
+  run_outcome outcome;  // rank 0's
+};
+
+// Every rank calls it; it initialises and finalises MPI. Bad input (found by rank 0) is an
+// input_error on rank 0 and a quiet exit with status 2 on the others. `threads` per rank.
+mpi_outcome run_study_mpi(const std::filesystem::path& dir, const spec& s, unsigned threads, std::ostream* progress);
+
+}  // namespace rubref::study

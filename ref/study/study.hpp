@@ -1,0 +1,110 @@
+#pragma once
+// A parameter study (docs/studies.md): a grid and/or a seeded random sample over the model's
+// parameters, the speed and the initial state, and one job per point. Every point is a pure
+// function of (SPEC, index): its values (random draws come from a stream keyed by the seed and
+// the index alone) and its result row. That is what makes a study's files the same, byte for
+// byte, from one thread, many threads, MPI ranks or job-array shards merged.
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "ref/model/parameters.hpp"
+#include "ref/model/state.hpp"
+
+namespace rubref::study {
+
+// The built-in kinds: what the points mean, the summary and the figures (docs/studies.md).
+enum class study_kind {
+  regime_map,   // clearance x speed: the steady response's regime per point, with fold lines
+  basins,       // an initial-state (or unbalance-phase) plane: which attractor each start reaches
+  monte_carlo,  // random tolerances: the run-up's rub onset, jump and peak force, as histograms
+  grid,         // any grid or sample and any job, a table and a summary, no figure
+};
+enum class job_kind {
+  orbit,     // the steady orbit by shooting (stable, its period, its Floquet multipliers)
+  simulate,  // a transient from the point's initial state, then recorded revolutions
+  run_up,    // the period-1 branch by continuation over a speed range: onset, jump, peak force
+};
+
+// What a study can vary: a parameter-file key (e_m, clearance_m, mu, k1_N_m, ...), the speed,
+// or a component of the initial state at t = 0.
+inline constexpr const char* kSpeed = "speed_rpm";
+inline constexpr const char* kInitialState[4] = {"x0_m", "y0_m", "vx0_m_s", "vy0_m_s"};
+std::vector<std::string> variable_names();
+
+struct axis {  // a grid axis: its values, in order
+  std::string name;
+  std::vector<double> values;
+};
+enum class distribution { uniform, normal, log_uniform };
+struct random_variable {
+  std::string name;
+  distribution law = distribution::uniform;
+  double a = 0.0, b = 0.0;  // uniform/log-uniform: [a, b]; normal: mean a, standard deviation b
+};
+
+struct job_settings {
+  job_kind kind = job_kind::orbit;
+  // orbit and simulate: where each point starts. "contact_free" (the closed-form response at
+  // t = 0; orbit shoots from it first), "state" (x0_m, y0_m, vx0_m_s, vy0_m_s: the point's
+  // values, else 0), "rest".
+  std::string start = "contact_free";
+  int settle_revs = 60;      // orbit: revolutions settled before each new shot where a shot fails
+                             // or is unstable; simulate: before recording
+  int settle_rounds = 4;     // orbit: at most this many settle-and-shoot rounds
+  int max_period = 6;        // orbit: longest period (revolutions) looked for
+  int record_revs = 12;      // simulate (and orbit's non-periodic points): recorded revolutions
+  int samples_per_rev = 128;
+  double from_rpm = 0.0, to_rpm = 0.0;  // run_up: the speed range traced (from < to)
+};
+
+struct spec {
+  study_kind kind = study_kind::grid;
+  std::string name;                 // free text, for the reader
+  std::string variant = "identified";
+  parameters base;                  // the paper's values with the SPEC's "parameters" applied
+  double rpm = 1600.0;              // when the speed is not varied
+  state_type initial{};             // when the initial state is not varied ("state" start)
+  std::vector<axis> grid;           // Cartesian product, the last axis fastest
+  std::size_t samples = 1;          // random draws per grid point (1 when there is no "sample")
+  std::uint64_t seed = 0;
+  std::vector<random_variable> random;
+  job_settings job;
+};
+
+// The SPEC's JSON text -> spec; input_error "SPEC <source>: `<key path>`: <problem>" naming the
+// first bad key (unknown keys included, with a did-you-mean).
+spec parse_spec(const std::string& text, const std::string& source);
+// The spec with every default filled in, as JSON text: what a study folder keeps (spec.json)
+// and compares to resume or merge.
+std::string canonical_text(const spec& s);
+
+std::size_t point_count(const spec& s);
+// The varied names, grid axes first, then the random variables.
+std::vector<std::string> varied_names(const spec& s);
+
+struct point {
+  std::size_t index = 0;
+  std::vector<double> values;  // per varied_names
+  parameters params;
+  double rpm = 0.0;
+  state_type initial{};
+};
+point point_at(const spec& s, std::size_t index);
+
+// Uniform double in [0, 1) from the k-th draw of point `index`'s stream (SplitMix64 of the seed,
+// the index and k: independent of which process computes the point, and of every other point).
+double uniform_draw(std::uint64_t seed, std::size_t index, std::size_t k);
+
+// The result table's columns: index, the varied names, then the job's outputs.
+std::vector<std::string> columns(const spec& s);
+// One point's row (its cells, per columns). A numerical failure is a row with status "failed"
+// and the reason, never a number; invalid drawn parameters are status "invalid".
+std::vector<std::string> evaluate(const spec& s, std::size_t index);
+
+std::string_view to_string(study_kind k);
+std::string_view to_string(job_kind k);
+
+}  // namespace rubref::study
