@@ -105,16 +105,19 @@ def basins():
     names, values = grid_axes(rows)
     attractors = table("attractors.csv")
     palette = ["#4c72b0", "#dd8452", "#55a868", "#8172b3", "#937860", "#da8bc3", "#8c8c8c", "#ccb974", "#64b5cd"]
-    labels = [("no steady result", "#222222"), ("non-periodic", "#c44e52")]
+    labels = [("start inside the stator (invalid)", "#ffffff"), ("no steady result", "#222222"), ("non-periodic", "#c44e52")]
     for a in attractors:
         labels.append((f"attractor {a['attractor']}: {a['response'].replace('_', ' ')}, period {a['period_revs']}, "
                        f"max radius {num(a['max_radius_m']) * 1e3:.3f} mm ({100 * num(a['share']):.0f} %)",
                        palette[(int(a["attractor"]) - 1) % len(palette)]))
     fig, ax = plt.subplots(figsize=(7.5, 4.8), constrained_layout=True)
-    image(ax, rows, names, values, lambda r: int(r["attractor"]) + 1, ListedColormap([c for _, c in labels]), -0.5, len(labels) - 0.5)
-    present = {int(r["attractor"]) + 1 for r in rows}
-    ax.legend(handles=[Patch(color=c, label=l) for i, (l, c) in enumerate(labels) if i in present], loc="upper left",
-              bbox_to_anchor=(1.01, 1.0), fontsize=7, frameon=False)
+    def code(r):  # -1: no attractor (invalid start, or no steady result), 0: non-periodic, k: attractor k
+        return 0 if r["status"] == "invalid" else int(r["attractor"]) + 2
+
+    image(ax, rows, names, values, code, ListedColormap([c for _, c in labels]), -0.5, len(labels) - 0.5)
+    present = {code(r) for r in rows}
+    ax.legend(handles=[Patch(facecolor=c, edgecolor="0.5", label=l) for i, (l, c) in enumerate(labels) if i in present], loc="upper center",
+              bbox_to_anchor=(0.5, -0.13), fontsize=8, frameon=False)
     p = spec["parameters"]
     ax.set_title(f"Basins of attraction, {spec['variant']} law, {spec['speed_rpm']:g} rpm, δ = {p['clearance_m'] * 1e3:g} mm", fontsize=10)
     save(fig, "basins")

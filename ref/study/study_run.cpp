@@ -34,10 +34,13 @@ void progress_meter::add(std::size_t n) {
   }
 }
 
-void progress_meter::finish() { print(); }
+void progress_meter::finish() {
+  if (printed_ != done_) print();
+}
 
 void progress_meter::print() {
   if (out_ == nullptr) return;
+  printed_ = done_;
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
   const double rate = seconds > 0.0 ? static_cast<double>(done_ - start_done_) / seconds : 0.0;
   *out_ << "study: " << done_ << "/" << total_ << " points ("

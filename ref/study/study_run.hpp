@@ -32,7 +32,7 @@ class progress_meter {
  private:
   void print();
   std::ostream* out_;
-  std::size_t total_, done_, start_done_;
+  std::size_t total_, done_, start_done_, printed_ = static_cast<std::size_t>(-1);
   std::chrono::steady_clock::time_point start_, last_;
 };
 
