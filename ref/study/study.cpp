@@ -172,11 +172,11 @@ random_variable parse_random(const json& j, const std::string& source, const std
   return r;
 }
 
-job_settings parse_job(const json& j, study_kind kind, const std::string& source) {
+job_settings parse_job(const json& given, study_kind kind, const std::string& source) {
   job_settings job;
   job.kind = kind == study_kind::monte_carlo ? job_kind::run_up : job_kind::orbit;
   if (kind == study_kind::basins) job.start = "state";
-  if (j.is_null()) return job;
+  const json j = given.is_null() ? json::object() : given;  // no "job": the kind's defaults, checked the same way
   if (!j.is_object()) bad(source, "job", "must be an object");
   only_keys(j, {"type", "start", "settle_revs", "settle_rounds", "max_period", "record_revs", "samples_per_rev", "from_rpm", "to_rpm"}, source, "job");
   if (j.contains("type")) job.kind = choice(j["type"], kJobs, source, "job.type");
