@@ -11,6 +11,7 @@
 #include <benchmark/benchmark.h>
 
 #include <boost/numeric/odeint.hpp>
+#include <chrono>
 #include <cmath>
 
 #include "ref/analysis/simulate.hpp"
@@ -20,6 +21,7 @@
 #include "ref/model/rotor_model.hpp"
 #include "ref/orbits/continuation.hpp"
 #include "ref/orbits/periodic_orbit.hpp"
+#include "ref/study/study_run.hpp"
 #include "variants/all_variants.hpp"
 
 namespace rubref {
@@ -277,6 +279,28 @@ void paper_sweeps(benchmark::State& state) {
   state.counters["events"] = static_cast<double>(counts.events);
 }
 
+// A regime map's points (docs/studies.md): the orbit job on a clearance x speed grid of the
+// identified law (0.1-0.5 mm x 1200-3000 rpm, 1547 points, every regime of the paper's rotor), on
+// 1 or 2 threads, without the folder (its journal is one append per 128 rows). The target is
+// >= 1e6 periodic orbits per hour on this 2-core machine (issue 26): the counter orbits_per_hour.
+void study_regime_map(benchmark::State& state) {
+  const auto threads = static_cast<unsigned>(state.range(0));
+  const study::spec s = study::parse_spec(R"({"study": "regime_map", "grid": [
+      {"name": "clearance_m", "from": 1e-4, "to": 5e-4, "count": 17}, {"name": "speed_rpm", "from": 1200, "to": 3000, "step": 20}]})",
+                                          "bench");
+  std::vector<std::size_t> all(study::point_count(s));
+  for (std::size_t i = 0; i < all.size(); ++i) all[i] = i;
+  std::size_t rows = 0;
+  double seconds = 0.0;
+  for (auto _ : state) {
+    const auto start = std::chrono::steady_clock::now();
+    study::compute_points(s, all, threads, 0, [&](auto&& r) { rows += r.size(); });
+    seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  }
+  state.counters["points"] = static_cast<double>(all.size());
+  state.counters["orbits_per_hour"] = 3600.0 * static_cast<double>(rows) / seconds;
+}
+
 #define RUBREF_PER_VARIANT(fn)                                        \
   BENCHMARK_TEMPLATE(fn, piecewise_linear);                           \
   BENCHMARK_TEMPLATE(fn, piecewise_nonlinear);                        \
@@ -305,6 +329,7 @@ BENCHMARK(branch_by_continuation)->Arg(2)->Arg(3)->Arg(4)->Unit(benchmark::kMill
 // (threads, clearances, start from orbit): one clearance's two branches on 1 and 2 threads, all
 // three on 2; then both settling nowhere the shot orbit is stable.
 BENCHMARK(paper_sweeps)->Args({1, 1, 0})->Args({2, 1, 0})->Args({2, 3, 0})->Args({2, 1, 1})->Args({2, 3, 1})->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(1);
+BENCHMARK(study_regime_map)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(2);
 
 }  // namespace
 }  // namespace rubref
