@@ -1,7 +1,8 @@
 #pragma once
 // rubref's public C++ interface in one include (installed as <rubref/rubref.hpp>): the paper's
 // model and its variants, integration, periodic orbits and their continuation, sweeps, spectra,
-// records, identification, the virtual rig, the loop and validation against golden files.
+// records, identification, the virtual rig, the loop, validation against golden files, and
+// parameter studies.
 // Each header can also be included alone (<rubref/ref/...>, <rubref/variants/...>);
 // docs/architecture.md says which does what.
 
@@ -22,4 +23,7 @@
 #include "ref/rig/rig.hpp"
 #include "ref/validation/golden.hpp"
 #include "ref/validation/validate.hpp"
+#include "ref/study/study.hpp"
+#include "ref/study/study_folder.hpp"
+#include "ref/study/study_run.hpp"
 #include "variants/all_variants.hpp"
