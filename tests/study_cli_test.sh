@@ -44,6 +44,18 @@ for spec in map mc; do
   fi
 done
 
+# A loop campaign (rig + loop per point, the noise's seed from the point's stream): the same rows
+# from one process and from two shards on one thread each.
+cat > "$work/loop.json" <<'SPEC'
+{"study": "grid", "grid": [{"name": "effect.preload.F_y", "values": [0, -4]}],
+ "job": {"type": "loop", "speeds_rpm": [1200, 1300, 1400, 1550, 1650, 1750], "record_revs": 8}}
+SPEC
+"$rubref" study "$work/loop.json" --out "$work/loop-t2" --threads 2 --quiet > /dev/null || fail "loop: 2 threads"
+for i in 1 2; do "$rubref" study "$work/loop.json" --out "$work/loop-s$i" --shard $i/2 --threads 1 --quiet > /dev/null || fail "loop: shard $i/2"; done
+"$rubref" study-merge "$work/loop-s1" "$work/loop-s2" --out "$work/loop-merged" > /dev/null || fail "loop: merge"
+same "loop campaign, shards merged" "$work/loop-t2" "$work/loop-merged"
+grep -q '"named_exactly": 2' "$work/loop-t2/summary.json" || fail "loop: the campaign did not name none and preload: $(grep -A3 campaign "$work/loop-t2/summary.json")"
+
 # Figures of the kinds (matplotlib): PNG and SVG.
 "$rubref" study "$work/map.json" --out "$work/map-t1" --quiet > /dev/null || fail "map: figures"
 for f in regime_map.png regime_map.svg; do [ -s "$work/map-t1/$f" ] || fail "map: no $f"; done
@@ -105,4 +117,4 @@ bad "holds another study" study "$work/mc.json" --out "$work/map-t1"
 bad "points have no row" study-merge "$work/map-s1" "$work/map-s2" --out "$work/nothing"
 bad "holds another study" study-merge "$work/map-s1" "$work/mc-s2" --out "$work/nothing"
 
-finish "study: 1 thread = 2 threads = shards merged = shared folder${mpiexec:+ = 2 MPI ranks}; resumed after a cut and a kill; bad input refused"
+finish "study: 1 thread = 2 threads = shards merged = shared folder${mpiexec:+ = 2 MPI ranks}; a loop campaign sharded; resumed after a cut and a kill; bad input refused"

@@ -59,6 +59,11 @@ TEST(StudySpec, EachMistakeIsNamedByItsKey) {
       {R"({"study": "grid", "grid": [{"name": "mu", "values": [0.1]}], "job": {"max_period": 7}})", "key 'job.max_period'"},
       {R"({"study": "grid", "grid": [{"name": "mu", "values": [0.1]}], "job": {"type": "run_up", "from_rpm": 1000, "to_rpm": 900}})",
        "key 'job.to_rpm': must be > 'from_rpm'"},
+      {R"({"study": "grid", "grid": [{"name": "effect.preload.F_y", "values": [0, -4]}]})", "effects and probe noise enter only a loop job"},
+      {R"({"study": "grid", "grid": [{"name": "effect.prelod.F_y", "values": [0]}], "job": {"type": "loop"}})", "did you mean 'effect.preload.F_y'"},
+      {R"({"study": "grid", "effects": ["hertz"], "grid": [{"name": "mu", "values": [0.2]}], "job": {"type": "loop"}})", "key 'effects[0]'"},
+      {R"({"study": "grid", "grid": [{"name": "mu", "values": [0.2]}], "job": {"type": "loop", "speeds_rpm": [-1]}})", "key 'job'"},
+      {R"({"study": "grid", "grid": [{"name": "mu", "values": [0.2]}], "job": {"noise_m": 1e-6}})", "key 'job.noise_m': belongs to a loop job only"},
   };
   for (const auto& [text, expected] : cases) {
     const std::string e = error_of(text);
@@ -72,6 +77,7 @@ TEST(StudySpec, CanonicalTextReadsBackToItself) {
   for (const char* text : {
            R"({"study": "regime_map", "grid": [{"name": "clearance_m", "from": 1e-4, "to": 5e-4, "count": 7}, {"name": "speed_rpm", "from": 1200, "to": 3000, "step": 20}]})",
            R"({"study": "monte_carlo", "name": "tol", "variant": "piecewise-linear", "sample": {"count": 50, "seed": 9, "vary": [{"name": "e_m", "normal": [7e-5, 5e-6]}, {"name": "k1_N_m", "log_uniform": [1e6, 1e7]}]}, "job": {"from_rpm": 1200, "to_rpm": 3000}})",
+           R"({"study": "grid", "effects": ["shaft_bow:b=2e-5,phi_b=1"], "grid": [{"name": "effect.preload.F_y", "values": [0, -4]}], "sample": {"count": 2, "seed": 4, "vary": [{"name": "noise_m", "uniform": [1e-7, 1e-6]}]}, "job": {"type": "loop", "speeds_rpm": [1200, 1300, 1400, 1550], "keyphasor": false}})",
            R"({"study": "basins", "speed_rpm": 2200, "initial_state": [0, 0, 0.01, 0], "grid": [{"name": "y0_m", "values": [-1e-4, 0]}, {"name": "vy0_m_s", "values": [0, 0.1]}], "job": {"settle_revs": 30}})"}) {
     const std::string c = canonical_text(parse_spec(text, "t.json"));
     EXPECT_EQ(canonical_text(parse_spec(c, "spec.json")), c);

@@ -75,7 +75,8 @@ E choice(const json& j, const std::vector<std::pair<std::string, E>>& options, c
 
 const std::vector<std::pair<std::string, study_kind>> kKinds = {
     {"regime_map", study_kind::regime_map}, {"basins", study_kind::basins}, {"monte_carlo", study_kind::monte_carlo}, {"grid", study_kind::grid}};
-const std::vector<std::pair<std::string, job_kind>> kJobs = {{"orbit", job_kind::orbit}, {"simulate", job_kind::simulate}, {"run_up", job_kind::run_up}};
+const std::vector<std::pair<std::string, job_kind>> kJobs = {
+    {"orbit", job_kind::orbit}, {"simulate", job_kind::simulate}, {"run_up", job_kind::run_up}, {"loop", job_kind::loop}};
 const std::vector<std::pair<std::string, distribution>> kLaws = {
     {"uniform", distribution::uniform}, {"normal", distribution::normal}, {"log_uniform", distribution::log_uniform}};
 const std::vector<std::string> kStarts = {"contact_free", "state", "rest"};
@@ -88,9 +89,37 @@ std::string name_of(E value, const std::vector<std::pair<std::string, E>>& optio
 }
 
 // How a variable's value enters a point.
+// effect.<effect>.<key> -> the member of effect_parameters; nullptr if it names none.
+double effect_parameters::*effect_member(const std::string& name) {
+  if (name.rfind(kEffectPrefix, 0) != 0) return nullptr;
+  const std::string rest = name.substr(std::string(kEffectPrefix).size());
+  const auto dot = rest.find('.');
+  if (dot == std::string::npos) return nullptr;
+  for (const auto& e : effect_library())
+    if (e.name == rest.substr(0, dot))
+      for (const auto& info : e.parameters)
+        if (info.key == rest.substr(dot + 1)) return info.member;
+  return nullptr;
+}
+
+std::vector<std::string> effect_variable_names() {
+  std::vector<std::string> names;
+  for (const auto& e : effect_library())
+    for (const auto& info : e.parameters) names.push_back(std::string(kEffectPrefix) + std::string(e.name) + "." + std::string(info.key));
+  return names;
+}
+
 void assign(point& p, const std::string& name, double v) {
   if (name == kSpeed) {
     p.rpm = v;
+    return;
+  }
+  if (name == kNoise) {
+    p.noise = v;
+    return;
+  }
+  if (const auto member = effect_member(name)) {
+    p.effects.*member = v;
     return;
   }
   for (int i = 0; i < 4; ++i)
@@ -107,10 +136,10 @@ void assign(point& p, const std::string& name, double v) {
 
 std::string checked_variable(const json& j, const std::string& source, const std::string& where) {
   const std::string name = text(j, source, where);
-  const auto names = variable_names();
-  if (std::find(names.begin(), names.end(), name) == names.end())
-    bad(source, where, "'" + name + "' is not a parameter a study can vary" + did_you_mean(name, names));
-  return name;
+  auto names = variable_names();
+  if (std::find(names.begin(), names.end(), name) != names.end() || effect_member(name) != nullptr) return name;
+  if (name.rfind(kEffectPrefix, 0) == 0) names = effect_variable_names();
+  bad(source, where, "'" + name + "' is not a parameter a study can vary" + did_you_mean(name, names));
 }
 
 axis parse_axis(const json& j, const std::string& source, const std::string& where) {
@@ -178,8 +207,26 @@ job_settings parse_job(const json& given, study_kind kind, const std::string& so
   if (kind == study_kind::basins) job.start = "state";
   const json j = given.is_null() ? json::object() : given;  // no "job": the kind's defaults, checked the same way
   if (!j.is_object()) bad(source, "job", "must be an object");
-  only_keys(j, {"type", "start", "settle_revs", "settle_rounds", "max_period", "record_revs", "samples_per_rev", "from_rpm", "to_rpm"}, source, "job");
+  only_keys(j, {"type", "start", "settle_revs", "settle_rounds", "max_period", "record_revs", "samples_per_rev", "from_rpm", "to_rpm",
+                "speeds_rpm", "noise_m", "keyphasor"},
+            source, "job");
   if (j.contains("type")) job.kind = choice(j["type"], kJobs, source, "job.type");
+  if (job.kind == job_kind::loop) {  // the rig's defaults (ref/rig/rig.hpp)
+    job.settle_revs = rig_request{}.settle_revs;
+    job.record_revs = rig_request{}.record_revs;
+  }
+  for (const char* key : {"speeds_rpm", "noise_m", "keyphasor"})
+    if (j.contains(key) && job.kind != job_kind::loop) bad(source, std::string("job.") + key, "belongs to a loop job only");
+  if (j.contains("speeds_rpm")) {
+    if (!j["speeds_rpm"].is_array() || j["speeds_rpm"].empty()) bad(source, "job.speeds_rpm", "must be a non-empty array of speeds");
+    for (std::size_t i = 0; i < j["speeds_rpm"].size(); ++i)
+      job.speeds_rpm.push_back(number(j["speeds_rpm"][i], source, "job.speeds_rpm[" + std::to_string(i) + "]"));
+  }
+  if (j.contains("noise_m")) job.noise = number(j["noise_m"], source, "job.noise_m");
+  if (j.contains("keyphasor")) {
+    if (!j["keyphasor"].is_boolean()) bad(source, "job.keyphasor", "must be true or false");
+    job.keyphasor = j["keyphasor"].get<bool>();
+  }
   if (j.contains("start")) {
     job.start = text(j["start"], source, "job.start");
     if (std::find(kStarts.begin(), kStarts.end(), job.start) == kStarts.end())
@@ -214,6 +261,7 @@ bool has(const std::vector<std::string>& names, const std::string& n) { return s
 std::vector<std::string> variable_names() {
   std::vector<std::string> names{kSpeed};
   for (const char* n : kInitialState) names.emplace_back(n);
+  names.emplace_back(kNoise);
   for (const auto& info : parameter_table) names.emplace_back(info.key);
   return names;
 }
@@ -232,6 +280,7 @@ std::string_view to_string(job_kind k) {
     case job_kind::orbit: return "orbit";
     case job_kind::simulate: return "simulate";
     case job_kind::run_up: return "run_up";
+    case job_kind::loop: return "loop";
   }
   return "?";
 }
@@ -244,7 +293,7 @@ spec parse_spec(const std::string& spec_text, const std::string& source) {
     throw input_error("SPEC " + source + ": not JSON (" + std::string(e.what()) + ")");
   }
   if (!j.is_object()) throw input_error("SPEC " + source + ": must be a JSON object");
-  only_keys(j, {"study", "name", "variant", "parameters", "speed_rpm", "initial_state", "grid", "sample", "job"}, source, "");
+  only_keys(j, {"study", "name", "variant", "parameters", "effects", "speed_rpm", "initial_state", "grid", "sample", "job"}, source, "");
   spec s;
   if (!j.contains("study")) bad(source, "study", "is missing (regime_map, basins, monte_carlo or grid)");
   s.kind = choice(j["study"], kKinds, source, "study");
@@ -261,6 +310,18 @@ spec parse_spec(const std::string& spec_text, const std::string& source) {
       validate(s.base);
     } catch (const input_error& e) {
       bad(source, "parameters", e.what());
+    }
+  }
+  if (j.contains("effects")) {
+    if (!j["effects"].is_array()) bad(source, "effects", "must be an array of effects as `rubref rig --effect` takes them (\"preload:F_y=-4\")");
+    for (std::size_t i = 0; i < j["effects"].size(); ++i) {
+      const std::string where = "effects[" + std::to_string(i) + "]";
+      s.effect_texts.push_back(text(j["effects"][i], source, where));
+      try {
+        apply_effect(s.effects, s.effect_texts.back());
+      } catch (const input_error& e) {
+        bad(source, where, e.what());
+      }
     }
   }
   if (j.contains("speed_rpm")) {
@@ -313,6 +374,23 @@ spec parse_spec(const std::string& spec_text, const std::string& source) {
   if (s.job.start != "state")
     for (const char* n : kInitialState)
       if (has(names, n)) bad(source, "job.start", std::string("varies ") + n + " but the start is '" + s.job.start + "': use \"state\"");
+  bool varies_loop_only = !s.effect_texts.empty();
+  for (const auto& n : names) varies_loop_only = varies_loop_only || n == kNoise || effect_member(n) != nullptr;
+  if (varies_loop_only && s.job.kind != job_kind::loop)
+    bad(source, "job.type", "effects and probe noise enter only a loop job (the other jobs integrate the paper's model)");
+  if (s.job.kind == job_kind::loop) {
+    if (s.kind != study_kind::grid) bad(source, "job.type", "a loop job belongs to a grid study (a campaign)");
+    if (has(names, kSpeed)) bad(source, "job.type", "a loop job's speeds are its dwells (job.speeds_rpm): vary something else");
+    try {  // the rig's own checks on the shared settings, before any point runs
+      point base;
+      base.params = s.base;
+      base.effects = s.effects;
+      base.noise = s.job.noise;
+      validate(rig_request_for(s, base));
+    } catch (const input_error& e) {
+      bad(source, "job", e.what());
+    }
+  }
   switch (s.kind) {
     case study_kind::regime_map:
       if (s.grid.size() != 2 || !s.random.empty() || !has(names, "clearance_m") || !has(names, kSpeed))
@@ -339,6 +417,7 @@ std::string canonical_text(const spec& s) {
   j["name"] = s.name;
   j["variant"] = s.variant;
   j["parameters"] = to_json(s.base);
+  if (!s.effect_texts.empty()) j["effects"] = s.effect_texts;
   j["speed_rpm"] = s.rpm;
   j["initial_state"] = {s.initial[0], s.initial[1], s.initial[2], s.initial[3]};
   for (const auto& a : s.grid) j["grid"].push_back({{"name", a.name}, {"values", a.values}});
@@ -352,6 +431,12 @@ std::string canonical_text(const spec& s) {
   if (s.job.kind == job_kind::run_up) {
     job["from_rpm"] = s.job.from_rpm;
     job["to_rpm"] = s.job.to_rpm;
+  } else if (s.job.kind == job_kind::loop) {
+    if (!s.job.speeds_rpm.empty()) job["speeds_rpm"] = s.job.speeds_rpm;
+    job["noise_m"] = s.job.noise;
+    job["keyphasor"] = s.job.keyphasor;
+    job["settle_revs"] = s.job.settle_revs;
+    job["record_revs"] = s.job.record_revs;
   } else {
     job["start"] = s.job.start;
     job["settle_revs"] = s.job.settle_revs;
@@ -361,7 +446,7 @@ std::string canonical_text(const spec& s) {
     job["settle_rounds"] = s.job.settle_rounds;
     job["max_period"] = s.job.max_period;
   }
-  job["samples_per_rev"] = s.job.samples_per_rev;
+  if (s.job.kind != job_kind::loop) job["samples_per_rev"] = s.job.samples_per_rev;
   j["job"] = job;
   return j.dump(2) + "\n";
 }
@@ -398,6 +483,8 @@ point point_at(const spec& s, std::size_t index) {
   p.params = s.base;
   p.rpm = s.rpm;
   p.initial = s.initial;
+  p.effects = s.effects;
+  p.noise = s.job.noise;
   std::size_t grid_index = index / s.samples;
   std::vector<double> grid_values(s.grid.size());
   for (std::size_t a = s.grid.size(); a-- > 0;) {  // the last axis fastest

@@ -10,8 +10,10 @@
 #include <string>
 #include <vector>
 
+#include "ref/model/effects.hpp"
 #include "ref/model/parameters.hpp"
 #include "ref/model/state.hpp"
+#include "ref/rig/rig.hpp"
 
 namespace rubref::study {
 
@@ -26,13 +28,19 @@ enum class job_kind {
   orbit,     // the steady orbit by shooting (stable, its period, its Floquet multipliers)
   simulate,  // a transient from the point's initial state, then recorded revolutions
   run_up,    // the period-1 branch by continuation over a speed range: onset, jump, peak force
+  loop,      // a virtual rig's records of the point's model and effects, then `rubref loop` on them:
+             // which effects it names against the truth, the error before and after (a campaign)
 };
 
 // What a study can vary: a parameter-file key (e_m, clearance_m, mu, k1_N_m, ...), the speed,
-// or a component of the initial state at t = 0.
+// a component of the initial state at t = 0, and, for the loop job, an effect's parameter
+// ("effect.<effect>.<key>", e.g. effect.preload.F_y, keys of `rubref effects`) and the probes'
+// noise.
 inline constexpr const char* kSpeed = "speed_rpm";
 inline constexpr const char* kInitialState[4] = {"x0_m", "y0_m", "vx0_m_s", "vy0_m_s"};
-std::vector<std::string> variable_names();
+inline constexpr const char* kEffectPrefix = "effect.";
+inline constexpr const char* kNoise = "noise_m";
+std::vector<std::string> variable_names();  // without the effects' (every library parameter's name is one)
 
 struct axis {  // a grid axis: its values, in order
   std::string name;
@@ -58,6 +66,12 @@ struct job_settings {
   int record_revs = 12;      // simulate (and orbit's non-periodic points): recorded revolutions
   int samples_per_rev = 128;
   double from_rpm = 0.0, to_rpm = 0.0;  // run_up: the speed range traced (from < to)
+  // loop: the rig's dwells (default: the rig's, three below the rub and six with it), its
+  // revolutions per dwell, the probes' noise and whether a keyphasor is recorded. The noise's
+  // seed is the point's own (uniform_draw of the study's seed and the index).
+  std::vector<double> speeds_rpm;
+  double noise = 0.5e-6;
+  bool keyphasor = true;
 };
 
 struct spec {
@@ -65,6 +79,8 @@ struct spec {
   std::string name;                 // free text, for the reader
   std::string variant = "identified";
   parameters base;                  // the paper's values with the SPEC's "parameters" applied
+  effect_parameters effects;        // the loop job's truth effects ("effects": ["name:key=value", ...])
+  std::vector<std::string> effect_texts;  // as given, for the canonical text
   double rpm = 1600.0;              // when the speed is not varied
   state_type initial{};             // when the initial state is not varied ("state" start)
   std::vector<axis> grid;           // Cartesian product, the last axis fastest
@@ -91,6 +107,8 @@ struct point {
   parameters params;
   double rpm = 0.0;
   state_type initial{};
+  effect_parameters effects;
+  double noise = 0.0;  // m, the loop job's probe noise
 };
 point point_at(const spec& s, std::size_t index);
 
@@ -103,6 +121,10 @@ std::vector<std::string> columns(const spec& s);
 // One point's row (its cells, per columns). A numerical failure is a row with status "failed"
 // and the reason, never a number; invalid drawn parameters are status "invalid".
 std::vector<std::string> evaluate(const spec& s, std::size_t index);
+
+// The loop job's virtual rig at point p: the point's model, effects and probe noise, the job's
+// dwells, and a noise seed from the point's stream.
+rig_request rig_request_for(const spec& s, const point& p);
 
 std::string_view to_string(study_kind k);
 std::string_view to_string(job_kind k);

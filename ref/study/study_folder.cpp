@@ -397,6 +397,23 @@ study_results write_results(const fs::path& dir, const spec& s, const std::map<s
       summary["statistics"][c] = statistics(v, v.size());
     }
     res.headline = std::to_string(status["ok"]) + " run-ups";
+  } else if (s.job.kind == job_kind::loop) {
+    // The campaign's score: the loop named exactly the truth's effects (none for none).
+    std::map<std::string, std::pair<std::size_t, std::size_t>> by_truth;  // points, matched
+    std::size_t matched = 0, ok = 0;
+    for (const auto& row : t.cells) {
+      if (row[t.col("status")] != "ok") continue;
+      ++ok;
+      const bool m = row[t.col("match")] == "1";
+      matched += m;
+      auto& b = by_truth[row[t.col("truth")]];
+      ++b.first;
+      b.second += m;
+    }
+    nlohmann::ordered_json campaign{{"points_run", ok}, {"named_exactly", matched}};
+    for (const auto& [truth, b] : by_truth) campaign["by_truth"][truth] = {{"points", b.first}, {"named_exactly", b.second}};
+    summary["campaign"] = campaign;
+    res.headline = std::to_string(matched) + " of " + std::to_string(ok) + " loop runs named exactly the effects of their truth";
   } else {
     std::map<std::string, std::size_t> responses, periods;
     for (const auto& row : t.cells) {

@@ -10,6 +10,7 @@
 #include "ref/base/number_text.hpp"
 #include "ref/model/closed_form.hpp"
 #include "ref/orbits/continuation.hpp"
+#include "ref/loop/loop.hpp"
 #include "ref/orbits/periodic_orbit.hpp"
 #include "ref/study/study.hpp"
 
@@ -42,11 +43,15 @@ const std::vector<std::string> kSimulateColumns = {"status", "response", "period
 const std::vector<std::string> kRunUpColumns = {"status", "onset_rpm", "jump_rpm", "peak_force_N", "peak_force_rpm", "max_y_m",
                                                 "first_unstable_rpm", "unstable_width_rpm", "folds", "reached_end", "note"};
 
+const std::vector<std::string> kLoopColumns = {"status", "truth", "claimed", "tentative", "match", "error_before", "error_after",
+                                               "unexplained", "noise_estimate_m", "warnings", "note"};
+
 const std::vector<std::string>& job_columns(job_kind k) {
   switch (k) {
     case job_kind::orbit: return kOrbitColumns;
     case job_kind::simulate: return kSimulateColumns;
     case job_kind::run_up: return kRunUpColumns;
+    case job_kind::loop: return kLoopColumns;
   }
   return kOrbitColumns;
 }
@@ -56,7 +61,7 @@ std::vector<std::string> blank_row(job_kind k, const std::string& status, const 
   std::vector<std::string> cells(job_columns(k).size(), "nan");
   cells.front() = status;
   cells.back() = cell_text(note);
-  if (k != job_kind::run_up) cells[1] = "none";
+  if (k == job_kind::orbit || k == job_kind::simulate) cells[1] = "none";
   return cells;
 }
 
@@ -239,7 +244,58 @@ std::vector<std::string> run_up_job(const spec& sp, const point& p) {
   return c;
 }
 
+// Effect names as one cell: sorted, ';'-joined, "none" for none.
+std::string name_set(std::vector<std::string> names) {
+  if (names.empty()) return "none";
+  std::sort(names.begin(), names.end());
+  std::string out;
+  for (const auto& n : names) out += (out.empty() ? "" : ";") + n;
+  return out;
+}
+
+// A campaign point: the virtual rig's records of the point's truth (model, effects, noise with
+// the point's own seed), the loop on them, and whether it named exactly the truth's effects.
+std::vector<std::string> loop_job(const spec& sp, const point& p) {
+  const rig_request rig = rig_request_for(sp, p);
+  validate(rig);
+  const rig_output out = run_rig(rig);
+  const loop_result r = run_loop({{out.measurement, "rig"}}, loop_settings{});
+  std::vector<std::string> truth, claimed, tentative;
+  for (const auto& e : effect_library())
+    if (has_effect(p.effects, e)) truth.emplace_back(e.name);
+  for (const auto& e : r.effects) claimed.push_back(e.effect);
+  for (const auto& e : r.tentative) tentative.push_back(e.effect);
+  std::vector<std::string> c = blank_row(job_kind::loop, "ok", r.warnings.empty() ? "" : r.warnings.front());
+  c[1] = name_set(truth);
+  c[2] = name_set(claimed);
+  c[3] = name_set(tentative);
+  c[4] = name_set(truth) == name_set(claimed) ? "1" : "0";
+  c[5] = num(r.error_before);
+  c[6] = num(r.error_after);
+  c[7] = r.unexplained ? "1" : "0";
+  c[8] = num(r.noise);
+  c[9] = std::to_string(r.warnings.size());
+  return c;
+}
+
 }  // namespace
+
+rig_request rig_request_for(const spec& sp, const point& p) {
+  rig_request rig;
+  rig.variant = sp.variant;
+  rig.params = p.params;
+  rig.effects = p.effects;
+  if (!sp.job.speeds_rpm.empty()) rig.speeds_rpm = sp.job.speeds_rpm;
+  rig.settle_revs = sp.job.settle_revs;
+  rig.record_revs = sp.job.record_revs;
+  rig.probes.noise = p.noise;
+  rig.probes.keyphasor = sp.job.keyphasor;
+  // Without a keyphasor the record's time is shaft-synchronous, as `rubref rig --no-keyphasor`.
+  rig.time_base = sp.job.keyphasor ? rig_time_base::acquisition : rig_time_base::shaft;
+  // The noise's seed from the point's stream, past the draws of its random variables.
+  rig.probes.seed = static_cast<unsigned>(uniform_draw(sp.seed, p.index, sp.random.size()) * 4294967296.0);
+  return rig;
+}
 
 std::vector<std::string> columns(const spec& s) {
   std::vector<std::string> cols{"index"};
@@ -259,6 +315,7 @@ std::vector<std::string> evaluate(const spec& s, std::size_t index) {
       case job_kind::orbit: cells = orbit_job(s, p); break;
       case job_kind::simulate: cells = simulate_job(s, p); break;
       case job_kind::run_up: cells = run_up_job(s, p); break;
+      case job_kind::loop: cells = loop_job(s, p); break;
     }
   } catch (const input_error& e) {
     cells = blank_row(s.job.kind, "invalid", e.what());
