@@ -8,6 +8,8 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include <filesystem>
+#include <fstream>
 #include <map>
 #include <optional>
 #include <string>
@@ -32,6 +34,7 @@
 #include "ref/orbits/periodic_orbit.hpp"
 #include "ref/orbits/periodic_orbit_io.hpp"
 #include "ref/rig/rig.hpp"
+#include "ref/study/study_run.hpp"
 #include "ref/validation/golden.hpp"
 #include "ref/validation/validate.hpp"
 
@@ -413,4 +416,45 @@ PYBIND11_MODULE(_rubref, m) {
         return to_python(to_json(r));
       },
       py::arg("paths"), py::arg("clearance") = py::none(), py::arg("mass") = py::none(), py::arg("max_effects") = loop_settings{}.max_effects);
+
+  // A parameter study into the folder `out` (docs/studies.md): the points of `shard` not yet
+  // there, then the results when that completes the study. No figures (the command line draws
+  // them, or scripts/plot_study.py on the folder).
+  const auto summary_of = [](const std::string& dir) {
+    std::ifstream in(std::filesystem::path(dir) / "summary.json");
+    return to_python(nlohmann::ordered_json::parse(in));
+  };
+  m.def(
+      "_study",
+      [summary_of](const std::string& spec_text, const std::string& source, const std::string& out, const std::string& shard, unsigned threads) {
+        const study::spec s = study::parse_spec(spec_text, source);
+        study::run_settings rs;
+        rs.part = study::parse_shard(shard);
+        rs.threads = threads;
+        study::run_outcome o;
+        {
+          py::gil_scoped_release free;
+          o = study::run_study(out, s, rs);
+        }
+        py::dict d;
+        d["computed"] = o.computed;
+        d["already"] = o.already;
+        d["complete"] = o.complete;
+        d["summary"] = o.complete && rs.part.of == 1 ? summary_of(out) : py::none();
+        if (o.results.problems > 0)
+          py::module_::import("warnings").attr("warn")(std::to_string(o.results.problems) + " point(s) have no steady result (see summary['problems'])");
+        return d;
+      },
+      py::arg("spec_text"), py::arg("source"), py::arg("out"), py::arg("shard"), py::arg("threads"));
+  m.def(
+      "_study_merge",
+      [summary_of](const std::vector<std::string>& dirs, const std::string& out, unsigned threads) {
+        std::vector<std::filesystem::path> paths(dirs.begin(), dirs.end());
+        {
+          py::gil_scoped_release free;
+          study::merge_study(paths, out, threads);
+        }
+        return summary_of(out);
+      },
+      py::arg("dirs"), py::arg("out"), py::arg("threads"));
 }

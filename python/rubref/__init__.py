@@ -9,6 +9,8 @@ with the library's one-line message; a failed integration raises ``rubref.Numeri
 ``RuntimeError``).
 """
 
+import json as _json
+
 import numpy as _np
 
 from ._rubref import (  # noqa: F401  (re-exported)
@@ -27,7 +29,7 @@ from . import _rubref
 
 __all__ = [
     "InputError", "NumericalError", "__version__", "commit", "continuation", "default_parameters", "identify", "loop", "orbit",
-    "read_record", "rig", "simulate", "simulate_batch", "validate", "variants", "write_record",
+    "read_record", "rig", "simulate", "simulate_batch", "study", "study_merge", "validate", "variants", "write_record",
 ]
 
 _REQUIRED_COLUMNS = ("t_s", "x_m", "y_m", "speed_rpm")
@@ -51,6 +53,27 @@ def loop(paths, **settings):
     """The loop on record files (one path or a list): fit, residual trace, effects, refit; the
     same dict as ``rubref loop``'s report.json. Settings: clearance, mass, max_effects."""
     return _rubref.loop(_paths(paths), **settings)
+
+
+def study(spec, out, shard="1/1", threads=0):
+    """A parameter study (docs/studies.md) into the folder ``out``: ``spec`` is a SPEC file's
+    path or the same object as a dict. Resumes a folder of the same study; ``shard="i/N"``
+    computes one shard of a job array. Returns {"computed", "already", "complete", "summary"}:
+    the summary (summary.json as a dict) once the whole study is in, else None. The table is
+    ``out/points.csv`` (``read_record`` does not read it: it is a table; use numpy or pandas)."""
+    if isinstance(spec, dict):
+        text, source = _json.dumps(spec), "<dict>"
+    else:
+        with open(spec, encoding="utf-8") as f:
+            text, source = f.read(), str(spec)
+    return _rubref._study(text, source, str(out), str(shard), int(threads))
+
+
+def study_merge(dirs, out=None, threads=0):
+    """Assembles a study's shards from one or more folders into ``out`` (default: the first);
+    returns the summary (summary.json as a dict)."""
+    dirs = _paths(dirs)
+    return _rubref._study_merge(dirs, str(out) if out is not None else dirs[0], int(threads))
 
 
 def validate(case, candidate):

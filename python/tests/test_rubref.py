@@ -172,3 +172,24 @@ def test_loop_on_records_without_an_effect_claims_none(tmp_path):
     assert report["effects"] == []
     assert report["unexplained"] is False
     assert report["error_after"] <= report["error_before"]
+
+
+def test_study_in_shards_equals_one_run_and_names_its_keys(tmp_path):
+    spec = {"study": "regime_map", "grid": [{"name": "clearance_m", "values": [2e-4, 3e-4]},
+                                            {"name": "speed_rpm", "from": 1300, "to": 2100, "step": 200}]}
+    whole = rubref.study(spec, tmp_path / "whole", threads=1)
+    assert whole["complete"] and whole["computed"] == 10
+    assert whole["summary"]["status"] == {"ok": 10}
+    for i in (1, 2):
+        part = rubref.study(spec, tmp_path / "shared", shard=f"{i}/2", threads=2)
+        assert part["summary"] is None
+    merged = rubref.study_merge(tmp_path / "shared")
+    assert merged == whole["summary"]
+    for f in ("points.csv", "summary.json", "folds.csv"):
+        assert (tmp_path / "whole" / f).read_bytes() == (tmp_path / "shared" / f).read_bytes()
+    again = rubref.study(spec, tmp_path / "whole")  # complete: nothing computed again
+    assert again["computed"] == 0 and again["already"] == 10
+    with pytest.raises(rubref.InputError, match="key 'grid\\[1\\].step'"):
+        rubref.study({"study": "grid", "grid": [{"name": "mu", "values": [0.2]}, {"name": "speed_rpm", "from": 1, "to": 2, "step": -1}]},
+                     tmp_path / "bad")
+    assert not (tmp_path / "bad").exists()
