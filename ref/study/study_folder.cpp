@@ -174,20 +174,21 @@ std::vector<std::string> label_attractors(const parsed_rows& t, const spec& s, n
 std::string fold_lines(const spec& s, nlohmann::ordered_json& summary, unsigned threads) {
   const axis& clearances = s.grid[0].name == "clearance_m" ? s.grid[0] : s.grid[1];
   const axis& speeds = s.grid[0].name == kSpeed ? s.grid[0] : s.grid[1];
-  const auto [lo, hi] = std::minmax_element(speeds.values.begin(), speeds.values.end());
+  const double lo = *std::min_element(speeds.values.begin(), speeds.values.end());
+  const double hi = *std::max_element(speeds.values.begin(), speeds.values.end());
   struct folds_at {
     std::vector<special_point> folds;
     std::string problem;
   };
   std::vector<folds_at> out(clearances.values.size());
-  if (*lo < *hi)
+  if (lo < hi)
     parallel_for(out.size(), threads, [&](std::size_t i) {
       continuation_request req;
       req.variant = s.variant;
       req.params = s.base;
       req.params.delta = clearances.values[i];
-      req.from = *lo;
-      req.to = *hi;
+      req.from = lo;
+      req.to = hi;
       req.samples_per_rev = s.job.samples_per_rev;
       try {
         validate(req);
