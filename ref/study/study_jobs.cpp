@@ -104,8 +104,8 @@ std::vector<std::string> orbit_job(const spec& sp, const point& p) {
   validate(run);
   std::vector<std::string> c = blank_row(job_kind::orbit, "ok", "");
 
-  const auto accept = [&](const periodic_orbit_result& r, int n, const std::string& how) {
-    const state_type& on_orbit = r.samples.request.initial_state;
+  const auto accept = [&](periodic_orbit_result r, int n, const std::string& how) {
+    const state_type on_orbit = r.samples.request.initial_state;
     orbit o = record_periods(run, on_orbit, n);
     // A period read off a transient can be a multiple of the orbit's own (a decaying complex
     // Floquet mode repeats every few revolutions): the shot fixed point of the n-revolution map
@@ -120,15 +120,17 @@ std::vector<std::string> orbit_job(const spec& sp, const point& p) {
       if (gap <= scale) {
         n = d;
         o = record_periods(run, on_orbit, n);
+        // The d-revolution map's own multipliers (the n-map's are their n/d-th powers).
+        if (const periodic_orbit_result rd = shoot_from(run, on_orbit, n); rd.converged) r = rd;
         break;
       }
     }
     const orbit_summary s = summarize(o);
     c[1] = std::string(to_string(s.regime));
     c[2] = std::to_string(n);
-    c[3] = "1";
+    c[3] = r.stable ? "1" : "0";
     c[4] = num(r.max_multiplier_modulus);
-    summary_cells(c, 5, s, r.samples.request.initial_state);
+    summary_cells(c, 5, s, on_orbit);
     c.back() = cell_text(how);
     return c;
   };
@@ -152,6 +154,7 @@ std::vector<std::string> orbit_job(const spec& sp, const point& p) {
     last_summary = summarize(*last);
     state = last->end.s;  // at a whole number of revolutions: a state at t = 0 of the T-periodic system
     const int n = last_summary.period_revs;
+    if (n > job.max_period) tried = "period " + std::to_string(n) + " seen after round " + std::to_string(round) + ": longer than max_period";
     if (n >= 1 && n <= job.max_period) {
       const periodic_orbit_result r = shoot_from(run, state, n);
       if (r.converged && r.stable)
@@ -217,6 +220,7 @@ std::vector<std::string> run_up_job(const spec& sp, const point& p) {
       }
     }
   double onset = kNaN, peak = 0.0, peak_rpm = kNaN, max_y = 0.0, first_unstable = kNaN, unstable_width = 0.0;
+  bool rubs_from_start = false;
   for (const auto& g : branch.special)
     if (g.kind == special_kind::grazing && g.after_point < end && std::isnan(onset)) onset = g.rpm;
   for (std::size_t i = 0; i < end; ++i) {
@@ -226,11 +230,13 @@ std::vector<std::string> run_up_job(const spec& sp, const point& p) {
       if (i + 1 < end) unstable_width += branch.points[i + 1].rpm - b.rpm;
       continue;
     }
-    if (b.max_z > 0.0 && std::isnan(onset)) onset = b.rpm;  // in contact from the start of the range
+    if (b.max_z > 0.0 && std::isnan(onset)) onset = b.rpm, rubs_from_start = i == 0;  // in contact from the start of the range
     if (b.summary.max_normal_force > peak) peak = b.summary.max_normal_force, peak_rpm = b.rpm;
     max_y = std::max(max_y, b.summary.max_y);
   }
-  std::vector<std::string> c = blank_row(job_kind::run_up, "ok", branch.reached_end || folds > 0 ? "" : branch.stopped);
+  const std::string note = branch.reached_end || folds > 0 ? (rubs_from_start ? "in contact at from_rpm already: the onset is at or below it" : "")
+                                                            : branch.stopped;
+  std::vector<std::string> c = blank_row(job_kind::run_up, "ok", note);
   if (!branch.reached_end && folds == 0) c[0] = "unconverged";  // the branch ended before the range or a fold
   c[1] = num(onset);
   c[2] = num(jump);
