@@ -159,7 +159,8 @@ mpi_outcome run_study_mpi(const std::filesystem::path& dir, const spec& s, unsig
   if (result.root) {
     const auto rows = read_rows(dir, s);
     result.outcome.complete = rows.size() == point_count(s);
-    if (result.outcome.complete) result.outcome.results = write_results(dir, s, rows, threads);
+    // The other ranks are done: the extras (the regime map's fold lines) take every core here.
+    if (result.outcome.complete) result.outcome.results = write_results(dir, s, rows, 0);
   }
   return result;
 }
