@@ -43,6 +43,13 @@ for spec in map mc; do
     same "$spec, 2 MPI ranks" "$work/$spec-t1" "$work/$spec-mpi" "${extra[@]}"
   fi
 done
+if [ -n "$mpiexec" ]; then  # bad input under mpirun: rank 0's one line, nothing written
+  echo '{"study": "grid", "grid": [{"name": "muu", "values": [0.1]}]}' > "$work/bad-mpi.json"
+  "$mpiexec" "${as_root[@]}" --oversubscribe --mca btl_vader_single_copy_mechanism none -np 2 \
+    "$rubref" study "$work/bad-mpi.json" --out "$work/nothing" > /dev/null 2> "$work/mpi.err" && fail "mpirun: a bad SPEC exited 0"
+  [ "$(grep -c '^rubref: error: ' "$work/mpi.err")" -eq 1 ] || fail "mpirun: not one rubref line for a bad SPEC: $(cat "$work/mpi.err")"
+  [ -e "$work/nothing" ] && fail "mpirun: a bad SPEC wrote $work/nothing"
+fi
 
 # A loop campaign (rig + loop per point, the noise's seed from the point's stream): the same rows
 # from one process and from two shards on one thread each.

@@ -19,6 +19,12 @@ bool launched_by_mpi() {
   return false;
 }
 
+bool secondary_mpi_rank() {
+  for (const char* var : {"OMPI_COMM_WORLD_RANK", "PMI_RANK", "PMIX_RANK"})
+    if (const char* v = std::getenv(var); v != nullptr) return std::string(v) != "0";
+  return false;
+}
+
 #ifndef RUBREF_WITH_MPI
 
 bool built_with_mpi() { return false; }

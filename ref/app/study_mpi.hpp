@@ -13,6 +13,9 @@ namespace rubref::study {
 
 // Whether this process was started by mpirun/srun (OpenMPI's, PMI's or PMIx's environment).
 bool launched_by_mpi();
+// Whether this process is an MPI rank other than 0 (from the launcher's environment): it leaves
+// saying bad input to rank 0, so that a bad SPEC is one line, not one per rank.
+bool secondary_mpi_rank();
 // Whether this rubref was built with -DRUBREF_MPI=ON.
 bool built_with_mpi();
 

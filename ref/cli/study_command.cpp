@@ -1,3 +1,4 @@
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
@@ -67,8 +68,15 @@ void add_study(CLI::App& app) {
   sub->add_flag("--quiet", st->quiet, "no progress on stderr");
   add_threads_option(*sub);
   sub->callback([st] {
-    const study::spec s = study::parse_spec(read_spec_file(st->spec_file), st->spec_file);  // bad SPEC: nothing written
-    const study::shard part = study::parse_shard(st->shard);
+    study::spec s;
+    study::shard part;
+    try {
+      s = study::parse_spec(read_spec_file(st->spec_file), st->spec_file);  // bad SPEC: nothing written
+      part = study::parse_shard(st->shard);
+    } catch (const input_error&) {
+      if (study::launched_by_mpi() && study::secondary_mpi_rank()) std::exit(2);  // rank 0 says it
+      throw;
+    }
     const fs::path dir = st->out;
     std::ostream* progress = st->quiet ? nullptr : &std::cerr;
     if (study::launched_by_mpi()) {
