@@ -332,7 +332,8 @@ journal::journal(const fs::path& dir, const spec& s, shard part) {
     const std::string content = read_text(path_);
     const std::size_t keep = content.rfind('\n') == std::string::npos ? 0 : content.rfind('\n') + 1;
     if (keep != content.size()) fs::resize_file(path_, keep);
-    if (keep == 0) fs::remove(path_);
+    // Without both header lines (cut while they were written) it starts afresh.
+    if (std::count(content.begin(), content.begin() + static_cast<std::ptrdiff_t>(keep), '\n') < 2) fs::remove(path_);
   }
   const bool fresh = !fs::exists(path_, ec);
   file_ = std::fopen(path_.c_str(), "ab");
