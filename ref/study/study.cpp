@@ -349,7 +349,7 @@ spec parse_spec(const std::string& spec_text, const std::string& source) {
     for (const char* key : {"count", "seed", "vary"})
       if (!sm.contains(key)) bad(source, std::string("sample.") + key, "is missing");
     s.samples = static_cast<std::size_t>(whole(sm["count"], source, "sample.count", 1, 1'000'000'000'000LL));
-    s.seed = static_cast<std::uint64_t>(whole(sm["seed"], source, "sample.seed", 0, std::numeric_limits<long long>::max()));
+    s.seed = static_cast<std::uint64_t>(whole(sm["seed"], source, "sample.seed", 0, (1LL << 53) - 1));
     if (!sm["vary"].is_array() || sm["vary"].empty()) bad(source, "sample.vary", "must be a non-empty array of random variables");
     for (std::size_t i = 0; i < sm["vary"].size(); ++i) {
       const std::string where = "sample.vary[" + std::to_string(i) + "]";
