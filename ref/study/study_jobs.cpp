@@ -92,13 +92,19 @@ void summary_cells(std::vector<std::string>& c, std::size_t from, const orbit_su
   for (std::size_t i = 0; i < 4; ++i) c[from + 7 + i] = num(st[i]);
 }
 
-std::vector<std::string> orbit_job(const spec& sp, const point& p) {
-  const job_settings& job = sp.job;
+// The point's model at its speed, sampled as the job says: the run both orbit jobs start from.
+run_request run_at(const spec& sp, const point& p) {
   run_request run;
   run.variant = sp.variant;
   run.params = p.params;
   run.rpm = p.rpm;
-  run.samples_per_rev = job.samples_per_rev;
+  run.samples_per_rev = sp.job.samples_per_rev;
+  return run;
+}
+
+std::vector<std::string> orbit_job(const spec& sp, const point& p) {
+  const job_settings& job = sp.job;
+  run_request run = run_at(sp, p);
   run.settle_revs = 0;
   run.record_revs = 1;
   validate(run);
@@ -178,11 +184,7 @@ std::vector<std::string> orbit_job(const spec& sp, const point& p) {
 
 std::vector<std::string> simulate_job(const spec& sp, const point& p) {
   const job_settings& job = sp.job;
-  run_request run;
-  run.variant = sp.variant;
-  run.params = p.params;
-  run.rpm = p.rpm;
-  run.samples_per_rev = job.samples_per_rev;
+  run_request run = run_at(sp, p);
   run.settle_revs = job.settle_revs;
   run.record_revs = job.record_revs;
   run.initial_state = start_state(job, p);
