@@ -123,16 +123,20 @@ orbit_kind orbit_predictor::predict(std::size_t k, const model_point& m) {
   const double w = d.omega(), period = 2.0 * std::numbers::pi / w;
   const model sys(p, m.fx, w);
 
-  // Sample phases in [0, T) for this shift, sorted for one pass over the revolution.
+  // Sample phases in [0, T) for this shift, sorted for one pass over the revolution (kept while
+  // the shift is the same: most evaluations of a fit change the model, not the timing).
   const double shift = m.shift.empty() ? 0.0 : m.shift[k];
-  std::vector<std::pair<double, std::size_t>> ph(d.size());
-  for (std::size_t i = 0; i < d.size(); ++i) {
-    ph[i] = {phase_in_period(d.t[i] + shift, period), i};
+  if (!(c.sorted && c.sorted_shift == shift && c.sorted_period == period)) {
+    std::vector<std::pair<double, std::size_t>> ph(d.size());
+    for (std::size_t i = 0; i < d.size(); ++i) ph[i] = {phase_in_period(d.t[i] + shift, period), i};
+    std::sort(ph.begin(), ph.end());
+    c.phase.resize(ph.size());
+    c.order.resize(ph.size());
+    for (std::size_t i = 0; i < ph.size(); ++i) std::tie(c.phase[i], c.order[i]) = ph[i];
+    c.sorted = true;
+    c.sorted_shift = shift;
+    c.sorted_period = period;
   }
-  std::sort(ph.begin(), ph.end());
-  c.phase.resize(ph.size());
-  c.order.resize(ph.size());
-  for (std::size_t i = 0; i < ph.size(); ++i) std::tie(c.phase[i], c.order[i]) = ph[i];
   const sample_grid grid = sample_grid::at(c.phase);
 
   // Newton from the anchor (the fit's start point's orbit), else from the data. The periodic
@@ -198,7 +202,7 @@ orbit_predictor::shot orbit_predictor::shoot(std::size_t k, const model_point& m
 }
 
 void orbit_predictor::reset() {
-  for (auto& c : caches_) c = cache{};
+  for (auto& c : caches_) c.started = c.last_ok = false;  // the sorted phases stay: they depend on the timing alone
 }
 
 void orbit_predictor::anchor(const model_point& m) {
@@ -237,9 +241,10 @@ std::optional<Eigen::VectorXd> orbit_predictor::residuals(const model_point& m) 
     const dwell& d = dwells_[k].data;
     const auto at = static_cast<Eigen::Index>(offsets_[k]);
     const double w = d.omega(), shift = m.shift.empty() ? 0.0 : m.shift[k];
+    const probe_model probes(m.fx);
     for (std::size_t i = 0; i < d.size(); ++i) {
       const auto& s = caches_[k].states[i];
-      const auto [xm, ym] = probe_reading(m.fx, s[idx::x], s[idx::y], w * (d.t[i] + shift));
+      const auto [xm, ym] = probes(s[idx::x], s[idx::y], w * (d.t[i] + shift));
       r[at + static_cast<Eigen::Index>(2 * i)] = xm - d.x[i];
       r[at + static_cast<Eigen::Index>(2 * i + 1)] = ym - d.y[i];
     }

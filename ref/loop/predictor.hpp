@@ -86,6 +86,8 @@ class orbit_predictor {
     std::array<double, 6> start{};      // the anchor: a periodic orbit's state at t = 0
     std::vector<double> phase;          // sorted sample phases (s in [0, T)) for the current shift
     std::vector<std::size_t> order;     // sample index of each sorted phase
+    bool sorted = false;                // phase and order hold the samples for sorted_shift
+    double sorted_shift = 0.0, sorted_period = 0.0;
     std::vector<std::array<double, 6>> states;  // model state at each sample (sample order)
     std::array<double, 6> last{};       // the last converged orbit's state at t = 0
     bool last_ok = false;
