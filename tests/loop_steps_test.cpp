@@ -105,20 +105,51 @@ TEST(loop_steps, contact_shows_as_high_orders) {
   }
 }
 
-// Every effect's coordinates: off at 0, on when set, and set/get round trip.
+// Every effect's coordinates: its switches off at 0, on when set, and set/get round trip; its
+// shapes (after the switches) inside their physical range round trip, act on nothing while the
+// effect is off, and move only themselves in the chart (each set keeps every other coordinate).
 TEST(loop_steps, effect_coordinates_switch_their_effect) {
   for (const auto& e : effect_library()) {
     const auto coords = effect_coordinates(e);
     ASSERT_FALSE(coords.empty()) << e.name;
+    const std::size_t switches = switch_count(coords);
+    ASSERT_GT(switches, 0u) << e.name;
     model_point m;
     EXPECT_FALSE(has_effect(m.fx, e)) << e.name;
-    for (const auto& c : coords) {
-      model_point q = m;
-      c.set(q, 0.37 * c.scale);
-      EXPECT_TRUE(has_effect(q.fx, e)) << c.name;
-      EXPECT_NEAR(c.get(q), 0.37 * c.scale, 1e-12 * c.scale) << c.name;
-      c.set(q, 0.0);
-      EXPECT_FALSE(has_effect(q.fx, e)) << c.name;
+    for (std::size_t j = 0; j < coords.size(); ++j) {
+      const auto& c = coords[j];
+      EXPECT_EQ(c.effect, e.name) << c.name;
+      if (j < switches) {
+        EXPECT_FALSE(c.shape) << c.name;
+        model_point q = m;
+        c.set(q, 0.37 * c.scale);
+        EXPECT_TRUE(has_effect(q.fx, e)) << c.name;
+        EXPECT_NEAR(c.get(q), 0.37 * c.scale, 1e-12 * c.scale) << c.name;
+        c.set(q, 0.0);
+        EXPECT_FALSE(has_effect(q.fx, e)) << c.name;
+        continue;
+      }
+      ASSERT_TRUE(c.shape) << c.name;
+      ASSERT_LT(c.range_lo, c.range_hi) << c.name;
+      EXPECT_FALSE(c.quantity.empty() || c.unit.empty()) << c.name;
+      model_point off = m;
+      c.set(off, c.chart(std::sqrt(c.range_lo * c.range_hi)));
+      EXPECT_FALSE(has_effect(off.fx, e)) << c.name << ": a shape alone must not switch the effect on";
+      // On at the switches' moderate levels, then the shape at a third of its range (log or
+      // linear): it round trips, and every other coordinate of the effect keeps its value.
+      model_point on = m;
+      for (const auto& q : e.parameters)
+        if (q.is_switch) on.fx.*q.member = q.moderate;
+      std::vector<double> before;
+      for (const auto& other : coords) before.push_back(other.get(on));
+      const double target = c.logarithmic ? c.range_lo * std::pow(c.range_hi / c.range_lo, 1.0 / 3.0) : c.range_lo + (c.range_hi - c.range_lo) / 3.0;
+      c.set(on, c.chart(target));
+      EXPECT_NEAR(c.natural(c.get(on)), target, 1e-9 * target) << c.name;
+      EXPECT_TRUE(has_effect(on.fx, e)) << c.name;
+      for (std::size_t i = 0; i < coords.size(); ++i)
+        if (i != j) {
+          EXPECT_NEAR(coords[i].get(on), before[i], 1e-9 * std::max(std::abs(before[i]), coords[i].scale)) << c.name << " moved " << coords[i].name;
+        }
     }
   }
 }

@@ -59,7 +59,11 @@ void add_loop(CLI::App& app) {
       for (const auto& e : r.tentative) std::cout << " " << e.effect;
       std::cout << ")";
     }
-    std::cout << (r.unexplained ? "; residual unexplained" : "; residual is noise") << "\nwrote " << st->out << "/report.json, report.md\n";
+    std::cout << (r.claim == "partial" ? "; named, partial: " + format_digits(100.0 * std::max(0.0, 1.0 - r.explained_share), 3) +
+                                             " % of the excess remains"
+                  : r.unexplained ? "; residual unexplained"
+                                  : "; residual is noise")
+              << "\nwrote " << st->out << "/report.json, report.md\n";
   });
 }
 

@@ -97,10 +97,15 @@ void add_rig(CLI::App& app) {
           nlohmann::ordered_json j{{"key", q.key}, {"unit", q.unit}, {"switch", q.is_switch}, {"off", q.off},
                                    {"moderate", q.moderate}, {"fit_range", {q.lo, q.hi}}};
           if (q.is_switch) j["levels"] = {{"magnitude", {q.level_lo, q.level_hi}}, {"either_sign", q.signed_level}};
+          else if (q.level_hi > q.level_lo) j["levels"] = {{"range", {q.level_lo, q.level_hi}}};
           params.push_back(j);
         }
-        all.push_back({{"name", e.name}, {"model", e.model}, {"reference", e.reference}, {"measurement_only", e.measurement_only},
-                       {"parameters", params}});
+        nlohmann::ordered_json row{{"name", e.name}, {"model", e.model}, {"reference", e.reference}, {"measurement_only", e.measurement_only},
+                                   {"parameters", params}};
+        for (const auto& f : e.fit)
+          if (f.form == fit_form::power_coefficient)  // its levels hold at this penetration for any exponent
+            row["level_reference_penetration_m"] = power_reference_penetration;
+        all.push_back(row);
       }
       std::cout << all.dump(2) << "\n";
       return;
@@ -110,6 +115,7 @@ void add_rig(CLI::App& app) {
       for (const auto& q : e.parameters) {
         std::cout << "    " << q.key << " [" << q.unit << "] moderate " << q.moderate << ", range [" << q.lo << ", " << q.hi << "]";
         if (q.is_switch) std::cout << ", documented levels " << (q.signed_level ? "+-" : "") << "[" << q.level_lo << ", " << q.level_hi << "]";
+        else if (q.level_hi > q.level_lo) std::cout << ", physical range [" << q.level_lo << ", " << q.level_hi << "]";
         std::cout << "\n";
       }
     }

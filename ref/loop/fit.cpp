@@ -19,6 +19,9 @@ constexpr double kConvergedShare = 1e-5;
 // large that no step of useful size is left.
 constexpr double kFirstDamping = 1e-3;
 constexpr double kMaxDamping = 1e12;
+// Accepted steps per finite-difference Jacobian at most (the others carry it by Broyden updates):
+// a fit's budget of `max_iterations` Jacobians allows this many times as many steps.
+constexpr int kStepsPerJacobian = 3;
 }  // namespace
 
 model_point fit_problem::at(const Eigen::VectorXd& u) const {
@@ -37,9 +40,8 @@ Eigen::VectorXd fit_problem::of(const model_point& m) const {
 
 Eigen::VectorXd fit_problem::feasible(Eigen::VectorXd u) const {
   for (std::size_t j = 0; j < coords.size(); ++j) {
-    const double lower = coords[j].lower / coords[j].scale;
     auto& v = u[static_cast<Eigen::Index>(j)];
-    if (v < lower) v = lower;
+    v = std::clamp(v, coords[j].lower / coords[j].scale, coords[j].upper / coords[j].scale);
   }
   return u;
 }
@@ -93,10 +95,21 @@ fit_result fit(const fit_problem& problem, const Eigen::VectorXd& start, int max
   const double chi2_unit = std::max(problem.noise * problem.noise, 1e-300);
   Eigen::VectorXd u = problem.feasible(start);
   double damping = kFirstDamping, growth = 2.0;
-  while (out.iterations < max_iterations) {
-    const Eigen::MatrixXd J = problem.jacobian(u, *r);
+  // The Jacobian: by finite differences (`fresh`), then carried along accepted steps by Broyden's
+  // rank-one update, which costs no evaluation (Madsen, Nielsen & Tingleff 2004, Sec. 3.4). A
+  // finite-difference one is taken again where the carried one fails: a rejected step, or a gain
+  // too small to stop on, so that the fit ends only where a true Jacobian says it has converged.
+  Eigen::MatrixXd J;
+  bool fresh = false;
+  int steps = 0;
+  const auto refresh = [&] {
+    J = problem.jacobian(u, *r);
+    fresh = true;
     ++out.iterations;
     out.evaluations += static_cast<int>(problem.coords.size()) + 1;
+  };
+  refresh();
+  while (steps < kStepsPerJacobian * max_iterations) {
     const Eigen::MatrixXd A = J.transpose() * J;
     const Eigen::VectorXd g = J.transpose() * *r;
     const Eigen::VectorXd d = A.diagonal().cwiseMax(1e-12 * std::max(A.diagonal().maxCoeff(), 1e-300));
@@ -119,6 +132,7 @@ fit_result fit(const fit_problem& problem, const Eigen::VectorXd& start, int max
       if (!rt) {
         ++out.rejected;
         damping *= growth, growth *= 2.0;
+        if (!fresh) break;  // the carried Jacobian may have misled the step: a true one first
         continue;
       }
       const double rss = rt->squaredNorm();
@@ -127,6 +141,7 @@ fit_result fit(const fit_problem& problem, const Eigen::VectorXd& start, int max
         damping *= std::max(1.0 / 3.0, 1.0 - std::pow(2.0 * rho - 1.0, 3));
         growth = 2.0;
         gain = (out.rss - rss) / chi2_unit;
+        if (const double h = step.squaredNorm(); h > 0.0) J += ((*rt - *r) - J * step) * (step.transpose() / h);
         u = trial;
         r = rt;
         out.rss = rss;
@@ -134,10 +149,20 @@ fit_result fit(const fit_problem& problem, const Eigen::VectorXd& start, int max
         break;
       }
       damping *= growth, growth *= 2.0;
+      if (!fresh) break;
       // A step too small to change the residual at all: nothing is left to gain.
       if (step.cwiseAbs().maxCoeff() < 1e-14 * std::max(1.0, u.cwiseAbs().maxCoeff())) break;
     }
-    if (!accepted || gain < std::max(kConvergedChi2, kConvergedShare * out.rss / chi2_unit)) break;
+    const bool converged = !accepted || gain < std::max(kConvergedChi2, kConvergedShare * out.rss / chi2_unit);
+    const bool from_fresh = fresh;  // the step (or its failure) came from a finite-difference Jacobian
+    if (accepted) ++steps, fresh = false;
+    if (converged) {
+      if (from_fresh || out.iterations >= max_iterations) break;  // a true Jacobian agrees: done (or its budget is spent)
+      refresh();
+    } else if (!fresh && steps % kStepsPerJacobian == 0) {
+      if (out.iterations >= max_iterations) break;
+      refresh();  // the carried Jacobian drifts from the true one: renewed every few steps
+    }
   }
   out.at = problem.at(u);
   // The end on the orbits the fit followed (its last evaluation may have been a rejected trial).

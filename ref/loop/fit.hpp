@@ -30,7 +30,7 @@ struct fit_problem {
   Eigen::Index size() const { return static_cast<Eigen::Index>(coords.size() + shifted.size()); }
   model_point at(const Eigen::VectorXd& u) const;
   Eigen::VectorXd of(const model_point& m) const;
-  // u with every coordinate at or above its lower bound.
+  // u with every coordinate within its bounds.
   Eigen::VectorXd feasible(Eigen::VectorXd u) const;
   // The Jacobian at u (residual r0 there): model coordinates by forward differences (backward
   // where the forward point cannot be computed; a coordinate with neither is held for the step),

@@ -146,6 +146,7 @@ loop_result run_loop(const std::vector<std::pair<record, std::string>>& records,
 
   // 4. Before and after, and what is claimed.
   measure(out, predictor, noise, s, traced);
+  out.model_evaluations = predictor.evaluations();
   // Loud, never silent: an estimate outside what the library describes, or a law without stiffness.
   const auto warn = [&](const std::string& w) {
     out.warnings.push_back(w);
@@ -169,6 +170,14 @@ loop_result run_loop(const std::vector<std::pair<record, std::string>>& records,
     out.tentative = std::move(out.effects);
     out.effects.clear();
     out.unexplained = true;
+    out.claim = "tentative";
+  } else if (!out.effects.empty()) {
+    // Named; a full explanation only where the residual left is noise, else a partial one, said.
+    out.claim = out.validity_after.pass ? "full" : "partial";
+    if (out.claim == "partial")
+      out.notes.push_back("named, partial: the effects remove " + format_digits(100.0 * out.explained_share, 3) +
+                          " % of the before-fit's synchronous excess, but the residual is not noise (" +
+                          format_digits(100.0 * std::max(0.0, 1.0 - out.explained_share), 3) + " % of the excess remains unexplained)");
   }
   return out;
 }

@@ -56,9 +56,14 @@ struct loop_result {
   std::vector<loop_step> effects;            // claimed: the explanation
   std::vector<loop_step> tentative;          // added by the trace but not claimed (min_explained_share)
   double explained_share = 0.0;              // of the before-fit's synchronous excess, by the final model
+  // What the report claims: "full" (the effects leave a residual that is noise), "partial" (named:
+  // they remove at least min_explained_share of the excess, but the residual is not noise; the
+  // rest is unexplained), "tentative" (added, not claimed), "none" (nothing added).
+  std::string claim = "none";
   std::vector<removed_effect> removed;
   std::vector<effect_candidate> last_round;  // the round that added nothing (if any)
   bool unexplained = false;
+  std::size_t model_evaluations = 0;          // of every dwell's orbits on all dwells (the loop's cost; out-of-sample ones apart)
   validity_report validity_before, validity_after;
   std::vector<dwell_error> errors;
   std::vector<excluded_dwell> excluded;     // left out of the fit, with the reason

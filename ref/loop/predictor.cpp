@@ -233,6 +233,7 @@ orbit_anchors orbit_predictor::last_orbits() const {
 }
 
 std::optional<Eigen::VectorXd> orbit_predictor::residuals(const model_point& m) {
+  ++evaluations_;
   Eigen::VectorXd r(static_cast<Eigen::Index>(rows_));
   kinds_.assign(dwells_.size(), orbit_kind::failed);
   parallel_for(dwells_.size(), 0, [&](std::size_t k) {

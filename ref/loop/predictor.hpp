@@ -62,6 +62,8 @@ class orbit_predictor {
   // Model minus measured at every sample (rubref's sign), or nothing if the model's orbit could
   // not be computed in some dwell (then kinds() names them).
   std::optional<Eigen::VectorXd> residuals(const model_point& m);
+  // How many residuals() calls this predictor has made (the loop's cost: each shoots every dwell).
+  std::size_t evaluations() const { return evaluations_; }
   // Per dwell, how the last residuals() call got its orbit.
   const std::vector<orbit_kind>& kinds() const { return kinds_; }
   // The derivative of every residual with respect to each dwell's shift (columns by dwell).
@@ -102,6 +104,7 @@ class orbit_predictor {
   std::vector<orbit_kind> kinds_;
   std::vector<std::size_t> offsets_;
   std::size_t rows_ = 0, orbit_rows_ = 0;
+  std::size_t evaluations_ = 0;
 };
 
 }  // namespace rubref

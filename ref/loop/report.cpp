@@ -53,9 +53,26 @@ json to_json(const loop_result& r) {
   for (const auto& e : r.effects) {
     json params;
     for (const auto& [k, v] : e.params) params[k] = v;
+    json profiles = json::array();
+    for (const auto& pr : e.profiles) {
+      json d = json::array();
+      for (double v : pr.delta_chi2) d.push_back(number(v));
+      profiles.push_back({{"coordinate", pr.coordinate},
+                          {"quantity", pr.quantity},
+                          {"unit", pr.unit},
+                          {"estimate", pr.estimate},
+                          {"range", {pr.range_lo, pr.range_hi}},
+                          {"values", pr.values},
+                          {"delta_chi2", d},
+                          {"interval_95", {pr.interval_lo, pr.interval_hi}},
+                          {"bounded_below", pr.bounded_below},
+                          {"bounded_above", pr.bounded_above},
+                          {"verdict", pr.verdict}});
+    }
     j["effects"].push_back({{"name", e.effect},
                             {"params", params},
-                            {"held", e.held},
+                            {"claim", r.claim},
+                            {"profiles", profiles},
                             {"error_after_adding", e.error_after_adding},
                             {"bic_drop", e.bic_drop},
                             {"excess_share", e.excess_share},
@@ -64,7 +81,9 @@ json to_json(const loop_result& r) {
                             {"exchanged_for", e.exchanged_for},
                             {"candidates", candidates_json(e.candidates)}});
   }
+  j["claim"] = r.claim;
   j["explained_share"] = r.explained_share;
+  j["remaining_share"] = r.effects.empty() ? json(nullptr) : json(std::max(0.0, 1.0 - r.explained_share));
   j["tentative"] = json::array();
   for (const auto& e : r.tentative) {
     json params;
@@ -87,6 +106,7 @@ json to_json(const loop_result& r) {
   j["before_fit"] = {{"winner", r.start_winner}, {"starts", json::array()}};
   for (const auto& st : r.starts)
     j["before_fit"]["starts"].push_back({{"name", st.name}, {"rss_start_m2", number(st.rss_start)}, {"rss_fit_m2", number(st.rss_fit)}});
+  j["model_evaluations"] = r.model_evaluations;
   j["noise_m"] = r.noise;
   j["mass_source"] = r.mass_source;
   j["model_staged"] = to_json(r.initial.p);
@@ -139,15 +159,27 @@ std::string to_markdown(const loop_result& r) {
     for (const auto& e : r.effects) {
       std::string ps;
       for (const auto& [k, v] : e.params) ps += (ps.empty() ? "" : ", ") + k + " = " + fmt(v);
-      if (!e.held.empty()) {
-        std::string h;
-        for (const auto& k : e.held) h += (h.empty() ? "" : ", ") + k;
-        ps += " (held: " + h + ")";
-      }
-      o << "| " << i++ << " | " << e.effect << " | " << ps << " | " << fmt(e.error_after_adding) << " | " << fmt(e.bic_drop, 6) << " | "
+      o << "| " << i++ << " | " << e.effect << (r.claim == "partial" ? " (named, partial)" : "") << " | " << ps << " | " << fmt(e.error_after_adding) << " | " << fmt(e.bic_drop, 6) << " | "
         << fmt(e.excess_share, 3) << " | " << fmt(e.holdout_gain, 4) << " |\n";
     }
     o << "\n";
+    if (r.claim == "partial")
+      o << "**Named, partial:** together the effects remove " << fmt(100.0 * r.explained_share, 3)
+        << " % of the before-fit's synchronous excess, but the residual is still not noise: " << fmt(100.0 * std::max(0.0, 1.0 - r.explained_share), 3)
+        << " % of it remains, which these effects do not explain.\n\n";
+    bool any_profile = false;
+    for (const auto& e : r.effects) any_profile = any_profile || !e.profiles.empty();
+    if (any_profile) {
+      o << "Shape parameters (every one fitted; profiled over its physical range, every other coordinate refitted at each value; 95 % bound "
+           "Delta chi^2 = 3.84, scaled by chi^2/dof where that exceeds 1):\n\n"
+           "| effect | quantity | estimate | physical range | 95 % interval within | verdict |\n|---|---|---|---|---|---|\n";
+      for (const auto& e : r.effects)
+        for (const auto& pr : e.profiles)
+          o << "| " << e.effect << " | " << pr.quantity << " [" << pr.unit << "] | " << fmt(pr.estimate) << " | " << fmt(pr.range_lo) << " ... "
+            << fmt(pr.range_hi) << " | (" << (pr.bounded_below ? fmt(pr.interval_lo) : std::string("—")) << ", "
+            << (pr.bounded_above ? fmt(pr.interval_hi) : std::string("—")) << ") | " << pr.verdict << " |\n";
+      o << "\n";
+    }
   }
   for (const auto& e : r.removed)
     if (e.replaced_by.empty())
@@ -167,8 +199,9 @@ std::string to_markdown(const loop_result& r) {
     for (const auto& e : r.excluded) o << "- " << e.record << ", " << fmt(e.rpm) << " rpm: " << e.reason << "\n";
     o << "\n";
   }
-  o << (r.unexplained ? "**Unexplained:** the final residual is not noise, and no effect of the library passes the significance rule.\n\n"
-                      : "The final residual is consistent with probe noise.\n\n");
+  o << (r.claim == "partial" ? "The final residual is not noise: the effects named explain part of it (above).\n\n"
+        : r.unexplained      ? "**Unexplained:** the final residual is not noise, and no effect of the library explains it.\n\n"
+                             : "The final residual is consistent with probe noise.\n\n");
   if (!r.plot_x.empty()) o << "![orbit](orbit.png)\n\n![residual spectrum](residual_spectrum.png)\n\n![residual](residual.png)\n\n";
   o << "## Validity checks (after)\n\n| check | value | limit | pass |\n|---|---|---|---|\n";
   for (const auto* c : {&r.validity_after.noise_level, &r.validity_after.synchronous, &r.validity_after.whiteness})

@@ -23,8 +23,8 @@ constexpr double kHopGain = 0.9;
 // and the shifts, from the staged model; enough to rank the values, the fit from the best one
 // goes on.
 constexpr int kEnvelopeIterations = 3;
-// A dip within this relative distance of the fit's value is the fit's own.
-constexpr double kOwnDip = 0.02;
+// Fits of every coordinate from this many of the envelope's best points.
+constexpr std::size_t kEnvelopeStarts = 2;
 }  // namespace
 
 profile_best profile(const std::vector<double>& trials, double at_off, const std::function<double(double)>& left) {
@@ -60,19 +60,30 @@ fit_result search_dips(const fit_problem& problem, std::size_t j, double base_rs
   for (const auto& name : search.profiled)
     for (const auto& c : problem.coords)
       if (c.name == name) profiled.push_back(c);
-  fit_result start;
-  double start_value = 0.0;
-  for (const double value : search.envelope) {
-    model_point m = problem.base;
-    m.p = staged.p;
-    coordinate.set(m, value);
-    const fit_problem inner = make_problem(predictor, dwells, m, profiled, problem.noise);
-    const fit_result f = fit(inner, inner.of(m), kEnvelopeIterations);
-    if (!f.ok) continue;
-    const auto r = residual_at(predictor, f.at);  // on its own orbits, as every refit is judged
-    if (r && r->squaredNorm() < start.rss) start = f, start.rss = r->squaredNorm(), start_value = value;
+  const fit_coordinate* alternate = nullptr;
+  for (const auto& c : problem.coords)
+    if (c.name == search.alternate) alternate = &c;
+  std::vector<std::optional<double>> alternates{std::nullopt};
+  if (alternate) {
+    alternates.clear();
+    for (const double v : search.alternate_values) alternates.emplace_back(v);
   }
-  if (!start.ok) return start;
+  std::vector<std::pair<double, std::pair<fit_result, double>>> envelope;  // (residual, (fit, value)), lowest first
+  for (const double value : search.envelope)
+    for (const auto& other : alternates) {
+      model_point m = problem.base;
+      m.p = staged.p;
+      search.switch_on(m);
+      coordinate.set(m, value);
+      if (other) alternate->set(m, *other);
+      const fit_problem inner = make_problem(predictor, dwells, m, profiled, problem.noise);
+      const fit_result f = fit(inner, inner.of(m), kEnvelopeIterations);
+      if (!f.ok) continue;
+      const auto r = residual_at(predictor, f.at);  // on its own orbits, as every refit is judged
+      if (r) envelope.push_back({r->squaredNorm(), {f, value}});
+    }
+  if (envelope.empty()) return fit_result{};
+  std::stable_sort(envelope.begin(), envelope.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
   // On the better of its own orbits and those found from the data (as the trace judges a refit).
   const auto judged = [&](fit_result f) {
     if (!f.ok) return f;
@@ -84,9 +95,17 @@ fit_result search_dips(const fit_problem& problem, std::size_t j, double base_rs
     }
     return f;
   };
-  fit_result at = judged(fit(problem, problem.of(start.at), max_iterations));
+  // Fits of every coordinate from the best few envelope points: the best one alone landed in a
+  // basin of the law's own damping standing in for the stator's on a campaign-like record.
+  fit_result at;
+  double start_value = 0.0;
+  for (std::size_t i = 0; i < std::min(envelope.size(), kEnvelopeStarts); ++i) {
+    const fit_result f = judged(fit(problem, problem.of(envelope[i].second.first.at), max_iterations));
+    if (f.ok && f.rss < at.rss) at = f, start_value = envelope[i].second.second;
+  }
   if (!at.ok) return at;
-  progress("      " + coordinate.name + ": envelope best " + format_digits(start_value) + ", fitted " + format_digits(coordinate.get(at.at)) +
+  progress("      " + coordinate.name + ": envelope best " + format_digits(coordinate.natural(start_value)) + ", fitted " +
+           format_digits(coordinate.natural(coordinate.get(at.at))) +
            " (residual " + format_digits(at.rss) + " m^2, without the effect " + format_digits(base_rss) + ")");
   // Hops refine a fit that explains more than the model without the effect; one that explains
   // less sits in no dip worth refining.
@@ -94,27 +113,28 @@ fit_result search_dips(const fit_problem& problem, std::size_t j, double base_rs
   const int steps = static_cast<int>(std::log(search.factor) / search.step);
   for (int hop = 0; hop < kSearchHops; ++hop) {
     predictor.anchor(at.at, at.orbits);
-    const double value = coordinate.get(at.at);
-    std::vector<std::pair<double, double>> scan;  // (value, residual)
+    const double value = coordinate.natural(coordinate.get(at.at));
+    std::vector<std::pair<double, double>> scan;  // (natural value, residual)
     for (int i = -steps; i <= steps; ++i) {
       model_point q = at.at;
       const double v = value * std::exp(i * search.step);
-      if (!search.move(q, v)) continue;
+      coordinate.set(q, coordinate.chart(v));
       const auto r = predictor.residuals(q);
       scan.emplace_back(v, r ? r->squaredNorm() : std::numeric_limits<double>::infinity());
     }
     std::vector<std::pair<double, double>> dips;  // (residual, value), lowest first
     for (std::size_t i = 1; i + 1 < scan.size(); ++i)
-      if (scan[i].second < scan[i - 1].second && scan[i].second < scan[i + 1].second && std::abs(std::log(scan[i].first / value)) > kOwnDip)
+      if (scan[i].second < scan[i - 1].second && scan[i].second < scan[i + 1].second && std::abs(std::log(scan[i].first / value)) > 4.0 * search.step)  // four steps: the fit's own dip
         dips.emplace_back(scan[i].second, scan[i].first);
     std::sort(dips.begin(), dips.end());
     if (dips.empty()) break;
     model_point q = at.at;
-    search.move(q, dips.front().second);
+    coordinate.set(q, coordinate.chart(dips.front().second));
     const fit_result next = judged(fit(problem, problem.of(q), max_iterations, &at.orbits));
     if (!(next.ok && next.rss < kHopGain * at.rss)) break;
     at = next;
-    progress("      " + coordinate.name + ": hop " + std::to_string(hop + 1) + " to " + format_digits(coordinate.get(at.at)) + " (residual " +
+    progress("      " + coordinate.name + ": hop " + std::to_string(hop + 1) + " to " + format_digits(coordinate.natural(coordinate.get(at.at))) +
+             " (residual " +
              format_digits(at.rss) + " m^2)");
   }
   return at;

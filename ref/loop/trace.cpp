@@ -96,7 +96,7 @@ double documented_strength(const effect_info& e, const model_point& m) {
   double strength = 0.0;
   for (const auto& f : e.fit)
     for (const auto& q : e.parameters) {
-      if (q.key != f.key) continue;
+      if (q.key != f.key || f.is_shape()) continue;
       const double v = m.fx.*q.member;
       switch (f.form) {
         case fit_form::value:
@@ -109,6 +109,12 @@ double documented_strength(const effect_info& e, const model_point& m) {
         case fit_form::excess_over_mu:
           strength = std::max(strength, v > m.p.mu ? (v - m.p.mu) / std::max(q.level_lo - m.p.mu, 1e-3) : 0.0);
           break;
+        case fit_form::power_coefficient:  // the levels hold at the reference penetration (ref/model/effects.hpp)
+          for (const auto& c : effect_coordinates(e))
+            if (c.name.ends_with("@z_ref")) strength = std::max(strength, c.get(m) / q.level_lo);
+          break;
+        default:
+          break;
       }
     }
   return strength;
@@ -116,14 +122,15 @@ double documented_strength(const effect_info& e, const model_point& m) {
 
 std::vector<fit_coordinate> without_effect(const std::vector<fit_coordinate>& coords, std::string_view effect) {
   std::vector<fit_coordinate> out;
-  const std::string prefix = std::string(effect) + ".";
   for (const auto& q : coords)
-    if (!q.name.starts_with(prefix)) out.push_back(q);
+    if (q.effect != effect) out.push_back(q);
   return out;
 }
 
+// The effect off: its switches at 0 (its shapes stay where they are: they act on nothing then).
 model_point switched_off(model_point m, const effect_info& e) {
-  for (const auto& q : effect_coordinates(e)) q.set(m, 0.0);
+  for (const auto& q : effect_coordinates(e))
+    if (!q.shape) q.set(m, 0.0);
   return m;
 }
 
@@ -151,10 +158,12 @@ std::vector<scored> score(const round_context& c, const fitted_model& current, c
     scored sc;
     sc.effect = e;
     sc.candidate.name = std::string(e->name);
+    // Its switches' columns: a shape's derivative where the effect is off is 0.
     const auto ec = effect_coordinates(*e);
-    Eigen::MatrixXd S(r0.size(), static_cast<Eigen::Index>(ec.size()));
+    const std::size_t switches = switch_count(ec);
+    Eigen::MatrixXd S(r0.size(), static_cast<Eigen::Index>(switches));
     bool computable = true;
-    for (std::size_t j = 0; j < ec.size() && computable; ++j) {
+    for (std::size_t j = 0; j < switches && computable; ++j) {
       model_point m = current.at;
       ec[j].set(m, kStep * ec[j].scale);
       const auto r = c.predictor.residuals(m);
@@ -214,14 +223,16 @@ std::optional<fitted_model> refit(const round_context& c, const fitted_model& cu
     return f.ok ? judge(c, f.at, with, &f) : std::nullopt;
   }
   const auto nb = static_cast<Eigen::Index>(current.coords.size()), ne = static_cast<Eigen::Index>(ec.size());
+  const auto ns = static_cast<Eigen::Index>(switch_count(ec));
   const Eigen::VectorXd off = problem.of(current.at);
   const auto shifts = off.size() - nb - ne;
   std::vector<named_start> starts{{"off", current.at, current.orbits}};
-  if (sc.gauss_newton.size() == nb + ne + shifts) {
-    // The step's columns are the base problem's (coordinates, shifts), then the effect's.
+  if (sc.gauss_newton.size() == nb + ns + shifts) {
+    // The step's columns are the base problem's (coordinates, shifts), then the effect's
+    // switches; its shapes start from the library's typical values.
     Eigen::VectorXd gn = off;
     gn.head(nb) += sc.gauss_newton.head(nb);
-    gn.segment(nb, ne) = sc.gauss_newton.tail(ne);
+    gn.segment(nb, ns) = sc.gauss_newton.tail(ns);
     gn.tail(shifts) += sc.gauss_newton.segment(nb, shifts);
     starts.push_back({"gauss-newton", problem.at(gn), current.orbits});
     // The same effect part on the staged model's base (the linear part from the dwells without
@@ -231,7 +242,7 @@ std::optional<fitted_model> refit(const round_context& c, const fitted_model& cu
     on_staged.p = c.staged.p;
     const fit_problem staged_problem = make_problem(c.predictor, c.dwells, on_staged, with, c.noise);
     Eigen::VectorXd us = staged_problem.of(on_staged);
-    us.segment(nb, ne) = sc.gauss_newton.tail(ne);
+    us.segment(nb, ns) = sc.gauss_newton.tail(ns);
     starts.push_back({"staged + gauss-newton", staged_problem.at(us)});
   }
   if (sc.trial_at) {
@@ -302,28 +313,138 @@ double holdout_gain(const round_context& c, const fitted_model& without, const f
   return gain / (c.noise * c.noise);
 }
 
+// The 95 % bound of one parameter's profile likelihood, in chi^2 (Venzon & Moolgavkar 1988).
+constexpr double kProfileChi2 = 3.84;
+// Jacobians of the refit at each profile value: it starts from its neighbour's, a step away.
+constexpr int kProfileIterations = 4;
+
+// chi^2/dof of a fit where it exceeds 1: a residual that is not noise widens every interval by it.
+double chi2_scale(const round_context& c, const fitted_model& m) {
+  const double dof = std::max(c.rows - static_cast<double>(m.coords.size()), 1.0);
+  return std::max(1.0, m.rss() / (c.noise * c.noise * dof));
+}
+
+// The profile of shape coordinate j of `current`: at profile_points values across its physical
+// range, walking outward from the estimate, every other coordinate refitted from the neighbour's
+// fit. Where a value lands lower than the fit by more than the bound, the fit with every
+// coordinate free from there is `lower` (the profile is also the shape's global search).
+struct profile_run {
+  parameter_profile profile;
+  std::optional<fitted_model> lower;
+};
+profile_run profile_coordinate(const round_context& c, const fitted_model& current, std::size_t j) {
+  const fit_coordinate& q = current.coords[j];
+  profile_run out;
+  parameter_profile& p = out.profile;
+  p.coordinate = q.name;
+  p.quantity = q.quantity;
+  p.unit = q.unit;
+  p.estimate = q.natural(q.get(current.at));
+  p.range_lo = q.range_lo, p.range_hi = q.range_hi;
+  const int n = std::max(c.s.profile_points, 2);
+  std::vector<double> grid;
+  for (int i = 0; i < n; ++i) {
+    const double t = static_cast<double>(i) / (n - 1);
+    grid.push_back(q.logarithmic ? q.range_lo * std::pow(q.range_hi / q.range_lo, t) : q.range_lo + t * (q.range_hi - q.range_lo));
+  }
+  auto others = current.coords;
+  others.erase(others.begin() + static_cast<std::ptrdiff_t>(j));
+  const double unit = c.noise * c.noise * chi2_scale(c, current);
+  std::vector<double> rss(grid.size(), std::numeric_limits<double>::infinity());
+  std::vector<std::optional<fitted_model>> fits(grid.size());
+  const auto walk = [&](auto first, auto last, auto next) {
+    const fitted_model* from = &current;
+    for (auto i = first; i != last; i = next(i)) {
+      model_point m = from->at;
+      q.set(m, q.chart(grid[static_cast<std::size_t>(i)]));
+      const fit_problem problem = make_problem(c.predictor, c.dwells, m, others, c.noise);
+      const fit_result f = fit(problem, problem.of(m), kProfileIterations, &from->orbits);
+      if (!f.ok) break;  // beyond a value the model cannot be computed at, the walk stops
+      auto judged = judge(c, f.at, current.coords, &f);
+      if (!judged) break;
+      rss[static_cast<std::size_t>(i)] = judged->rss();
+      fits[static_cast<std::size_t>(i)] = std::move(*judged);
+      from = &*fits[static_cast<std::size_t>(i)];
+    }
+  };
+  const auto split = static_cast<int>(std::lower_bound(grid.begin(), grid.end(), p.estimate) - grid.begin());
+  walk(split - 1, -1, [](int i) { return i - 1; });
+  walk(split, static_cast<int>(grid.size()), [](int i) { return i + 1; });
+  p.interval_lo = p.range_lo, p.interval_hi = p.range_hi;
+  std::size_t lowest = grid.size();
+  for (std::size_t i = 0; i < grid.size(); ++i) {
+    const double d = (rss[i] - current.rss()) / unit;
+    p.values.push_back(grid[i]);
+    p.delta_chi2.push_back(d);  // +inf: the model cannot be computed there (or beyond, on the walk)
+    if (d > kProfileChi2) {
+      if (grid[i] < p.estimate) p.bounded_below = true, p.interval_lo = grid[i];
+      if (grid[i] > p.estimate && !p.bounded_above) p.bounded_above = true, p.interval_hi = grid[i];
+    }
+    if (d < -kProfileChi2 && (lowest == grid.size() || rss[i] < rss[lowest])) lowest = i;
+  }
+  const auto range = format_digits(p.range_lo) + " ... " + format_digits(p.range_hi) + " " + p.unit;
+  p.verdict = p.bounded_below && p.bounded_above ? "determined"
+              : p.bounded_below                  ? "bounded below only: the records do not bound it above within " + range
+              : p.bounded_above                  ? "bounded above only: the records do not bound it below within " + range
+                                                 : "not identifiable: its profile is flat over " + range + "; the claim does not depend on it";
+  if (lowest < grid.size()) {  // a better minimum: every coordinate free from there
+    const fitted_model& from = *fits[lowest];
+    const fit_problem problem = make_problem(c.predictor, c.dwells, from.at, current.coords, c.noise);
+    const fit_result f = fit(problem, problem.of(from.at), c.s.max_fit_iterations, &from.orbits);
+    if (f.ok)
+      if (auto judged = judge(c, f.at, current.coords, &f); judged && judged->rss() < from.rss()) out.lower = std::move(*judged);
+    if (!out.lower) out.lower = from;
+  }
+  return out;
+}
+
+// The shape coordinates of `effect` in the model's coordinates (indices); without those a dip
+// search finds (`searched`: a profile across a comb of dips says only that the comb pins it).
+std::vector<std::size_t> shapes_of(const std::vector<fit_coordinate>& coords, std::string_view effect, bool searched) {
+  std::vector<std::size_t> out;
+  for (std::size_t j = 0; j < coords.size(); ++j)
+    if (coords[j].shape && coords[j].effect == effect && (searched || !coords[j].search)) out.push_back(j);
+  return out;
+}
+
+// Every shape of `effect` profiled in turn, the model moved wherever a profile lands lower (the
+// shapes' global search); the profiles of the final model.
+std::vector<parameter_profile> settle_shapes(const round_context& c, fitted_model& m, std::string_view effect, bool searched) {
+  std::vector<parameter_profile> profiles;
+  for (int pass = 0; pass < 2; ++pass) {  // a move changes the other shapes' profiles: once more after one
+    profiles.clear();
+    bool moved = false;
+    for (const std::size_t j : shapes_of(m.coords, effect, searched)) {
+      profile_run run = profile_coordinate(c, m, j);
+      if (run.lower && run.lower->rss() < m.rss()) {
+        c.s.progress("      " + m.coords[j].name + ": its profile lands lower at " + format_digits(m.coords[j].natural(m.coords[j].get(run.lower->at))) +
+                     " (residual " + format_digits(run.lower->rss()) + " against " + format_digits(m.rss()) + " m^2)");
+        m = std::move(*run.lower);
+        moved = true;
+        run = profile_coordinate(c, m, j);
+      }
+      profiles.push_back(std::move(run.profile));
+    }
+    if (!moved) break;
+  }
+  return profiles;
+}
+
 }  // namespace
 
 const effect_parameter_info* outside_fit_range(const effect_info& e, const model_point& m) {
+  if (!has_effect(m.fx, e)) return nullptr;
   for (const auto& q : e.parameters) {
     const double v = m.fx.*q.member;
-    if (q.is_switch && v != q.off && (v < q.lo || v > q.hi)) return &q;
+    if (q.is_switch && v == q.off) continue;
+    if (v < q.lo || v > q.hi) return &q;
   }
   return nullptr;
 }
 
-std::vector<std::pair<std::string, double>> effect_params(const effect_info& e, const effect_parameters& fx, std::vector<std::string>* held) {
+std::vector<std::pair<std::string, double>> effect_params(const effect_info& e, const effect_parameters& fx) {
   std::vector<std::pair<std::string, double>> out;
-  for (const auto& q : e.parameters) {
-    out.emplace_back(std::string(q.key), fx.*q.member);
-    if (q.is_switch || !held) continue;
-    // A shape parameter is fitted only as the phase of a polar pair; others are held.
-    bool fitted = false;
-    for (std::size_t i = 0; i + 1 < e.parameters.size(); ++i)
-      if (&e.parameters[i + 1] == &q && q.key.starts_with("phi"))
-        for (const auto& f : e.fit) fitted = fitted || (f.key == e.parameters[i].key && f.form == fit_form::polar);
-    if (!fitted) held->push_back(std::string(q.key));
-  }
+  for (const auto& q : e.parameters) out.emplace_back(std::string(q.key), fx.*q.member);
   return out;
 }
 
@@ -369,7 +490,8 @@ trace_result trace(const std::vector<loop_dwell>& dwells, orbit_predictor& predi
           if (is_noise(current)) break;
         }
     }
-    s.progress("[2/3] trace round " + std::to_string(round) + ": scoring " + std::to_string(remaining.size()) + " effects ...");
+    s.progress("[2/3] trace round " + std::to_string(round) + ": scoring " + std::to_string(remaining.size()) + " effects (" +
+               std::to_string(predictor.evaluations()) + " model evaluations so far) ...");
     const fit_problem base = make_problem(predictor, dwells, current.at, current.coords, noise);
     predictor.anchor(current.at, current.orbits);
     const Eigen::MatrixXd J = base.jacobian(base.of(current.at), current.r);
@@ -447,6 +569,11 @@ trace_result trace(const std::vector<loop_dwell>& dwells, orbit_predictor& predi
       const fit_result b = fit(refit_base, refit_base.of(switched_off(with.at, *cands[i].effect)), s.max_fit_iterations, &with.orbits);
       if (b.ok)
         if (auto judged = judge(c, b.at, current.coords, &b); judged && judged->rss() < current.rss()) reference = std::move(*judged);
+      // A second effect only on evidence the first cannot give: the effects already in the model
+      // get their shapes' global search again from there, and the candidate must pass against
+      // the better-fitted model (a stator held at the wrong mass left room for a stand-in).
+      for (const auto& step : out.effects)
+        if (!shapes_of(reference.coords, step.effect, false).empty()) settle_shapes(c, reference, step.effect, false);
       const significance fair = test(c, reference, with);
       if (!fair.pass) {
         cand.verdict = "the model without it, refitted from where its refit ended, explains its gain (BIC drop " + format_digits(fair.bic_drop) +
@@ -577,12 +704,18 @@ trace_result trace(const std::vector<loop_dwell>& dwells, orbit_predictor& predi
       }
     }
   }
+  // Whether the records determine each named effect's shapes: their profiles on the final model
+  // (which a profile that lands lower moves, and the later ones are then taken there).
+  for (auto& step : out.effects) {
+    if (shapes_of(current.coords, step.effect, true).empty()) continue;
+    s.progress("[2/3] profiles of " + step.effect + "'s shape parameters (" + std::to_string(predictor.evaluations()) +
+               " model evaluations so far) ...");
+    step.profiles = settle_shapes(c, current, step.effect, true);
+  }
   out.after = current.at;
   out.after_orbits = current.orbits;
-  for (auto& step : out.effects) {  // the final estimates (later effects refine earlier ones)
-    step.held.clear();
-    step.params = effect_params(find_effect(step.effect), current.at.fx, &step.held);
-  }
+  for (auto& step : out.effects)  // the final estimates (later effects refine earlier ones)
+    step.params = effect_params(find_effect(step.effect), current.at.fx);
   return out;
 }
 

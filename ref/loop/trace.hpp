@@ -34,6 +34,8 @@ struct trace_settings {
   int orders = 20;               // shaft orders of the residual spectrum and the synchronous test
   int whiteness_lags = 20;
   int max_fit_iterations = 20;   // Jacobians per Levenberg-Marquardt fit
+  // Shape parameters are profiled at this many values across their physical range (ends included).
+  int profile_points = 5;
   std::function<void(const std::string&)> progress = [](const std::string&) {};
 };
 
@@ -49,10 +51,27 @@ struct effect_candidate {
   std::string verdict;       // why it was or was not added
 };
 
+// Whether the records determine a shape parameter: its profile over the physical range (every
+// other coordinate refitted at each value), in chi^2 above the fit's, scaled by the fit's own
+// chi^2/dof where that exceeds 1 (a residual that is not noise). A parameter whose profile stays
+// below the 95 % bound over the whole range is not identifiable from these records, and the claim
+// holds at any value of it.
+struct parameter_profile {
+  std::string coordinate;              // the fit's coordinate
+  std::string quantity, unit;          // what it is, in natural units
+  double estimate = 0.0;               // natural units
+  double range_lo = 0.0, range_hi = 0.0;
+  std::vector<double> values, delta_chi2;  // the profile (natural units)
+  // The 95 % interval lies strictly between these grid values (the range's ends where unbounded).
+  double interval_lo = 0.0, interval_hi = 0.0;
+  bool bounded_below = false, bounded_above = false;
+  std::string verdict;                 // "determined", "bounded below", "bounded above", or "not identifiable: ..."
+};
+
 struct loop_step {
   std::string effect;
-  std::vector<std::pair<std::string, double>> params;  // the library's keys and SI values
-  std::vector<std::string> held;                       // shape parameters held at the library's values
+  std::vector<std::pair<std::string, double>> params;  // the library's keys and SI values (every one fitted)
+  std::vector<parameter_profile> profiles;             // its shape parameters' profiles (identifiability)
   double error_after_adding = 0.0;
   double bic_drop = 0.0, excess_share = 0.0, holdout_gain = 0.0;
   std::vector<effect_candidate> candidates;            // the round's scores, best first
@@ -83,11 +102,11 @@ struct trace_result {
 trace_result trace(const std::vector<loop_dwell>& dwells, orbit_predictor& predictor, double noise, const model_point& staged,
                    const fit_result& before, const trace_settings& s);
 
-// The first switch of the effect whose value at m lies outside the library's fit range (what a fit
-// may search: beyond it the effect is no longer the physics its row describes), or nullptr.
+// The first parameter of the effect (present at m) whose value lies outside the library's fit range
+// (what a fit may search: beyond it the effect is no longer the physics its row describes), or nullptr.
 const effect_parameter_info* outside_fit_range(const effect_info& e, const model_point& m);
 
-// An effect's parameters in `fx` (library keys, SI), and the shape parameters the fit holds.
-std::vector<std::pair<std::string, double>> effect_params(const effect_info& e, const effect_parameters& fx, std::vector<std::string>* held);
+// An effect's parameters in `fx` (library keys, SI).
+std::vector<std::pair<std::string, double>> effect_params(const effect_info& e, const effect_parameters& fx);
 
 }  // namespace rubref

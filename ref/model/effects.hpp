@@ -12,8 +12,8 @@
 namespace rubref {
 
 // Every effect's parameters in one value type (a model carries all, most of them off). Shape
-// parameters (exponents, masses, dampers, decay speeds) default to the library's typical values,
-// which is where the loop holds them.
+// parameters (exponents, masses, dampers, decay speeds) default to the library's typical values:
+// where the virtual rig puts them unless told, and where the loop's fit of them starts.
 struct effect_parameters {
   // hertz_contact: extra normal force k_h z^1.5 (Hertz point contact).
   double hertz_k = 0.0;  // N/m^1.5
@@ -58,7 +58,7 @@ struct effect_parameters {
 // the effect on (an effect is present when any switch is away from its `off` value), a moderate
 // level (what the tests inject), the range a fit may search, and, for a switch, the documented
 // levels: the magnitudes the loop is specified for, which the randomized campaign draws from
-// (docs/loop.md; either sign where `signed_level`).
+// (docs/loop.md; either sign where `signed_level`); for a shape, the physical range it is drawn from.
 struct effect_parameter_info {
   double effect_parameters::*member;
   std::string_view key;    // e.g. "k_h"
@@ -67,26 +67,40 @@ struct effect_parameter_info {
   double off;              // the switch's value when the effect is absent; a shape's default
   double moderate;         // a clearly visible but moderate level
   double lo, hi;           // fit bounds
-  double level_lo = 0.0, level_hi = 0.0;  // documented levels of a switch's magnitude (0, 0 for a shape)
+  double level_lo = 0.0, level_hi = 0.0;  // documented levels of a switch's magnitude; a shape's physical range
   bool signed_level = false;              // the level may take either sign
 };
 
-// How the loop fits one switch of an effect (docs/loop.md, "The effect library"). Shape
-// parameters are held at their defaults; a phase is fitted through its amplitude's pair.
+// How the loop fits one parameter of an effect (docs/loop.md, "The effect library"): every
+// parameter is fitted, switches first, then the shape parameters (exponents, masses, dampers,
+// decay speeds), each in the chart where the orbit depends on it most simply; a phase is fitted
+// through its amplitude's pair.
 enum class fit_form {
   value,           // the switch itself
   polar,           // an amplitude with the phase parameter after it, as (a cos phi, a sin phi): smooth through a = 0
-  compliance,      // a stiffness as its compliance 1/k (0: rigid, smooth there); its ringing makes the residual a
-                   // comb of dips along it, so the trace searches them (ref/loop/search.hpp)
+  compliance,      // a stiffness as its compliance 1/k (0: rigid, smooth there); with the shapes below held as
+                   // ring frequency and damping ratio
   excess_over_mu,  // a friction coefficient as its excess over the model's mu (<= 0: off)
+  power_coefficient,  // a coefficient lambda of z^p as its value at a reference penetration, lambda z_ref^(p - p0), p0 the
+                      // exponent's default: the force at the penetrations reached hardly moves when p does
+  // Shapes:
+  logarithm,       // a positive parameter as its logarithm (a decay speed, a radius)
+  power_exponent,  // the exponent p of a power_coefficient, moved with the force at z_ref kept
+  ring_frequency,  // a compliant part's mass m as log sqrt(k/m): its ringing makes the residual a comb of dips along it,
+                   // so the trace searches them (ref/loop/search.hpp)
+  damping_ratio,   // its damper c as log of c / (2 sqrt(k m))
 };
 struct effect_fit {
-  std::string_view key;        // the switch
+  std::string_view key;        // the parameter (a switch, or a shape)
   fit_form form;
   double scale;                // the search's unit: the moderate level's order of magnitude
   // Trial values where the effect enters the orbit so nonlinearly that its linearisation at
   // "off" misleads (the contact normal's angle, the probes' orientation): the trace profiles it.
   std::vector<double> trials = {};
+  // Shapes only: the physical range of the coordinate's own value (not its logarithm), over
+  // which the loop profiles it to say whether the records determine it.
+  double range_lo = 0.0, range_hi = 0.0;
+  bool is_shape() const { return range_hi > range_lo; }
 };
 
 struct effect_info {
@@ -95,8 +109,14 @@ struct effect_info {
   std::string_view reference;    // where the model comes from
   bool measurement_only;         // acts on the probes, not on the rotor
   std::vector<effect_parameter_info> parameters;
-  std::vector<effect_fit> fit;   // the loop's coordinates, one entry per switch
+  std::vector<effect_fit> fit;   // the loop's coordinates: the switches, then the shapes
 };
+
+// The pivot of a power law's chart (fit_form::power_coefficient): the penetration at which the
+// loop keeps lambda z^p when p moves, and at which the documented levels of lambda hold for any p
+// (lambda z_ref^(p - p0) is the level at the default exponent p0). Contacts of the paper's rotor
+// reach ~1e-6..1e-4 m.
+inline constexpr double power_reference_penetration = 1e-5;  // m
 
 // The library, in a fixed order (docs/loop.md).
 const std::vector<effect_info>& effect_library();
