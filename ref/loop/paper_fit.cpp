@@ -3,11 +3,21 @@
 #include <algorithm>
 #include <cmath>
 #include <complex>
+#include <limits>
+
+#include "ref/format/record.hpp"
 
 #include "ref/base/errors.hpp"
 #include "ref/identification/identify.hpp"
 
 namespace rubref {
+
+namespace {
+// The harmonic balance's physical floor: a damping ratio no rotor kit goes below (rolling bearings
+// alone give ~0.005) and a stiffness of a hundredth of m w^2 at the dwells' speeds.
+constexpr double kMinDampingRatio = 1e-3;
+constexpr double kMinStiffnessShare = 1e-2;
+}  // namespace
 
 // The linear part from the dwells without contact, by harmonic balance on their 1X components
 // (steady response of Eq. 1 without contact): with X, Y the 1X phasors of x and y and
@@ -15,7 +25,7 @@ namespace rubref {
 //   (k_x - m w^2 + i c_x w) X = m w^2 E,   (k_y - m w^2 + i c_y w) Y = -i m w^2 E,
 // linear in (k_x, c_x, k_y, c_y, Re E, Im E). The 1X phasor averages every revolution, so noise
 // barely enters; it needs two speeds or more.
-parameters fit_linear_harmonic(const std::vector<loop_dwell>& dwells, double mass) {
+parameters fit_linear_harmonic(const std::vector<loop_dwell>& dwells, double mass, std::vector<std::string>* notes) {
   std::vector<const loop_dwell*> free;
   for (const auto& d : dwells)
     if (!d.contact) free.push_back(&d);
@@ -55,7 +65,54 @@ parameters fit_linear_harmonic(const std::vector<loop_dwell>& dwells, double mas
     b[row + 3] = (mw2 * Y).imag();
     row += 4;
   }
-  const Eigen::VectorXd v = A.colPivHouseholderQr().solve(b);
+  // Least squares with the stiffnesses and dampers (columns 0-3) bounded below by a physical
+  // floor. An effect the model lacks biases the balance (a shaft bow's 1X force does not grow with
+  // w^2 like the unbalance's), and with two or three speeds it can give a negative damper, a model
+  // that runs away at every speed and leaves the loop nothing to fit. A bounded linear least
+  // squares problem is solved exactly by the best feasible one of its active sets: each subset of
+  // the four at its floor, the rest free.
+  double w_mean = 0.0;
+  for (const auto* ld : free) w_mean += ld->data.omega() / static_cast<double>(free.size());
+  const double floor[4] = {kMinStiffnessShare * mass * w_mean * w_mean, 2.0 * kMinDampingRatio * mass * w_mean,
+                           kMinStiffnessShare * mass * w_mean * w_mean, 2.0 * kMinDampingRatio * mass * w_mean};
+  Eigen::VectorXd v = A.colPivHouseholderQr().solve(b);
+  const auto feasible = [&](const Eigen::VectorXd& x) {
+    for (int j = 0; j < 4; ++j)
+      if (!(x[j] >= floor[j])) return false;
+    return true;
+  };
+  if (!feasible(v)) {
+    double best = std::numeric_limits<double>::infinity();
+    Eigen::VectorXd chosen;
+    for (int set = 1; set < 16; ++set) {
+      std::vector<Eigen::Index> free_columns;
+      Eigen::VectorXd x = Eigen::VectorXd::Zero(6), rhs = b;
+      for (int j = 0; j < 6; ++j) {
+        if (j < 4 && (set >> j & 1)) {
+          x[j] = floor[j];
+          rhs -= A.col(j) * floor[j];
+        } else {
+          free_columns.push_back(j);
+        }
+      }
+      Eigen::MatrixXd Af(A.rows(), static_cast<Eigen::Index>(free_columns.size()));
+      for (std::size_t i = 0; i < free_columns.size(); ++i) Af.col(static_cast<Eigen::Index>(i)) = A.col(free_columns[i]);
+      const Eigen::VectorXd xf = Af.colPivHouseholderQr().solve(rhs);
+      for (std::size_t i = 0; i < free_columns.size(); ++i) x[free_columns[i]] = xf[static_cast<Eigen::Index>(i)];
+      const double rss = (A * x - b).squaredNorm();
+      if (feasible(x) && rss < best) best = rss, chosen = x;
+    }
+    if (notes) {
+      static const char* names[4] = {"k_x", "c_x", "k_y", "c_y"};
+      std::string which;
+      for (int j = 0; j < 4; ++j)
+        if (!(v[j] >= floor[j])) which += (which.empty() ? "" : ", ") + std::string(names[j]) + " = " + format_digits(v[j]);
+      notes->push_back("the harmonic balance of the dwells without contact gives an unphysical linear part (" + which +
+                       "): it is bounded below by a damping ratio of " + format_digits(kMinDampingRatio) + " and a stiffness of " +
+                       format_digits(kMinStiffnessShare) + " m w^2; an effect the paper's model lacks (a shaft bow, a runout) biases it, and the fits go on from there");
+    }
+    v = chosen;
+  }
   parameters p;
   p.m = mass;
   p.k_x = v[0];
@@ -76,7 +133,7 @@ model_point staged_model(const std::vector<loop_dwell>& dwells, double mass, std
   for (const auto& ld : dwells) plain.push_back(ld.data);
   identify_settings is;
   is.mass = mass;
-  is.linear = fit_linear_harmonic(dwells, mass);
+  is.linear = fit_linear_harmonic(dwells, mass, &notes);
   is.average_revolutions = true;
   is.library = "z1,z3,zd2";  // Eq. 5's terms: the loop's base model is the identified law
   is.frols.rho = 0.0;

@@ -13,8 +13,9 @@
 
 namespace rubref {
 
-// The linear part of Eq. 1 from the dwells without contact (harmonic balance on their 1X).
-parameters fit_linear_harmonic(const std::vector<loop_dwell>& dwells, double mass);
+// The linear part of Eq. 1 from the dwells without contact (harmonic balance on their 1X), with
+// its stiffnesses and dampers bounded below by a physical floor (noted in `notes` when active).
+parameters fit_linear_harmonic(const std::vector<loop_dwell>& dwells, double mass, std::vector<std::string>* notes = nullptr);
 
 // The staged model: the linear part from the dwells without contact, the law from FROLS (where
 // its coefficients are positive, else the paper's Table 2), mu from the force ratio (Fig. 5).

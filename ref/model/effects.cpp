@@ -27,7 +27,9 @@ const std::vector<effect_info>& effect_library() {
       {"hunt_crossley_damping", "f_N += lambda z^p z_dot (z > 0)",
        "K. H. Hunt, F. R. E. Crossley, Coefficient of restitution interpreted as damping in vibroimpact, J. Appl. Mech. 42 (1975)",
        false,
-       {{&P::hc_lambda, "lambda", "N s/m^(p+1)", true, 0.0, 5e9, 0.0, 1e11, 1e9, 2e10},
+       // lambda's levels hold at the default p = 1.5 and, for another p, at the reference penetration
+       // (power_reference_penetration: lambda z_ref^(p - 1.5)); its range spans every p in [1, 2].
+       {{&P::hc_lambda, "lambda", "N s/m^(p+1)", true, 0.0, 5e9, 0.0, 1e14, 1e9, 2e10},
         {&P::hc_exponent, "p", "-", false, 1.5, 1.5, 1.0, 2.0, 1.0, 2.0}},
        {{"lambda", fit_form::power_coefficient, 1e9}, {"p", fit_form::power_exponent, 0.1, {}, 1.0, 2.0}}},
       {"contact_angle", "contact normal (sin theta, cos theta), friction along (cos theta, -sin theta)",
