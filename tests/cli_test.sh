@@ -182,7 +182,7 @@ expect_error "short.csv" loop "$work/short.csv" --clearance 3e-4 --out "$work/lo
 grep -q "no dwell with contact was usable" "$work/stdout" || fail "loop (drift) does not say nothing was usable: $(cat "$work/stdout")"
 grep -qiw "nan" "$work/stdout" "$work/drift/report.md" && fail "loop (drift) printed a NaN"
 grep -q "residual unexplained" "$work/stdout" || fail "loop (drift) did not call the residual unexplained"
-grep -q "left out: not synchronous" "$work/stderr" || fail "loop (drift) did not say why the dwells were left out"
+grep -q "left out: not periodic" "$work/stderr" || fail "loop (drift) did not say why the dwells were left out"
 rm -rf "$work/drift" "$work/drift.csv"
 
 # Outputs are checked before any work: a file rubref did not write is not replaced (unless

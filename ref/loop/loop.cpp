@@ -56,8 +56,8 @@ void measure(loop_result& out, orbit_predictor& predictor, double noise, const l
   out.error_after = ea.nrmse_contact;
   for (std::size_t k = 0; k < out.dwells.size(); ++k) {
     const auto& ld = out.dwells[k];
-    out.errors.push_back({ld.record, ld.data.rpm, ld.contact, ld.data.size(), std::string(to_string(kinds[k])), eb.rms[k], ea.rms[k],
-                          eb.nrmse[k], ea.nrmse[k]});
+    out.errors.push_back({ld.record, ld.data.rpm, ld.contact, ld.data.size(), std::string(to_string(kinds[k])), ld.periods, eb.rms[k],
+                          ea.rms[k], eb.nrmse[k], ea.nrmse[k]});
   }
 
   // Spectrum by order, RMS over contact dwells, and the plot dwell (largest error before).

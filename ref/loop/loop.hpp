@@ -34,6 +34,7 @@ struct dwell_error {
   bool contact = false;
   std::size_t samples = 0;
   std::string orbit;                             // how the final model's orbit was found: periodic or transient
+  int periods = 1;                               // revolutions after which the dwell repeats
   double rms_before = 0.0, rms_after = 0.0;      // m
   double nrmse_before = 0.0, nrmse_after = 0.0;  // rms / rms of the measured orbit about its mean
 };

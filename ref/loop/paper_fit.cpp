@@ -4,6 +4,7 @@
 #include <cmath>
 #include <complex>
 #include <limits>
+#include <set>
 
 #include "ref/format/record.hpp"
 
@@ -129,11 +130,31 @@ model_point staged_model(const std::vector<loop_dwell>& dwells, double mass, std
   // contact (here by harmonic balance), then the identified law's terms by FROLS on the contact
   // forces. (Its NLopt output-error stage is left to the before-fit, which refines every
   // coordinate on every dwell at once.)
+  // (Only the dwells that repeat every revolution: the pipeline averages one revolution.)
   std::vector<dwell> plain;
-  for (const auto& ld : dwells) plain.push_back(ld.data);
+  for (const auto& ld : dwells)
+    if (ld.periods == 1) plain.push_back(ld.data);
   identify_settings is;
   is.mass = mass;
-  is.linear = fit_linear_harmonic(dwells, mass, &notes);
+  // With fewer than two speeds without contact the balance cannot separate stiffness, damper and
+  // unbalance: the linear part then starts from the paper's values (scaled to the mass), and the
+  // before-fit fits it on every dwell, contact ones included (said in the notes).
+  std::set<double> free_speeds;
+  for (const auto& ld : dwells)
+    if (!ld.contact) free_speeds.insert(ld.data.rpm);
+  if (free_speeds.size() >= 2) {
+    is.linear = fit_linear_harmonic(dwells, mass, &notes);
+  } else {
+    const parameters paper;
+    parameters lin = paper;
+    const double scale = mass / paper.m;
+    lin.m = mass;
+    lin.c_x *= scale, lin.c_y *= scale, lin.k_x *= scale, lin.k_y *= scale;
+    is.linear = lin;
+    notes.push_back("the records hold " + std::to_string(free_speeds.size()) +
+                    " speed(s) without contact, too few for the harmonic balance of the linear part: it starts from the paper's (scaled to the "
+                    "mass), and the before-fit fits it on every dwell");
+  }
   is.average_revolutions = true;
   is.library = "z1,z3,zd2";  // Eq. 5's terms: the loop's base model is the identified law
   is.frols.rho = 0.0;

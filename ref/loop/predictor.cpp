@@ -56,9 +56,9 @@ rig_state flow(const model& sys, const rig_state& s, double period, const integr
 
 // A first guess of the state at t = 0 from the data: harmonics 0..H of the dwell's shaft phase,
 // fitted by least squares to x and y, give the position and velocity there.
-rig_state guess_from_data(const dwell& d, const effect_parameters& fx) {
-  constexpr int kHarmonics = 8;
-  const double w = d.omega();
+rig_state guess_from_data(const dwell& d, const effect_parameters& fx, int periods) {
+  const int kHarmonics = 8 * periods;  // of the motion's own frequency w / periods
+  const double w = d.omega() / periods;
   Eigen::MatrixXd A(static_cast<Eigen::Index>(d.size()), 2 * kHarmonics + 1);
   Eigen::VectorXd bx(A.rows()), by(A.rows());
   for (std::size_t i = 0; i < d.size(); ++i) {
@@ -120,7 +120,9 @@ orbit_kind orbit_predictor::predict(std::size_t k, const model_point& m) {
   cache& c = caches_[k];
   parameters p = m.p;
   p.delta = d.clearance;
-  const double w = d.omega(), period = 2.0 * std::numbers::pi / w;
+  // The motion's period: `periods` revolutions (the model's orbit is the n-revolution map's fixed point).
+  const int periods = dwells_[k].periods;
+  const double w = d.omega(), period = periods * 2.0 * std::numbers::pi / w;
   const model sys(p, m.fx, w);
 
   // Sample phases in [0, T) for this shift, sorted for one pass over the revolution (kept while
@@ -155,10 +157,12 @@ orbit_kind orbit_predictor::predict(std::size_t k, const model_point& m) {
   // orbit): compare the motion the model settles into from the data's state instead, so that the
   // fit still sees how far off it is and which way to go.
   try {
-    const integration_options opt = fit_integration();
+    integration_options opt = fit_integration();
     integration_options settle = opt;
     settle.max_steps *= kFallbackSettleRevs;
-    const rig_state settled = flow(sys, guess_from_data(d, m.fx), kFallbackSettleRevs * period, settle, sample_grid{}, nullptr);
+    opt.max_steps *= periods;
+    const rig_state settled =
+        flow(sys, guess_from_data(d, m.fx, periods), kFallbackSettleRevs * 2.0 * std::numbers::pi / w, settle, sample_grid{}, nullptr);
     std::vector<rig_state> sorted;
     flow(sys, settled, period, opt, grid, &sorted);
     if (sorted.size() != d.size()) return orbit_kind::failed;
@@ -174,19 +178,24 @@ orbit_predictor::shot orbit_predictor::shoot(std::size_t k, const model_point& m
                                              const sample_grid& grid) {
   const dwell& d = dwells_[k].data;
   cache& c = caches_[k];
-  const integration_options opt = fit_integration();
+  const int periods = dwells_[k].periods;
+  integration_options opt = fit_integration();
+  opt.max_steps *= periods;
   try {
-    rig_state guess = c.started ? c.start : guess_from_data(d, m.fx);
+    rig_state guess = c.started ? c.start : guess_from_data(d, m.fx, periods);
     if (!c.started) {
+      // Whole multiples of the motion's period: a period-n orbit comes back to the guess's phase.
+      const int cycles = (kFirstSettleRevs + periods - 1) / periods;
       integration_options settle = opt;
-      settle.max_steps *= kFirstSettleRevs;
-      guess = flow(sys, guess, kFirstSettleRevs * period, settle, sample_grid{}, nullptr);
+      settle.max_steps *= cycles;
+      guess = flow(sys, guess, cycles * period, settle, sample_grid{}, nullptr);
     }
-    // The one shooting routine (ref/integrate/shooting.hpp): Newton with the exact monodromy.
+    // The one shooting routine (ref/integrate/shooting.hpp): Newton with the exact monodromy of
+    // the `periods`-revolution map.
     shooting_settings set;
     set.max_iterations = kShootIterations;
     set.integration.max_steps = opt.max_steps;
-    const auto orbit = shoot_periodic_orbit(sys, guess, 0.0, 1, set);
+    const auto orbit = shoot_periodic_orbit(sys, guess, 0.0, periods, set);
     if (!orbit.converged) return shot::failed;
     std::vector<rig_state> sorted;
     flow(sys, orbit.state, period, opt, grid, &sorted);

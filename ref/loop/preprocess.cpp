@@ -18,6 +18,17 @@ constexpr double kSpreadLimit = 2.0;
 // Orders |k| >= 3 above this many times the averaged noise (sigma / sqrt(revolutions)) mean
 // contact: noise alone stays below ~1.5x, the lightest contact the loop meets is ~100x.
 constexpr double kContactDistortion = 5.0;
+// Periods tried for a dwell that does not repeat every revolution: the study's regime maps find
+// period-2 and period-3 rub orbits of the paper's rotor, and rarely longer ones; beyond this the
+// dwell is taken as not periodic.
+constexpr int kMaxPeriods = 6;
+
+// The average of a dwell over blocks of `periods` revolutions (as one "revolution" of rpm / periods).
+averaged_dwell average_over(const dwell& d, int periods) {
+  dwell slow = d;
+  slow.rpm = d.rpm / periods;
+  return synchronous_average(slow);
+}
 }  // namespace
 
 double estimate_noise(const std::vector<loop_dwell>& dwells) {
@@ -78,13 +89,37 @@ prepared_dwells prepare_dwells(const std::vector<std::pair<record, std::string>>
     const averaged_dwell a = synchronous_average(ld.data);
     ld.contact = std::any_of(a.cycle.y.begin(), a.cycle.y.end(), [&](double y) { return y > ld.data.clearance; }) ||
                  high_order_content(a.cycle) > kContactDistortion * noise / std::sqrt(static_cast<double>(a.revolutions));
-    if (a.spread > kSpreadLimit * noise) {
-      out.excluded.push_back({ld.record, ld.data.rpm, ld.contact, a.spread,
-                              "not synchronous: its revolutions differ by " + format_digits(a.spread * 1e6) + " um RMS (noise " +
-                                  format_digits(noise * 1e6) + " um)"});
-    } else {
+    if (a.spread <= kSpreadLimit * noise) {
       out.dwells.push_back(std::move(ld));
+      continue;
     }
+    // Not the same every revolution: the same every n revolutions? (Two blocks of n at least, to
+    // tell.) Such motion is contact's: without it the model is linear in its forcing, whose only
+    // periodic response repeats every revolution.
+    int periods = 0;
+    double spread = a.spread;
+    for (int n = 2; n <= kMaxPeriods && !periods; ++n) {
+      if (a.revolutions < 2 * n) break;
+      const averaged_dwell an = average_over(ld.data, n);
+      if (an.revolutions >= 2 && an.spread <= kSpreadLimit * noise) periods = n, spread = an.spread;
+    }
+    if (periods) {
+      ld.periods = periods;
+      ld.contact = true;
+      out.notes.push_back(ld.record + " (" + format_digits(ld.data.rpm) + " rpm) repeats every " + std::to_string(periods) +
+                          " revolutions, not every one (its revolutions differ by " + format_digits(a.spread * 1e6) + " um RMS, its blocks of " +
+                          std::to_string(periods) + " by " + format_digits(spread * 1e6) + " um): it is fitted on the model's period-" +
+                          std::to_string(periods) + " orbit");
+      out.dwells.push_back(std::move(ld));
+      continue;
+    }
+    const int tried = std::min(kMaxPeriods, a.revolutions / 2);
+    out.excluded.push_back({ld.record, ld.data.rpm, ld.contact, a.spread,
+                            "not periodic: its revolutions differ by " + format_digits(a.spread * 1e6) + " um RMS (noise " + format_digits(noise * 1e6) +
+                                " um)" +
+                                (tried >= 2 ? ", and so do its blocks of 2.." + std::to_string(tried) + " revolutions"
+                                            : std::string(", and it has too few revolutions to test a longer period")) +
+                                " (quasi-periodic or chaotic motion, a drifting speed, or a transient that has not died out)"});
   }
   return out;
 }

@@ -20,6 +20,11 @@ struct loop_dwell {
   std::string record;            // the file it came from
   double timing_sigma = std::numeric_limits<double>::infinity();  // s, keyphasor timing uncertainty (inf: none)
   bool contact = false;          // decided from the data: its synchronous average reaches the clearance
+  // Revolutions after which the motion repeats (1: every revolution). A dwell that repeats every n
+  // revolutions (a subharmonic rub orbit, one of the coexisting period-n orbits) is fitted on the
+  // model's period-n orbit, the fixed point of its n-revolution map.
+  int periods = 1;
+  double cycle() const { return periods * 60.0 / data.rpm; }  // s, the motion's period
 };
 
 // A dwell the loop does not fit, and why (report.json `excluded`, and a line on stderr).

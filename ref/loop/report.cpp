@@ -121,6 +121,7 @@ json to_json(const loop_result& r) {
                             {"contact", e.contact},
                             {"samples", e.samples},
                             {"orbit", e.orbit},
+                            {"periods", e.periods},
                             {"rms_before_m", e.rms_before},
                             {"rms_after_m", e.rms_after},
                             {"error_before", e.nrmse_before},
@@ -211,7 +212,7 @@ std::string to_markdown(const loop_result& r) {
   o << "\n## Per dwell\n\n| record | rpm | contact | samples | orbit | NRMSE before | NRMSE after | RMS before [um] | RMS after [um] |\n"
        "|---|---|---|---|---|---|---|---|---|\n";
   for (const auto& e : r.errors)
-    o << "| " << e.record << " | " << e.rpm << " | " << (e.contact ? "yes" : "no") << " | " << e.samples << " | " << e.orbit << " | " << fmt(e.nrmse_before) << " | "
+    o << "| " << e.record << " | " << e.rpm << " | " << (e.contact ? "yes" : "no") << " | " << e.samples << " | " << e.orbit << (e.periods > 1 ? ", period " + std::to_string(e.periods) : std::string()) << " | " << fmt(e.nrmse_before) << " | "
       << fmt(e.nrmse_after) << " | " << fmt(e.rms_before * 1e6) << " | " << fmt(e.rms_after * 1e6) << " |\n";
   for (const auto& w : r.warnings) o << "\n**Warning:** " << w << "\n";
   for (const auto& n : r.notes) o << "\nNote: " << n << "\n";

@@ -29,8 +29,9 @@ struct validity_report {
   bool pass = false;
 };
 
-// Energy of a residual's shaft orders -orders..orders, sum over dwells of n |c_k|^2 (m^2) with
-// c_k the mean of (r_x + i r_y) e^{-i k psi}, and its expectation under noise alone, sigma^2 dof
+// Energy of a residual's shaft orders -orders..orders (for a period-n dwell, the orders of w / n up
+// to the same shaft order), sum over dwells of n |c_k|^2 (m^2) with c_k the mean of
+// (r_x + i r_y) e^{-i k psi}, and its expectation under noise alone, sigma^2 dof
 // (n |c_k|^2 / sigma^2 ~ chi^2(2) per order and dwell): the synchronous check and the trace's
 // share rule measure this.
 struct synchronous_energy {
@@ -43,9 +44,10 @@ struct synchronous_energy {
 synchronous_energy synchronous_part(const std::vector<loop_dwell>& dwells, const orbit_predictor& pr, const model_point& m,
                                     const Eigen::VectorXd& r, int orders);
 
-// Shaft-order coefficients c_k = mean(z e^{-i k psi}) of the complex residual z = r_x + i r_y of
-// the dwell whose rows start at `at`.
-std::vector<std::complex<double>> order_coefficients(const dwell& d, const Eigen::VectorXd& r, std::size_t at, double shift, int orders);
+// Order coefficients c_k = mean(z e^{-i k psi}), k = -orders..orders, of the complex residual
+// z = r_x + i r_y of the dwell whose rows start at `at`; psi = w t / periods (1: shaft orders).
+std::vector<std::complex<double>> order_coefficients(const dwell& d, const Eigen::VectorXd& r, std::size_t at, double shift, int orders,
+                                                     int periods = 1);
 
 // Orbit errors: per dwell, and the NRMSE over the dwells with contact,
 // sqrt(sum |model - measured|^2 / sum |measured - dwell mean|^2).
