@@ -17,15 +17,22 @@ void exclude(loop_result& out, std::size_t k, std::string reason, const loop_set
   out.excluded.push_back({d.record, d.data.rpm, d.contact, 0.0, std::move(reason)});
 }
 
-// Dwells where the model's orbit cannot be computed at any start of the before-fit are left out.
-void exclude_uncomputable(loop_result& out, double noise, const loop_settings& s) {
-  const auto failed = uncomputable_dwells(out.dwells, noise, before_fit_starts(out.initial));
+// Dwells where the model's orbit cannot be computed at any start of the before-fit are left out,
+// and so are period-n dwells where it has no period-n orbit there (held out: the final model is
+// checked on them after the fit, held_out_check).
+void exclude_uncomputable(loop_result& out, double noise, const loop_settings& s, std::vector<std::pair<loop_dwell, std::size_t>>& held_out) {
+  const auto starts = before_fit_starts(out.initial);
+  const auto failed = uncomputable_dwells(out.dwells, noise, starts);
+  const auto orbitless = dwells_without_their_orbit(out.dwells, noise, starts);
   std::vector<loop_dwell> kept;
   std::vector<double> shifts;
-  for (std::size_t k = 0, f = 0; k < out.dwells.size(); ++k) {
-    if (f < failed.size() && failed[f] == k) {
-      ++f;
+  for (std::size_t k = 0; k < out.dwells.size(); ++k) {
+    if (std::binary_search(failed.begin(), failed.end(), k)) {
       exclude(out, k, "the model's orbit cannot be computed there (Newton shooting and a transient from the measured state both fail at every start of the fit)", s);
+    } else if (std::binary_search(orbitless.begin(), orbitless.end(), k)) {
+      const std::string n = std::to_string(out.dwells[k].periods);
+      exclude(out, k, "it repeats every " + n + " revolutions, and the model has no period-" + n + " orbit there at any start of the fit", s);
+      held_out.emplace_back(out.dwells[k], out.excluded.size() - 1);
     } else {
       kept.push_back(out.dwells[k]);
       shifts.push_back(out.initial.shift[k]);
@@ -33,6 +40,23 @@ void exclude_uncomputable(loop_result& out, double noise, const loop_settings& s
   }
   out.dwells = std::move(kept);
   out.initial.shift = std::move(shifts);
+}
+
+// The final model on a held-out period-n dwell: whether it now has that orbit, and how close it
+// comes (said in the dwell's `excluded` entry: a check of the model on data it was not fitted to).
+void held_out_check(loop_result& out, const std::pair<loop_dwell, std::size_t>& h, double noise) {
+  const std::vector<loop_dwell> one{h.first};
+  orbit_predictor predictor(one, noise);
+  model_point m = out.after;
+  m.shift.assign(1, 0.0);
+  const auto r = predictor.residuals(m);
+  std::string& reason = out.excluded[h.second].reason;
+  if (!r || predictor.kinds()[0] != orbit_kind::periodic) {
+    reason += "; the final model has none either";
+    return;
+  }
+  const double rms = std::sqrt(r->head(static_cast<Eigen::Index>(predictor.orbit_rows())).squaredNorm() / static_cast<double>(predictor.orbit_rows()));
+  reason += "; the final model has one, " + format_digits(rms * 1e6) + " um RMS from the data (noise " + format_digits(noise * 1e6) + " um)";
 }
 
 // Errors, validity, spectrum and the plot dwell of the final model against the before-fit.
@@ -121,7 +145,8 @@ loop_result run_loop(const std::vector<std::pair<record, std::string>>& records,
 
   // 2. The paper's model: staged, then every coordinate on every dwell's orbit.
   out.initial = staged_model(out.dwells, prep.mass, out.notes);
-  exclude_uncomputable(out, noise, s);
+  std::vector<std::pair<loop_dwell, std::size_t>> held_out;
+  exclude_uncomputable(out, noise, s, held_out);
   if (!any_contact(out.dwells)) return nothing_to_fit("the model's orbit cannot be computed in any dwell with contact");
   s.progress("      every coordinate together (Levenberg-Marquardt) ...");
   orbit_predictor predictor(out.dwells, noise);
@@ -147,6 +172,7 @@ loop_result run_loop(const std::vector<std::pair<record, std::string>>& records,
   // 4. Before and after, and what is claimed.
   measure(out, predictor, noise, s, traced);
   out.model_evaluations = predictor.evaluations();
+  for (const auto& h : held_out) held_out_check(out, h, noise);
   // Loud, never silent: an estimate outside what the library describes, or a law without stiffness.
   const auto warn = [&](const std::string& w) {
     out.warnings.push_back(w);

@@ -211,6 +211,19 @@ std::vector<std::size_t> uncomputable_dwells(const std::vector<loop_dwell>& dwel
   return out;
 }
 
+std::vector<std::size_t> dwells_without_their_orbit(const std::vector<loop_dwell>& dwells, double noise, const std::vector<named_start>& starts) {
+  std::vector<bool> found(dwells.size(), false);
+  for (const auto& s : starts) {
+    orbit_predictor predictor(dwells, noise);
+    (void)predictor.residuals(s.at);
+    for (std::size_t k = 0; k < dwells.size(); ++k) found[k] = found[k] || predictor.kinds()[k] == orbit_kind::periodic;
+  }
+  std::vector<std::size_t> out;
+  for (std::size_t k = 0; k < dwells.size(); ++k)
+    if (dwells[k].periods > 1 && !found[k]) out.push_back(k);
+  return out;
+}
+
 multistart_result fit_paper_model(orbit_predictor& predictor, const std::vector<loop_dwell>& dwells, const model_point& staged, double noise,
                                   int max_iterations, const std::function<bool(const fit_result&)>& is_noise) {
   const fit_problem problem = make_problem(predictor, dwells, staged, paper_coordinates(), noise);
