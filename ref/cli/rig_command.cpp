@@ -102,9 +102,15 @@ void add_rig(CLI::App& app) {
         }
         nlohmann::ordered_json row{{"name", e.name}, {"model", e.model}, {"reference", e.reference}, {"measurement_only", e.measurement_only},
                                    {"parameters", params}};
-        for (const auto& f : e.fit)
+        nlohmann::ordered_json fit = nlohmann::ordered_json::array();
+        for (const auto& f : e.fit) {
           if (f.form == fit_form::power_coefficient)  // its levels hold at this penetration for any exponent
             row["level_reference_penetration_m"] = power_reference_penetration;
+          nlohmann::ordered_json j{{"key", f.key}, {"as", std::string(to_string(f.form))}};
+          if (f.is_shape()) j["profiled_over"] = {f.range_lo, f.range_hi};
+          fit.push_back(j);
+        }
+        row["fit"] = fit;
         all.push_back(row);
       }
       std::cout << all.dump(2) << "\n";

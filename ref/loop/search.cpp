@@ -69,16 +69,10 @@ fit_result search_dips(const fit_problem& problem, std::size_t j, double base_rs
     for (const double v : search.alternate_values) alternates.emplace_back(v);
   }
   std::vector<std::pair<double, std::pair<fit_result, double>>> envelope;  // (residual, (fit, value)), lowest first
-  // The envelope's base: the staged model's paper part while that fits the data better than the
-  // current model (a fit without the effect has bent the current one towards the contacts); once
-  // effects have brought the current model closer (later rounds), the current one.
+  // The envelope's base (the caller's choice, search_dips): the staged model's paper part, or the
+  // current model.
   model_point base = problem.base;
-  {
-    model_point on_staged = problem.base;
-    on_staged.p = staged.p;
-    const auto r = residual_at(predictor, on_staged);
-    if (r && r->squaredNorm() < base_rss) base = on_staged;
-  }
+  base.p = staged.p;
   for (const double value : search.envelope)
     for (const auto& other : alternates) {
       model_point m = base;

@@ -21,8 +21,10 @@ struct profile_best {
 profile_best profile(const std::vector<double>& trials, double at_off, const std::function<double(double)>& left);
 
 // The refit of an effect whose coordinate `j` of `problem` (its base: the current model, the
-// effect off, leaving `base_rss`) has a dip search: the envelope on the staged model, a fit from
-// its best value, then hops between dips while a refit lands lower. Returns the lowest fit.
+// effect off, leaving `base_rss`) has a dip search: the envelope on `staged`'s paper part (the
+// staged model while no effect is in the model: a fit without the effect has bent the current one
+// towards the contacts; the current model once effects have brought it closer), fits from its best
+// values, then hops between dips while a refit lands lower. Returns the lowest fit.
 fit_result search_dips(const fit_problem& problem, std::size_t j, double base_rss, const model_point& staged,
                        const std::vector<loop_dwell>& dwells, int max_iterations, const std::function<void(const std::string&)>& progress);
 

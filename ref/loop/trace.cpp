@@ -221,7 +221,8 @@ std::optional<fitted_model> refit(const round_context& c, const fitted_model& cu
   if (const auto searched = dip_searched(ec); searched != ec.end()) {
     start_name = "dip search";
     const auto j = current.coords.size() + static_cast<std::size_t>(searched - ec.begin());
-    const fit_result f = search_dips(problem, j, current.rss(), c.staged, c.dwells, c.s.max_fit_iterations, c.s.progress);
+    const bool paper_only = std::all_of(current.coords.begin(), current.coords.end(), [](const fit_coordinate& q) { return q.effect.empty(); });
+    const fit_result f = search_dips(problem, j, current.rss(), paper_only ? c.staged : current.at, c.dwells, c.s.max_fit_iterations, c.s.progress);
     return f.ok ? judge(c, f.at, with, &f) : std::nullopt;
   }
   const auto nb = static_cast<Eigen::Index>(current.coords.size()), ne = static_cast<Eigen::Index>(ec.size());

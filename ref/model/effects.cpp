@@ -86,6 +86,21 @@ const std::vector<effect_info>& effect_library() {
   return library;
 }
 
+std::string_view to_string(fit_form f) {
+  switch (f) {
+    case fit_form::value: return "itself";
+    case fit_form::polar: return "(a cos phi, a sin phi)";
+    case fit_form::compliance: return "compliance 1/k";
+    case fit_form::excess_over_mu: return "excess over mu";
+    case fit_form::power_coefficient: return "lambda z_ref^(p - p0)";
+    case fit_form::logarithm: return "log";
+    case fit_form::power_exponent: return "itself, lambda z_ref^p kept";
+    case fit_form::ring_frequency: return "log ring frequency sqrt(k/m) [rad/s]";
+    case fit_form::damping_ratio: return "log damping ratio c/(2 sqrt(k m))";
+  }
+  return "?";
+}
+
 const effect_info& find_effect(std::string_view name) {
   std::string known;
   std::vector<std::string> names;

@@ -90,6 +90,9 @@ enum class fit_form {
                    // so the trace searches them (ref/loop/search.hpp)
   damping_ratio,   // its damper c as log of c / (2 sqrt(k m))
 };
+// How a fit_form reads in the library's listings (`rubref effects --json`, docs/loop.md).
+std::string_view to_string(fit_form f);
+
 struct effect_fit {
   std::string_view key;        // the parameter (a switch, or a shape)
   fit_form form;
