@@ -1,6 +1,6 @@
 #pragma once
 // Searches for effects a local fit cannot reach from "off" (docs/loop.md, trace): the profile of
-// an effect along its trial values, and the dip search of a ringing stator's compliance.
+// an effect along its trial values, and the dip search of a ringing stator's ring frequency.
 
 #include <functional>
 #include <string>
