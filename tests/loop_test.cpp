@@ -75,11 +75,11 @@ std::vector<rig_request> rub_and_free(double clearance, std::vector<double> rub,
 }
 
 struct scenario {
-  const char* name;
-  std::vector<std::string> effects;       // injected (rig --effect syntax), in both records
-  std::function<void(rig_request&)> rig;  // changes to both records
+  const char* name = nullptr;
+  std::vector<std::string> effects = {};       // injected (rig --effect syntax), in both records
+  std::function<void(rig_request&)> rig = {};  // changes to both records
   bool separate_free_record = true;       // else one record from the rig's default speeds
-  std::vector<std::string> expected;      // the effects the loop must name, and nothing else
+  std::vector<std::string> expected = {};  // the effects the loop must name, and nothing else
   bool unexplained = false;               // what the report must say
   double param_tol = 0.0;                 // relative, on every switch parameter of the expected effects (0: not checked)
   double error_ratio = 0.0;               // error after / before at most (0: not checked)
@@ -115,18 +115,13 @@ const std::vector<scenario> kScenarios{
     // library's typical 1 kg and 100 N s/m is named alone, with both recovered (no stand-in second
     // effect), under a piecewise-linear base law. Measured: k_s 0.25 %, c_s 0.1 %, m_s 1 % off;
     // 5 % leaves room for another seed.
-    {"a_stator_of_its_own_mass_and_damper",
-     {"stator_compliance:k_s=4e6,c_s=300,m_s=0.4"},
-     nullptr,
-     true,
-     {"stator_compliance"},
-     false,
-     0.05,
-     0.0,
-     false,
-     [] { return rub_and_free(0.25e-3, {1500, 1550, 1600, 1650, 1700}, {1200, 1350, 1500, 1650, 1800}, 3, 12, 1e-6, 8000, "piecewise-linear"); },
-     "full",
-     [](const loop_result& r, const std::vector<rig_request>& req) {
+    {.name = "a_stator_of_its_own_mass_and_damper",
+     .effects = {"stator_compliance:k_s=4e6,c_s=300,m_s=0.4"},
+     .expected = {"stator_compliance"},
+     .param_tol = 0.05,
+     .records = [] { return rub_and_free(0.25e-3, {1500, 1550, 1600, 1650, 1700}, {1200, 1350, 1500, 1650, 1800}, 3, 12, 1e-6, 8000, "piecewise-linear"); },
+     .claim = "full",
+     .check = [](const loop_result& r, const std::vector<rig_request>& req) {
        ASSERT_EQ(r.effects.size(), 1u);
        EXPECT_NEAR(r.after.fx.stator_m, req.front().effects.stator_m, 0.05 * req.front().effects.stator_m);
        EXPECT_NEAR(r.after.fx.stator_c, req.front().effects.stator_c, 0.05 * req.front().effects.stator_c);
@@ -136,18 +131,12 @@ const std::vector<scenario> kScenarios{
     // A falling friction curve away from the library's v_c = 0.5 m/s and R = 5 mm: named, and the
     // curve is right at the sliding speeds the records reach (mu_s and v_c trade along it: measured
     // 13 % off each, the curve within 0.3 %), under a piecewise-nonlinear base law.
-    {"falling_friction_off_the_library_curve",
-     {"velocity_dependent_friction:mu_s=0.8,v_c=0.15,R=3e-3"},
-     nullptr,
-     true,
-     {"velocity_dependent_friction"},
-     false,
-     0.0,
-     0.0,
-     false,
-     [] { return rub_and_free(0.3e-3, {1500, 1550, 1600, 1650, 1700}, {1200, 1350, 1500, 1650, 1800}, 5, 14, 0.7e-6, 12000, "piecewise-nonlinear"); },
-     "full",
-     [](const loop_result& r, const std::vector<rig_request>& req) {
+    {.name = "falling_friction_off_the_library_curve",
+     .effects = {"velocity_dependent_friction:mu_s=0.8,v_c=0.15,R=3e-3"},
+     .expected = {"velocity_dependent_friction"},
+     .records = [] { return rub_and_free(0.3e-3, {1500, 1550, 1600, 1650, 1700}, {1200, 1350, 1500, 1650, 1800}, 5, 14, 0.7e-6, 12000, "piecewise-nonlinear"); },
+     .claim = "full",
+     .check = [](const loop_result& r, const std::vector<rig_request>& req) {
        const effect_parameters& t = req.front().effects;
        const effect_parameters& e = r.after.fx;
        for (const double rpm : req.front().speeds_rpm) {
@@ -160,53 +149,36 @@ const std::vector<scenario> kScenarios{
      }},
     // One combined record (contact-free dwells and rub dwells, no free record) with a shaft bow:
     // the bow alone (no cross-coupling beside it).
-    {"one_combined_record_with_a_shaft_bow",
-     {"shaft_bow:b=3e-5,phi_b=2"},
-     nullptr,
-     false,
-     {"shaft_bow"},
-     false,
-     0.01,
-     0.0,
-     false,
-     [] {
-       auto both = rub_and_free(0.3e-3, {1200, 1300, 1500, 1550, 1600, 1650, 1700}, {}, 9, 12, 1e-6, 10000, "identified");
-       return std::vector<rig_request>{both.front()};
-     },
-     "full"},
+    {.name = "one_combined_record_with_a_shaft_bow",
+     .effects = {"shaft_bow:b=3e-5,phi_b=2"},
+     .separate_free_record = false,
+     .expected = {"shaft_bow"},
+     .param_tol = 0.01,
+     .records = [] { return std::vector<rig_request>{rub_and_free(0.3e-3, {1200, 1300, 1500, 1550, 1600, 1650, 1700}, {}, 9, 12, 1e-6, 10000, "identified").front()}; },
+     .claim = "full"},
     // A named effect that leaves more than noise is a partial explanation, and said so: a preload
     // with hardening supports (outside the library) that it cannot take.
-    {"a_named_effect_that_leaves_more_than_noise_is_partial",
-     {"preload:F_x=0,F_y=-6"},
-     [](rig_request& r) { r.unmodelled.cubic_stiffness = 4e8; },
-     true,
-     {"preload"},
-     true,
-     0.01,
-     0.2,
-     false,
-     [] {
-       return std::vector<rig_request>{from_elsewhere({1500, 1550, 1600, 1650, 1700}, 0.3e-3, 31), from_elsewhere({1200, 1350, 1500, 1650, 1800}, 0.01, 32)};
-     },
-     "partial",
-     [](const loop_result& r, const std::vector<rig_request>&) {
+    {.name = "a_named_effect_that_leaves_more_than_noise_is_partial",
+     .effects = {"preload:F_x=0,F_y=-6"},
+     .rig = [](rig_request& r) { r.unmodelled.cubic_stiffness = 4e8; },
+     .expected = {"preload"},
+     .unexplained = true,
+     .param_tol = 0.01,
+     .error_ratio = 0.2,
+     .records = [] { return std::vector<rig_request>{from_elsewhere({1500, 1550, 1600, 1650, 1700}, 0.3e-3, 31), from_elsewhere({1200, 1350, 1500, 1650, 1800}, 0.01, 32)}; },
+     .claim = "partial",
+     .check = [](const loop_result& r, const std::vector<rig_request>&) {
        EXPECT_GE(r.explained_share, loop_settings{}.min_explained_share);
        EXPECT_FALSE(r.validity_after.pass);
      }},
     // A dwell on a period-3 rub orbit (below the resonance at 0.2 mm) is fitted on the model's
     // period-3 orbit, not left out: the residual is noise with the paper's law.
-    {"a_period_3_dwell_is_fitted_on_its_orbit",
-     {},
-     [](rig_request& r) { r.settle_revs = 150, r.probes.noise = 0.5e-6, r.record_revs = 16; },
-     true,
-     {},
-     false,
-     0.0,
-     0.0,
-     true,
-     [] { return rub_and_free(0.2e-3, {1200, 1250, 1300, 1350, 1400}, {1100, 1250, 1400, 1600}, 21, 16, 0.5e-6, 10000, "identified"); },
-     "none",
-     [](const loop_result& r, const std::vector<rig_request>&) {
+    {.name = "a_period_3_dwell_is_fitted_on_its_orbit",
+     .rig = [](rig_request& r) { r.settle_revs = 150, r.probes.noise = 0.5e-6, r.record_revs = 16; },
+     .sanitized = true,
+     .records = [] { return rub_and_free(0.2e-3, {1200, 1250, 1300, 1350, 1400}, {1100, 1250, 1400, 1600}, 21, 16, 0.5e-6, 10000, "identified"); },
+     .claim = "none",
+     .check = [](const loop_result& r, const std::vector<rig_request>&) {
        const auto at = std::find_if(r.errors.begin(), r.errors.end(), [](const dwell_error& e) { return e.record == "rub.csv" && e.rpm == 1400; });
        ASSERT_NE(at, r.errors.end());
        EXPECT_EQ(at->periods, 3);
