@@ -162,6 +162,15 @@ class free_flight {
       }
   }
 
+  // e^a for a modal exponent a = lambda tau: the real part's exponential turned by the forcing's
+  // fast phasor (ref/model/state.hpp), within a few ulps of std::exp and without its complex
+  // special cases (a is finite here).
+  static cscalar exp_of(cscalar a) noexcept {
+    const forcing_phasor u = phasor_of(a.imag());
+    const double r = std::exp(a.real());
+    return {r * u.cos, r * u.sin};
+  }
+
   // The particular (periodic) solution at t.
   state particular(double t) const {
     const forcing_phasor u = phasor_of(d_.omega * t);
@@ -199,14 +208,17 @@ class free_flight {
 
     double start_time() const noexcept { return t0_; }
 
-    // The state at t.
+    // The state at t. A conjugate pair's share is twice the real part of one term (as in
+    // penetration): half the complex exponentials, which were most of a sampled orbit's cost.
     state at(double t) const {
       state s = ff_->particular(t);
       const double tau = t - t0_;
-      for (int j = 0; j < ff_->n_; ++j) modal_[j] = std::exp(ff_->lambda_[j] * tau) * c_[j];
+      for (int j = 0; j < ff_->n_; ++j)
+        modal_[j] = ff_->weight_[j] == 0.0 ? cscalar(0.0) : ff_->weight_[j] * (exp_of(ff_->lambda_[j] * tau) * c_[j]);
       for (int r = 0; r < ff_->n_; ++r) {
         cscalar v = 0.0;
-        for (int j = 0; j < ff_->n_; ++j) v += ff_->V_(r, j) * modal_[j];
+        for (int j = 0; j < ff_->n_; ++j)
+          if (ff_->weight_[j] != 0.0) v += ff_->V_(r, j) * modal_[j];
         s[static_cast<std::size_t>(ff_->active_[static_cast<std::size_t>(r)])] += v.real();
       }
       for (int i = 0; i < N; ++i)
@@ -226,7 +238,7 @@ class free_flight {
       const double tau = t - t0_;
       for (int j = 0; j < ff_->n_; ++j) {
         if (ff_->weight_[j] == 0.0) continue;  // the conjugate of the term before
-        const cscalar m = std::exp(ff_->lambda_[j] * tau) * lc_[j];
+        const cscalar m = exp_of(ff_->lambda_[j] * tau) * lc_[j];
         z += m.real();
         zd += (ff_->lambda_[j] * m).real();
       }
