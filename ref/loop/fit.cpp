@@ -209,4 +209,31 @@ multistart_result fit_from_starts(const fit_problem& problem, const std::vector<
   return out;
 }
 
+multistart_result race_starts(const fit_problem& problem, const std::vector<named_start>& starts, int max_iterations, int lap) {
+  const auto laps = static_cast<long long>(lap) * static_cast<long long>(starts.size());
+  if (starts.size() < 2 || lap < 1 || max_iterations <= laps)
+    return fit_from_starts(problem, starts, max_iterations, [](const fit_result&) { return true; }, 1);
+  multistart_result out;
+  std::optional<std::size_t> leader;
+  for (std::size_t i = 0; i < starts.size(); ++i) {
+    const auto& s = starts[i];
+    start_outcome o{s.name};
+    if (s.orbits) problem.predictor->anchor(s.at, *s.orbits);
+    else problem.predictor->anchor(s.at);
+    if (const auto r = problem.predictor->residuals(s.at)) o.rss_start = r->squaredNorm();
+    if (std::isfinite(o.rss_start)) {
+      fit_result f = fit(problem, problem.of(s.at), lap, s.orbits ? &*s.orbits : nullptr);
+      o.rss_fit = f.rss;
+      if (f.ok && f.rss < out.best.rss) out.best = std::move(f), leader = i;
+    }
+    out.starts.push_back(std::move(o));
+  }
+  if (!leader) return out;
+  out.winner = starts[*leader].name;
+  const fit_result rest = fit(problem, problem.of(out.best.at), max_iterations - lap, &out.best.orbits);
+  if (rest.ok && rest.rss <= out.best.rss) out.best = rest;
+  out.starts[*leader].rss_fit = out.best.rss;
+  return out;
+}
+
 }  // namespace rubref

@@ -84,4 +84,11 @@ struct multistart_result {
 multistart_result fit_from_starts(const fit_problem& problem, const std::vector<named_start>& starts, int max_iterations,
                                   const std::function<bool(const fit_result&)>& good_enough, int max_fits);
 
+// A race of the starts: each fitted for `lap` Jacobians, the one lowest after its lap fitted on
+// from there with the rest of `max_iterations`. The start's own residual does not say where its
+// fit ends: a start off in the effect's coordinates but on the right base can pass one on a base
+// bent to absorb the effect within a step or two (docs/loop.md). Where the budget is not larger
+// than a lap per start, the lowest start alone is fitted (fit_from_starts).
+multistart_result race_starts(const fit_problem& problem, const std::vector<named_start>& starts, int max_iterations, int lap);
+
 }  // namespace rubref

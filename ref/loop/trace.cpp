@@ -30,6 +30,11 @@ constexpr int kHoldoutIterations = 6;
 constexpr double kSettledShare = 0.9;
 // Jacobians of a screening refit (try_refit): enough for a refit that will pass to show a gain.
 constexpr int kScreenIterations = 5;
+// Jacobians each start of a refit is fitted before the one then lowest takes the rest of the
+// budget (race_starts; screening refits, whose budget is smaller than a lap per start, fit the
+// lowest start only). One Jacobian carries up to three Broyden steps: enough for a start on the
+// right base to pass one whose base was bent to absorb the effect.
+constexpr int kRaceLap = 1;
 
 // What every step of a round reads.
 struct round_context {
@@ -136,20 +141,54 @@ model_point switched_off(model_point m, const effect_info& e) {
   return m;
 }
 
+// The base problem linearised at the staged model's base (the current effects kept): where the
+// before-fit bent the linear part to absorb a missing effect (a combined record's few
+// contact-free dwells leave it free to), a Gauss-Newton step taken there, not at the bent fit,
+// points to the effect's model on the right base.
+struct staged_linearisation {
+  model_point at;
+  Eigen::VectorXd r;
+  Eigen::MatrixXd J;  // base coordinates, shifts last (as the base problem's u)
+};
+
 // A candidate's scores and the starts its refit may take.
 struct scored {
   effect_candidate candidate;
   const effect_info* effect = nullptr;
   Eigen::VectorXd gauss_newton;         // the step of (base, effect) coordinates, shifts last
+  Eigen::VectorXd staged_step;          // the same at the staged model's base (staged_linearisation)
   std::optional<model_point> trial_at;  // its profile's best value on the current point
   std::optional<Eigen::VectorXd> trial_corrected;  // the same with the base's linear correction (base problem's u)
 };
 
+// The effect's switch columns at m (residual r0 there, the predictor anchored at m): nothing where
+// the model cannot be computed with the effect switched on a little.
+std::optional<Eigen::MatrixXd> switch_columns(const round_context& c, const model_point& m0, const Eigen::VectorXd& r0,
+                                              const std::vector<fit_coordinate>& ec) {
+  const std::size_t switches = switch_count(ec);
+  Eigen::MatrixXd S(r0.size(), static_cast<Eigen::Index>(switches));
+  for (std::size_t j = 0; j < switches; ++j) {
+    model_point m = m0;
+    ec[j].set(m, kStep * ec[j].scale);
+    const auto r = c.predictor.residuals(m);
+    if (!r) return std::nullopt;
+    S.col(static_cast<Eigen::Index>(j)) = (*r - r0) / kStep;
+  }
+  return S;
+}
+
+Eigen::VectorXd gauss_newton_step(const Eigen::MatrixXd& J, const Eigen::MatrixXd& S, const Eigen::VectorXd& r0) {
+  Eigen::MatrixXd JS(J.rows(), J.cols() + S.cols());
+  JS << J, S;
+  return -JS.colPivHouseholderQr().solve(r0);
+}
+
 // Scores every remaining effect at `current`: the error reduction ratio of its linearised
 // regressors on the residual, after what the base coordinates' Jacobian already spans; for an
-// effect with trial values also its profile's share, if higher. Best first.
+// effect with trial values also its profile's share, if higher. Best first. With `staged`, each
+// effect's Gauss-Newton step there too (the predictor is anchored at current.at when it returns).
 std::vector<scored> score(const round_context& c, const fitted_model& current, const std::vector<const effect_info*>& remaining,
-                          const fit_problem& base, const Eigen::MatrixXd& J) {
+                          const fit_problem& base, const Eigen::MatrixXd& J, const std::optional<staged_linearisation>& staged) {
   const Eigen::VectorXd& r0 = current.r;
   const Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qj(J);
   const Eigen::MatrixXd Qj = qj.householderQ() * Eigen::MatrixXd::Identity(J.rows(), qj.rank());
@@ -162,25 +201,14 @@ std::vector<scored> score(const round_context& c, const fitted_model& current, c
     sc.candidate.name = std::string(e->name);
     // Its switches' columns: a shape's derivative where the effect is off is 0.
     const auto ec = effect_coordinates(*e);
-    const std::size_t switches = switch_count(ec);
-    Eigen::MatrixXd S(r0.size(), static_cast<Eigen::Index>(switches));
-    bool computable = true;
-    for (std::size_t j = 0; j < switches && computable; ++j) {
-      model_point m = current.at;
-      ec[j].set(m, kStep * ec[j].scale);
-      const auto r = c.predictor.residuals(m);
-      if (r) S.col(static_cast<Eigen::Index>(j)) = (*r - r0) / kStep;
-      computable = r.has_value();
-    }
-    if (!computable) {  // the model cannot be computed with the effect switched on a little
+    const auto S = switch_columns(c, current.at, r0, ec);
+    if (!S) {  // the model cannot be computed with the effect switched on a little
       sc.candidate.verdict = "its model cannot be computed next to the current one";
       out.push_back(std::move(sc));
       continue;
     }
-    sc.candidate.score = err_score(J, S, r0);
-    Eigen::MatrixXd JS(J.rows(), J.cols() + S.cols());
-    JS << J, S;
-    sc.gauss_newton = -JS.colPivHouseholderQr().solve(r0);
+    sc.candidate.score = err_score(J, *S, r0);
+    sc.gauss_newton = gauss_newton_step(J, *S, r0);
     // An effect with trial values (it enters nonlinearly) is also scored by its profile: the
     // residual left, after the base coordinates' linear correction, with the effect at a value.
     // Its share of the base's residual is the linear score's analogue; the best value, base
@@ -205,6 +233,15 @@ std::vector<scored> score(const round_context& c, const fitted_model& current, c
       }
     }
     out.push_back(std::move(sc));
+  }
+  if (staged) {
+    c.predictor.anchor(staged->at);
+    (void)c.predictor.residuals(staged->at);
+    for (auto& sc : out)
+      if (sc.candidate.verdict.empty())
+        if (const auto S = switch_columns(c, staged->at, staged->r, effect_coordinates(*sc.effect)))
+          sc.staged_step = gauss_newton_step(staged->J, *S, staged->r);
+    c.predictor.anchor(current.at, current.orbits);
   }
   std::stable_sort(out.begin(), out.end(), [](const scored& a, const scored& b) { return a.candidate.score > b.candidate.score; });
   return out;
@@ -247,6 +284,13 @@ std::optional<fitted_model> refit(const round_context& c, const fitted_model& cu
     Eigen::VectorXd us = staged_problem.of(on_staged);
     us.segment(nb, ns) = sc.gauss_newton.tail(ns);
     starts.push_back({"staged + gauss-newton", staged_problem.at(us)});
+    if (sc.staged_step.size() == nb + ns + shifts) {  // the step taken at the staged model's base
+      Eigen::VectorXd at_staged = staged_problem.of(on_staged);
+      at_staged.head(nb) += sc.staged_step.head(nb);
+      at_staged.segment(nb, ns) = sc.staged_step.tail(ns);
+      at_staged.tail(shifts) += sc.staged_step.segment(nb, shifts);
+      starts.push_back({"gauss-newton at the staged model", staged_problem.at(at_staged)});
+    }
   }
   if (sc.trial_at) {
     starts.push_back({"profile", *sc.trial_at});
@@ -259,9 +303,10 @@ std::optional<fitted_model> refit(const round_context& c, const fitted_model& cu
     for (const auto& q : ec) q.set(staged, q.get(*sc.trial_at));
     starts.push_back({"profile on the staged model", staged});
   }
-  // One fit, from the best start: a second one from another start is the fair comparison's and
-  // the backward elimination's job, which test every addition against the refitted base.
-  const multistart_result m = fit_from_starts(problem, starts, c.s.max_fit_iterations, [](const fit_result&) { return true; }, 1);
+  // One fit, from the start that leads after a lap (race_starts): a second one from another
+  // start is the fair comparison's and the backward elimination's job, which test every addition
+  // against the refitted base.
+  const multistart_result m = race_starts(problem, starts, c.s.max_fit_iterations, kRaceLap);
   start_name = m.winner;
   return m.best.ok ? judge(c, m.best.at, with, &m.best) : std::nullopt;
 }
@@ -498,7 +543,18 @@ trace_result trace(const std::vector<loop_dwell>& dwells, orbit_predictor& predi
     const fit_problem base = make_problem(predictor, dwells, current.at, current.coords, noise);
     predictor.anchor(current.at, current.orbits);
     const Eigen::MatrixXd J = base.jacobian(base.of(current.at), current.r);
-    std::vector<scored> cands = score(c, current, remaining, base, J);
+    std::optional<staged_linearisation> at_staged;
+    {
+      model_point on_staged = current.at;
+      on_staged.p = staged.p;
+      if (auto r = residual_at(predictor, on_staged)) {
+        const fit_problem staged_problem = make_problem(predictor, dwells, on_staged, current.coords, noise);
+        Eigen::MatrixXd Js = staged_problem.jacobian(staged_problem.of(on_staged), *r);
+        at_staged = staged_linearisation{on_staged, std::move(*r), std::move(Js)};
+      }
+      predictor.anchor(current.at, current.orbits);
+    }
+    std::vector<scored> cands = score(c, current, remaining, base, J, at_staged);
     s.progress("      best scores: " + cands[0].candidate.name + (cands.size() > 1 ? ", " + cands[1].candidate.name : std::string()) +
                "; refitting ...");
 
