@@ -278,6 +278,40 @@ TEST(loop_steps, a_fit_rejects_steps_it_cannot_compute) {
   EXPECT_GT(v.get(f.at), 0.5 * kEdge);  // it went as far towards the data as the model allows
 }
 
+// A race of starts (a refit's): every start is fitted for a lap, the leader on to the end of the
+// budget; the result is no worse than any lap, and with a budget of no more than a lap per start
+// only the lowest start is fitted.
+TEST(loop_steps, a_race_fits_every_start_a_lap_and_the_leader_on) {
+  const rig_request req = truth_rig();
+  const auto dwells = truth_timed_dwells(req);
+  orbit_predictor predictor(dwells, req.probes.noise);
+  const double k1 = req.params.k1;
+  const fit_coordinate v{"v", 1.0, [k1](const model_point& m) { return m.p.k1 / k1; }, [k1](model_point& m, double x) { m.p.k1 = k1 * x; }};
+  const auto start_at = [&](double x) {
+    model_point m;
+    m.shift.assign(dwells.size(), 0.0);
+    v.set(m, x);
+    return m;
+  };
+  const std::vector<named_start> starts{{"far", start_at(0.6)}, {"near", start_at(0.9)}};
+  const fit_problem problem = make_problem(predictor, dwells, starts.front().at, {v}, req.probes.noise);
+  const multistart_result raced = race_starts(problem, starts, 10, 1);
+  ASSERT_TRUE(raced.best.ok);
+  ASSERT_EQ(raced.starts.size(), 2u);
+  for (const auto& o : raced.starts) {
+    EXPECT_TRUE(std::isfinite(o.rss_fit)) << o.name;  // every start ran its lap
+    EXPECT_LE(raced.best.rss, o.rss_fit) << o.name;
+  }
+  // It ends where a plain fit from the better start ends: both stop when a step gains less than
+  // 0.01 in chi^2, so their chi^2 agree to a few such steps.
+  const fit_result plain = fit(problem, problem.of(starts.back().at), 30);
+  constexpr double kChi2Tol = 0.1;
+  EXPECT_NEAR(raced.best.rss / (req.probes.noise * req.probes.noise), plain.rss / (req.probes.noise * req.probes.noise), kChi2Tol);
+  const multistart_result lowest_only = race_starts(problem, starts, 2, 1);
+  EXPECT_EQ(lowest_only.winner, "near");
+  EXPECT_TRUE(std::isnan(lowest_only.starts.front().rss_fit));  // "far" was not fitted
+}
+
 // The synchronous energy (the synchronous check's and the share rule's measure): at the truth
 // it is the noise's, chi^2 with `dof` degrees of freedom; a forward order-2 whirl of amplitude a
 // added to the residual adds n a^2 per dwell, to within the cross term with the noise.
