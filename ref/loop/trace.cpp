@@ -631,6 +631,19 @@ trace_result trace(const std::vector<loop_dwell>& dwells, orbit_predictor& predi
       s.progress(passing.empty() ? "      nothing passes; refitting the others ..." : "      none leaves only noise; refitting the others ...");
       for (std::size_t i = 0; i < cands.size() && !noise_left; ++i)
         if (!cands[i].candidate.refitted && cands[i].candidate.verdict.empty()) try_refit(i, true);
+    } else if (!noise_left) {
+      // Most of the excess removed, but not to the noise: a stand-in may have taken the place of
+      // an effect whose linear score hides it (a stator's compliance is a series spring k1
+      // absorbs; Hunt-Crossley damping passed first on a stator's record, with 98 % of the excess,
+      // and beside it the stator no longer fits). Such effects are refitted by their dip search
+      // in this round too, and the larger BIC drop is added.
+      for (std::size_t i = 0; i < cands.size() && !noise_left; ++i) {
+        const auto ec = effect_coordinates(*cands[i].effect);
+        if (!cands[i].candidate.refitted && cands[i].candidate.verdict.empty() && dip_searched(ec) != ec.end()) {
+          s.progress("      most of the excess is removed, not to the noise: the dip search of " + cands[i].candidate.name + " too ...");
+          try_refit(i, true);
+        }
+      }
     }
     std::stable_sort(passing.begin(), passing.end(),
                      [&](const auto& a, const auto& b) { return cands[a.first].candidate.bic_drop > cands[b.first].candidate.bic_drop; });
