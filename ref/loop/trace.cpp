@@ -31,9 +31,10 @@ constexpr double kSettledShare = 0.9;
 // Jacobians of a screening refit (try_refit): enough for a refit that will pass to show a gain.
 constexpr int kScreenIterations = 5;
 // Jacobians each start of a refit is fitted before the one then lowest takes the rest of the
-// budget (race_starts; screening refits, whose budget is smaller than a lap per start, fit the
-// lowest start only). One Jacobian carries up to three Broyden steps: enough for a start on the
-// right base to pass one whose base was bent to absorb the effect.
+// budget (race_starts). One Jacobian carries up to three Broyden steps: enough for a start on the
+// right base to pass one whose base was bent to absorb the effect. A screening refit's budget
+// (kScreenIterations) races up to four starts and leaves the leader the rest; with five or more
+// starts (a profiled effect's) it fits the lowest start alone.
 constexpr int kRaceLap = 1;
 
 // What every step of a round reads.
