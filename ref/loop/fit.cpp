@@ -181,16 +181,21 @@ std::optional<Eigen::VectorXd> residual_at(orbit_predictor& predictor, const mod
   return predictor.residuals(m);
 }
 
+namespace {
+// A start's residual on its own orbits (or those found from the data); inf where it cannot be computed.
+start_outcome evaluate_start(const fit_problem& problem, const named_start& s) {
+  start_outcome o{s.name};
+  if (s.orbits) problem.predictor->anchor(s.at, *s.orbits);
+  else problem.predictor->anchor(s.at);
+  if (const auto r = problem.predictor->residuals(s.at)) o.rss_start = r->squaredNorm();
+  return o;
+}
+}  // namespace
+
 multistart_result fit_from_starts(const fit_problem& problem, const std::vector<named_start>& starts, int max_iterations,
                                   const std::function<bool(const fit_result&)>& good_enough, int max_fits) {
   multistart_result out;
-  for (const auto& s : starts) {
-    start_outcome o{s.name};
-    if (s.orbits) problem.predictor->anchor(s.at, *s.orbits);
-    else problem.predictor->anchor(s.at);
-    if (const auto r = problem.predictor->residuals(s.at)) o.rss_start = r->squaredNorm();
-    out.starts.push_back(o);
-  }
+  for (const auto& s : starts) out.starts.push_back(evaluate_start(problem, s));
   std::vector<std::size_t> order(starts.size());
   std::iota(order.begin(), order.end(), 0);
   std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return out.starts[a].rss_start < out.starts[b].rss_start; });
@@ -217,10 +222,7 @@ multistart_result race_starts(const fit_problem& problem, const std::vector<name
   std::optional<std::size_t> leader;
   for (std::size_t i = 0; i < starts.size(); ++i) {
     const auto& s = starts[i];
-    start_outcome o{s.name};
-    if (s.orbits) problem.predictor->anchor(s.at, *s.orbits);
-    else problem.predictor->anchor(s.at);
-    if (const auto r = problem.predictor->residuals(s.at)) o.rss_start = r->squaredNorm();
+    start_outcome o = evaluate_start(problem, s);
     if (std::isfinite(o.rss_start)) {
       fit_result f = fit(problem, problem.of(s.at), lap, s.orbits ? &*s.orbits : nullptr);
       o.rss_fit = f.rss;
