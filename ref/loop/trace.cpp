@@ -75,14 +75,12 @@ std::optional<fitted_model> judge(const round_context& c, const model_point& m, 
   return fitted_model{m, std::move(coords), std::move(*r), std::move(orbits)};
 }
 
-// A fit from `from`, judged, and carried on from its end where the orbits found from the data fit
-// that end better than those the fit followed: a fit follows its start's orbits, and from a far
-// start (the Table 2 law's, where the fit had gone to k3 z^3) it can follow one of coexisting
-// orbits the data is not on (1.35e-6 m^2 on a period-2 dwell's record, 3.8e-9 at the same point
-// on the data's orbits; every later refit then gained only by finishing this fit).
-std::optional<fitted_model> fit_on_the_datas_orbits(const round_context& c, const fit_problem& problem, const model_point& from,
-                                                    const orbit_anchors* orbits) {
-  const fit_result f = fit(problem, problem.of(from), c.s.max_fit_iterations, orbits);
+// A fit judged, and carried on from its end where the orbits found from the data fit that end
+// better than those the fit followed: a fit follows its start's orbits, and from a far start (the
+// Table 2 law's, where the fit had gone to k3 z^3) it can follow one of coexisting orbits the data
+// is not on (1.35e-6 m^2 on a period-2 dwell's record, 3.8e-9 at the same point on the data's
+// orbits; every later refit then gained only by finishing this fit).
+std::optional<fitted_model> on_the_datas_orbits(const round_context& c, const fit_problem& problem, const fit_result& f) {
   if (!f.ok) return std::nullopt;
   auto judged = judge(c, f.at, problem.coords, &f);
   double followed = f.rss;
@@ -552,17 +550,21 @@ trace_result trace(const std::vector<loop_dwell>& dwells, orbit_predictor& predi
     // place while the effect was missing) that every later refit starts from.
     if (!out.effects.empty() && !polished) {
       polished = true;
-      for (const named_start& st : before_fit_starts(staged)) {
-        model_point from = current.at;
-        from.p = st.at.p;
-        const fit_problem problem = make_problem(predictor, dwells, from, current.coords, noise);
-        if (auto judged = fit_on_the_datas_orbits(c, problem, from, nullptr); judged && judged->rss() < current.rss()) {
-          note("the model refitted from the before-fit's start '" + st.name + "' with its effects lands lower (residual " +
-               format_digits(judged->rss()) + " against " + format_digits(current.rss()) + " m^2): it is the base from here");
-          current = std::move(*judged);
-        }
+      std::vector<named_start> starts;
+      for (named_start st : before_fit_starts(staged)) {
+        const parameters p = st.at.p;
+        st.at = current.at;
+        st.at.p = p;
+        starts.push_back(std::move(st));
       }
-      if (is_noise(current)) break;
+      const fit_problem problem = make_problem(predictor, dwells, current.at, current.coords, noise);
+      const multistart_result raced = race_starts(problem, starts, s.max_fit_iterations, kRaceLap);
+      if (auto judged = on_the_datas_orbits(c, problem, raced.best); judged && judged->rss() < current.rss()) {
+        note("the model refitted from the before-fit's start '" + raced.winner + "' with its effects lands lower (residual " +
+             format_digits(judged->rss()) + " against " + format_digits(current.rss()) + " m^2): it is the base from here");
+        current = std::move(*judged);
+        if (is_noise(current)) break;
+      }
     }
     s.progress("[2/3] trace round " + std::to_string(round) + ": scoring " + std::to_string(remaining.size()) + " effects (" +
                std::to_string(predictor.evaluations()) + " model evaluations so far) ...");
@@ -686,7 +688,7 @@ trace_result trace(const std::vector<loop_dwell>& dwells, orbit_predictor& predi
       // winner ended; if that lands lower, the winner must pass the rule against it too.
       fitted_model reference = current;
       const fit_problem refit_base = make_problem(predictor, dwells, current.at, current.coords, noise);
-      if (auto judged = fit_on_the_datas_orbits(c, refit_base, switched_off(with.at, *cands[i].effect), &with.orbits);
+      if (auto judged = on_the_datas_orbits(c, refit_base, fit(refit_base, refit_base.of(switched_off(with.at, *cands[i].effect)), s.max_fit_iterations, &with.orbits));
           judged && judged->rss() < current.rss())
         reference = std::move(*judged);
       // A second effect only on evidence the first cannot give: the effects already in the model
