@@ -87,7 +87,6 @@ struct scenario {
   std::function<std::vector<rig_request>()> records = nullptr;  // the records' rigs (else from_elsewhere's, or the rig's default)
   const char* claim = nullptr;            // the report's claim (null: not checked)
   std::function<void(const loop_result&, const std::vector<rig_request>&)> check = nullptr;  // what else the row asserts
-  bool unexplained_checked = true;  // false: the row does not assert `unexplained`
 };
 
 // mu(v) = mu + (mu_s - mu) exp(-v / v_c) at the sliding speed R w (the rotor's own tangential
@@ -160,9 +159,7 @@ const std::vector<scenario> kScenarios{
     // A base law the staged start gets wrong: on one combined record with a 2X misalignment at
     // 0.15 um of noise, the FROLS law puts k3 z^3 in k1 z's place (k1 -> 0 in the before-fit). The
     // misalignment alone, to its switch parameter, once the model with it is refitted from the
-    // Table 2 law's start on the orbits the data is on. (Not asserted: whether the residual is
-    // noise. The final law stops at c2 = 0 with k3 200x the truth's, at the noise in RMS but not
-    // white; a fit from the truth passes the whiteness check. docs/loop.md, Limits.)
+    // Table 2 law's start on the orbits the data is on; the residual is then noise.
     {.name = "a_misalignment_on_a_base_law_the_staged_start_gets_wrong",
      .effects = {"misalignment_2x:F2=1.2,phi2=-2"},
      .rig = [](rig_request& r) { r.settle_revs = 100, r.probes.keyphasor_angle = 0.8; },
@@ -171,7 +168,7 @@ const std::vector<scenario> kScenarios{
      .param_tol = 0.01,
      .error_ratio = 0.2,
      .records = [] { return std::vector<rig_request>{rub_and_free(0.35e-3, {1040, 1110, 1230, 1490, 1530, 1570, 1610, 1640, 1670, 1720}, {}, 95, 6, 0.15e-6, 14000, "piecewise-nonlinear").front()}; },
-     .unexplained_checked = false},
+     .claim = "full"},
     // A named effect that leaves more than noise is a partial explanation, and said so: a preload
     // with hardening supports (outside the library) that it cannot take.
     {.name = "a_named_effect_that_leaves_more_than_noise_is_partial",
@@ -236,10 +233,8 @@ TEST_P(loop, scenario) {
   std::sort(expected.begin(), expected.end());
   std::sort(got.begin(), got.end());
   EXPECT_EQ(got, expected);
-  if (sc.unexplained_checked) {
-    EXPECT_EQ(r.unexplained, sc.unexplained);
-  }
-  if (!sc.unexplained && sc.unexplained_checked) {
+  EXPECT_EQ(r.unexplained, sc.unexplained);
+  if (!sc.unexplained) {
     EXPECT_TRUE(r.excluded.empty()) << r.excluded.front().reason;
   }
   for (const auto& step : r.effects) {
