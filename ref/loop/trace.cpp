@@ -37,7 +37,7 @@ constexpr int kScreenIterations = 5;
 // (kScreenIterations) races up to four starts and leaves the leader the rest; with five or more
 // starts (a profiled effect's) it fits the lowest start alone.
 constexpr int kRaceLap = 1;
-// How often a fit is carried on from its end on the data's orbits (fit_on_the_datas_orbits).
+// How often a fit is carried on from its end on the data's orbits (on_the_datas_orbits).
 constexpr int kOrbitRefits = 2;
 
 // What every step of a round reads.
@@ -545,9 +545,9 @@ trace_result trace(const std::vector<loop_dwell>& dwells, orbit_predictor& predi
   while (!is_noise(current) && static_cast<int>(out.effects.size()) < s.max_effects && !remaining.empty()) {
     ++round;
     // After an effect is added, the model is refitted once from the before-fit's starts too (the
-    // staged model's base, and its linear part with the Table 2 law), with the current effects: a
-    // base can fall into a degenerate minimum of its own (a law whose k1 went to 0 and k3 took its
-    // place while the effect was missing) that every later refit starts from.
+    // staged model's base, and its linear part with the Table 2 law), raced, with the current
+    // effects: a base can fall into a degenerate minimum of its own (a law whose k1 went to 0 and
+    // k3 took its place while the effect was missing) that every later refit starts from.
     if (!out.effects.empty() && !polished) {
       polished = true;
       std::vector<named_start> starts;
@@ -688,9 +688,8 @@ trace_result trace(const std::vector<loop_dwell>& dwells, orbit_predictor& predi
       // winner ended; if that lands lower, the winner must pass the rule against it too.
       fitted_model reference = current;
       const fit_problem refit_base = make_problem(predictor, dwells, current.at, current.coords, noise);
-      if (auto judged = on_the_datas_orbits(c, refit_base, fit(refit_base, refit_base.of(switched_off(with.at, *cands[i].effect)), s.max_fit_iterations, &with.orbits));
-          judged && judged->rss() < current.rss())
-        reference = std::move(*judged);
+      const fit_result b = fit(refit_base, refit_base.of(switched_off(with.at, *cands[i].effect)), s.max_fit_iterations, &with.orbits);
+      if (auto judged = on_the_datas_orbits(c, refit_base, b); judged && judged->rss() < current.rss()) reference = std::move(*judged);
       // A second effect only on evidence the first cannot give: the effects already in the model
       // get their shapes' global search again from there, and the candidate must pass against
       // the better-fitted model (a stator held at the wrong mass left room for a stand-in).
