@@ -212,39 +212,5 @@ TEST(shooting, rig_model_with_effects_matches_finite_differences) {
   EXPECT_EQ(orbit.multipliers.size(), 6u);
 }
 
-// The chord method (chord_periodic_orbit) with the monodromy of a neighbouring parameter point
-// (k1 0.1 % off, as a fit's finite differences move it) lands on Newton's orbit within the
-// tolerance, in a few state-only integrations; with a matrix that is not a neighbour's (2 I, whose
-// steps 2 s - P(s) move away from the orbit) it gives up instead of returning a point.
-constexpr double kChordSameOrbitTol = 5e-12;  // m: both within 1e-12 m of P(s) = s, through M - I
-constexpr int kChordIterationsAllowed = 4;    // rate ~1e-3 per iteration from 1e-5 m to below 1e-12 m
-TEST(shooting, chord_from_a_neighbours_monodromy_lands_on_newtons_orbit) {
-  parameters p;
-  const double w = rpm_to_rad_s(1600.0);
-  effect_parameters fx;
-  fx.stator_k = 5e7;
-  fx.stator_m = 0.3;
-  fx.stator_c = 200.0;
-  const rotor_with_effects<identified> sys(p, fx, w);
-  null_observer none;
-  const auto settled = integrate_hybrid(sys, start_state(sys, std::array<double, 6>{}, 0.0), 60.0 * sys.period(), careful().integration,
-                                        sample_grid{}, none);
-  parameters q = p;
-  q.k1 *= 1.001;
-  const rotor_with_effects<identified> neighbour(q, fx, w);
-  const auto at_neighbour = shoot_periodic_orbit(neighbour, settled.s, 0.0, 1, careful());
-  const auto newton = shoot_periodic_orbit(sys, at_neighbour.state, 0.0, 1, careful());
-  ASSERT_TRUE(at_neighbour.converged && newton.converged) << at_neighbour.failure << newton.failure;
-  ASSERT_GT(newton.events_per_period, 0u);
-  const auto chord = chord_periodic_orbit(sys, at_neighbour.state, 0.0, 1, at_neighbour.monodromy, careful(), kChordIterationsAllowed);
-  ASSERT_TRUE(chord.converged);
-  for (int i = 0; i < 6; ++i)
-    EXPECT_NEAR(chord.state[static_cast<std::size_t>(i)], newton.state[static_cast<std::size_t>(i)],
-                kChordSameOrbitTol / shooting_weight(i, w))
-        << "state " << i;
-  const auto lost = chord_periodic_orbit(sys, at_neighbour.state, 0.0, 1, 2.0 * square_matrix<6>::Identity(), careful(), 30);
-  EXPECT_FALSE(lost.converged);
-}
-
 }  // namespace
 }  // namespace rubref

@@ -243,10 +243,6 @@ struct shooting_settings {
   static constexpr double kInexactRtolFactor = 1e-3;  // the flow's error ~1e-2 rtol R: 1e-5 of what the step leaves
 };
 
-// The weight of state component i in the shooting's residual: positions (x, y, and the stator's
-// w) in m, velocities as the positions they cover over a radian of the shaft.
-inline double shooting_weight(int i, double omega) { return (i % 4 < 2 && i < 4) || i == 4 ? 1.0 : 1.0 / std::abs(omega); }
-
 template <int N>
 struct periodic_orbit {
   bool converged = false;
@@ -285,7 +281,7 @@ periodic_orbit<static_cast<int>(std::tuple_size_v<state_of<System>>)> shoot_peri
   const double t1 = t0 + periods * sys.period();
   // Velocities weigh as positions over a radian of the shaft.
   std::array<double, N> scale{};
-  for (int i = 0; i < N; ++i) scale[static_cast<std::size_t>(i)] = shooting_weight(i, sys.omega());
+  for (int i = 0; i < N; ++i) scale[static_cast<std::size_t>(i)] = (i % 4 < 2 && i < 4) || i == 4 ? 1.0 : 1.0 / std::abs(sys.omega());
   const auto residual_of = [&](const std::array<double, N>& s, const std::array<double, N>& p) {
     double r = 0.0;
     for (int i = 0; i < n; ++i) r = std::max(r, std::abs(p[static_cast<std::size_t>(i)] - s[static_cast<std::size_t>(i)]) * scale[static_cast<std::size_t>(i)]);
@@ -387,69 +383,6 @@ periodic_orbit<static_cast<int>(std::tuple_size_v<state_of<System>>)> shoot_peri
   }
   if (!out.converged && out.failure.empty())
     out.failure = "no convergence in " + std::to_string(set.max_iterations) + " Newton iterations (residual " + (format_digits(best_res, 3) + " m") + ")";
-  return out;
-}
-
-// The simplified Newton (chord) method on P(s) - s = 0 for a compliant law: every step solves with
-// one matrix M0, the monodromy of a nearby orbit (a neighbouring parameter point's), so that each
-// iteration integrates the state alone instead of its N^2 sensitivities. It converges linearly,
-// at the rate |(M0 - I)^-1 (M - M0)|, small where M0 is near; it gives up (no result) as soon as
-// an iteration does not halve the residual or its rate cannot reach the tolerance within
-// `max_iterations`, and the caller then shoots with the exact monodromy.
-template <int N>
-struct chord_orbit {
-  bool converged = false;
-  std::array<double, N> state{};  // on the orbit at t0: one step past a point its map moves by <= the tolerance
-  int iterations = 0;
-};
-
-template <differentiable_system System>
-  requires(System::compliant)
-chord_orbit<static_cast<int>(std::tuple_size_v<state_of<System>>)> chord_periodic_orbit(
-    const System& sys, const state_of<System>& guess, double t0, int periods,
-    const square_matrix<static_cast<int>(std::tuple_size_v<state_of<System>>)>& M0, const shooting_settings& set, int max_iterations) {
-  constexpr int N = static_cast<int>(std::tuple_size_v<state_of<System>>);
-  using dyn_matrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, N, N>;
-  using dyn_vector = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, N, 1>;
-  chord_orbit<N> out;
-  const int n = moving_states(sys);
-  const double t1 = t0 + periods * sys.period();
-  const Eigen::FullPivLU<dyn_matrix> lu(dyn_matrix(M0.topLeftCorner(n, n) - dyn_matrix::Identity(n, n)));
-  if (!lu.isInvertible()) return out;
-  std::array<double, N> s = guess;
-  double previous = std::numeric_limits<double>::infinity();
-  null_observer none;
-  for (int it = 0; it < max_iterations; ++it) {
-    out.iterations = it + 1;
-    std::array<double, N> p{};
-    try {
-      p = integrate_hybrid(sys, start_state(sys, s, t0), t1, set.integration, sample_grid{}, none).s;
-    } catch (const numerical_error&) {
-      return out;
-    }
-    double res = 0.0;
-    dyn_vector r(n);
-    for (int i = 0; i < n; ++i) {
-      const auto k = static_cast<std::size_t>(i);
-      r[i] = p[k] - s[k];
-      res = std::max(res, std::abs(r[i]) * shooting_weight(i, sys.omega()));
-    }
-    if (!std::isfinite(res) || !(res < 0.5 * previous)) return out;
-    // At the rate seen so far, the iterations still needed must fit in the budget.
-    if (std::isfinite(previous) && res > set.tolerance &&
-        std::log(set.tolerance / res) / std::log(res / previous) > static_cast<double>(max_iterations - out.iterations))
-      return out;
-    previous = res;
-    const dyn_vector step = lu.solve(-r);
-    for (int i = 0; i < n; ++i) s[static_cast<std::size_t>(i)] += step[i];
-    // Converged: the step just taken leaves ~ rate * res, where Newton's last one leaves ~ res^2 / R
-    // (an orbit as smooth in the parameters as Newton's, for the fit's finite differences).
-    if (res <= set.tolerance) {
-      out.converged = true;
-      out.state = s;
-      return out;
-    }
-  }
   return out;
 }
 

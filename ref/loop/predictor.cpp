@@ -21,9 +21,6 @@ constexpr int kShootIterations = 16;
 // Revolutions integrated from a first guess taken from the data before shooting starts: damps
 // what the guess gets wrong of fast motions (contact ringing) so that Newton starts close.
 constexpr int kFirstSettleRevs = 10;
-// Chord iterations before Newton takes over: from a neighbour's monodromy each gains digits as a
-// Newton step does (the rate is the parameters' relative change), from a far one it stalls early.
-constexpr int kChordIterations = 6;
 // Revolutions the model runs from the data's state when Newton finds no periodic orbit there.
 constexpr int kFallbackSettleRevs = 30;
 
@@ -67,12 +64,9 @@ rig_state guess_from_data(const dwell& d, const effect_parameters& fx, int perio
   for (std::size_t i = 0; i < d.size(); ++i) {
     const auto r = static_cast<Eigen::Index>(i);
     A(r, 0) = 1.0;
-    // Harmonic h as the h-th power of the first (a few ulps per order: a first guess's accuracy).
-    const forcing_phasor first = phasor_of(w * d.t[i]);
-    forcing_phasor u = first;
-    for (int h = 1; h <= kHarmonics; ++h, u = rotated(u, first)) {
-      A(r, 2 * h - 1) = u.cos;
-      A(r, 2 * h) = u.sin;
+    for (int h = 1; h <= kHarmonics; ++h) {
+      A(r, 2 * h - 1) = std::cos(h * w * d.t[i]);
+      A(r, 2 * h) = std::sin(h * w * d.t[i]);
     }
     bx[r] = d.x[i];
     by[r] = d.y[i];
@@ -223,28 +217,16 @@ orbit_predictor::shot orbit_predictor::shoot(std::size_t k, const model_point& m
       guess = flow(sys, guess, cycles * period, settle, sample_grid{}, nullptr);
     }
     // The one shooting routine (ref/integrate/shooting.hpp): Newton with the exact monodromy of
-    // the `periods`-revolution map; from an anchor, first its chord form with the monodromy of
-    // this dwell's last Newton orbit (a neighbouring point of the fit: the state alone is
-    // integrated, a fraction of the sensitivities' cost).
+    // the `periods`-revolution map.
     shooting_settings set;
     set.max_iterations = kShootIterations;
     set.integration.max_steps = opt.max_steps;
-    std::optional<rig_state> on_orbit;
-    if (c.started && c.monodromy_moving == moving_states(sys)) {
-      const auto chord = chord_periodic_orbit(sys, guess, 0.0, periods, c.monodromy, set, kChordIterations);
-      if (chord.converged) on_orbit = chord.state;
-    }
-    if (!on_orbit) {
-      const auto orbit = shoot_periodic_orbit(sys, guess, 0.0, periods, set);
-      if (!orbit.converged) return shot::failed;
-      on_orbit = orbit.state;
-      c.monodromy = orbit.monodromy;
-      c.monodromy_moving = moving_states(sys);
-    }
+    const auto orbit = shoot_periodic_orbit(sys, guess, 0.0, periods, set);
+    if (!orbit.converged) return shot::failed;
     std::vector<rig_state> sorted;
-    flow(sys, *on_orbit, period, opt, grid, &sorted);
+    flow(sys, orbit.state, period, opt, grid, &sorted);
     if (sorted.size() != d.size()) return shot::failed;
-    c.last = *on_orbit;
+    c.last = orbit.state;
     c.last_ok = true;
     c.states.resize(d.size());
     for (std::size_t i = 0; i < sorted.size(); ++i) c.states[c.order[i]] = sorted[i];

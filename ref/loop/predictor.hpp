@@ -93,10 +93,6 @@ class orbit_predictor {
     std::vector<std::array<double, 6>> states;  // model state at each sample (sample order)
     std::array<double, 6> last{};       // the last converged orbit's state at t = 0
     bool last_ok = false;
-    // The monodromy of the last orbit Newton converged on in this dwell, and its moving states:
-    // the chord method's matrix for the next evaluations (ref/integrate/shooting.hpp).
-    Eigen::Matrix<double, 6, 6> monodromy = Eigen::Matrix<double, 6, 6>::Zero();
-    int monodromy_moving = 0;  // 0: none yet
   };
   orbit_kind predict(std::size_t k, const model_point& m);
   enum class shot { converged, failed };

@@ -160,14 +160,6 @@ class free_flight {
         weight_[j] = 2.0;
         weight_[j + 1] = 0.0;
       }
-    for (int j = 0; j < n_; ++j)
-      if (weight_[j] != 0.0) {
-        kept_mode_[static_cast<std::size_t>(kept_)] = j;
-        kept_lambda_re_[static_cast<std::size_t>(kept_)] = lambda_[j].real();
-        kept_lambda_im_[static_cast<std::size_t>(kept_)] = lambda_[j].imag();
-        ++kept_;
-      }
-    for (int k = 0; k < n_; ++k) moving_[static_cast<std::size_t>(active_[static_cast<std::size_t>(k)])] = true;
   }
 
   // e^a for a modal exponent a = lambda tau: the real part's exponential turned by the forcing's
@@ -182,12 +174,9 @@ class free_flight {
   // The particular (periodic) solution at t.
   state particular(double t) const {
     const forcing_phasor u = phasor_of(d_.omega * t);
-    const double c2 = u.cos * u.cos - u.sin * u.sin, s2 = 2.0 * u.cos * u.sin;  // e^{2 i w t}
+    const cscalar z1(u.cos, u.sin), z2 = z1 * z1;
     state p{};
-    for (int i = 0; i < N; ++i) {
-      const cscalar a = P_[0][i], b = P_[1][i];
-      p[static_cast<std::size_t>(i)] = p0_[i] + (a.real() * u.cos - a.imag() * u.sin) + (b.real() * c2 - b.imag() * s2);
-    }
+    for (int i = 0; i < N; ++i) p[static_cast<std::size_t>(i)] = p0_[i] + (P_[0][i] * z1).real() + (P_[1][i] * z2).real();
     return p;
   }
 
@@ -205,22 +194,12 @@ class free_flight {
         }
         c_[j] = s;
       }
+      modal_.resize(ff.n_);
       q_.resize(ff.n_);
       lc_.resize(ff.n_);
       for (int j = 0; j < ff.n_; ++j) {
         q_[j] = std::abs(ff.lV_[j]) * std::norm(ff.lambda_[j]) * std::abs(c_[j]);
         lc_[j] = ff.weight_[j] * ff.lV_[j] * c_[j];
-      }
-      // Each kept mode's share of each moving component, weight_j V_rj c_j, as real and imaginary
-      // parts: a sample then costs one exponential and one phasor per kept mode and two products
-      // per component (std::complex's products check for infinities and NaNs on every call).
-      for (int k = 0; k < ff.kept_; ++k) {
-        const int j = ff.kept_mode_[static_cast<std::size_t>(k)];
-        for (int r = 0; r < ff.n_; ++r) {
-          const cscalar g = ff.weight_[j] * (ff.V_(r, j) * c_[j]);
-          share_re_[static_cast<std::size_t>(k * N + r)] = g.real();
-          share_im_[static_cast<std::size_t>(k * N + r)] = g.imag();
-        }
       }
       z_const_ = ff.lp0_ - ff.d_.offset;
       for (int i = 0; i < N; ++i)
@@ -232,20 +211,18 @@ class free_flight {
     // The state at t. A conjugate pair's share is twice the real part of one term (as in
     // penetration): half the complex exponentials, which were most of a sampled orbit's cost.
     state at(double t) const {
-      const free_flight& ff = *ff_;
-      state s = ff.particular(t);
+      state s = ff_->particular(t);
       const double tau = t - t0_;
-      for (int k = 0; k < ff.kept_; ++k) {
-        const auto j = static_cast<std::size_t>(k);
-        const forcing_phasor u = phasor_of(ff.kept_lambda_im_[j] * tau);
-        const double r = std::exp(ff.kept_lambda_re_[j] * tau), er = r * u.cos, ei = r * u.sin;
-        for (int m = 0; m < ff.n_; ++m) {
-          const auto at = static_cast<std::size_t>(k * N + m);
-          s[static_cast<std::size_t>(ff.active_[static_cast<std::size_t>(m)])] += share_re_[at] * er - share_im_[at] * ei;
-        }
+      for (int j = 0; j < ff_->n_; ++j)
+        modal_[j] = ff_->weight_[j] == 0.0 ? cscalar(0.0) : ff_->weight_[j] * (exp_of(ff_->lambda_[j] * tau) * c_[j]);
+      for (int r = 0; r < ff_->n_; ++r) {
+        cscalar v = 0.0;
+        for (int j = 0; j < ff_->n_; ++j)
+          if (ff_->weight_[j] != 0.0) v += ff_->V_(r, j) * modal_[j];
+        s[static_cast<std::size_t>(ff_->active_[static_cast<std::size_t>(r)])] += v.real();
       }
       for (int i = 0; i < N; ++i)
-        if (!ff.moving_[static_cast<std::size_t>(i)]) s[static_cast<std::size_t>(i)] = s0_[static_cast<std::size_t>(i)];
+        if (!ff_->is_active(i)) s[static_cast<std::size_t>(i)] = s0_[static_cast<std::size_t>(i)];
       return s;
     }
 
@@ -344,7 +321,7 @@ class free_flight {
     sub_cvector lc_;              // weight_j (l.V_j) c_j: each mode's share of z
     double z_const_ = 0.0;        // l.p0 - offset + the constant components' share of z
     Eigen::Matrix<double, Eigen::Dynamic, 1, 0, N, 1> q_;  // |l.V_j| |lambda_j|^2 |c_j|
-    std::array<double, N * N> share_re_{}, share_im_{};    // weight_j V_rj c_j of kept mode k at k N + r
+    mutable sub_cvector modal_;  // scratch
   };
 
   arc from(double t0, const state& s0) const { return arc(*this, t0, s0); }
@@ -391,10 +368,6 @@ class free_flight {
   std::array<cscalar, dynamics::kMaxHarmonics> lP_{};  // l.P_h
   double lp0_ = 0.0;                                    // l.p0
   Eigen::Matrix<double, Eigen::Dynamic, 1, 0, N, 1> weight_;  // 2: a pair's first mode, 0: its second, 1: a real mode
-  int kept_ = 0;                                              // modes of weight != 0, in order
-  std::array<int, N> kept_mode_{};
-  std::array<double, N> kept_lambda_re_{}, kept_lambda_im_{};
-  std::array<bool, N> moving_{};                             // component i is one of active_
   double particular_bound_ = 0.0;
 };
 
