@@ -218,6 +218,39 @@ TEST(loop_steps, whole_samples_per_revolution_are_all_predicted) {
   EXPECT_NEAR(std::sqrt(r.squaredNorm() / static_cast<double>(r.size())), req.probes.noise, kRmsTol * req.probes.noise);
 }
 
+// A new timing shift re-sorts the sample phases as a rotation of the old order (predictor.cpp);
+// the residuals must be the sort's, bit for bit: a predictor that saw other shifts first and a
+// fresh one give the same vector, also with a whole number of samples per revolution, where
+// samples of different revolutions share a phase (ties).
+TEST(loop_steps, a_new_shift_predicts_what_a_fresh_sort_does) {
+  for (const bool whole_samples : {false, true}) {
+    rig_request req = truth_rig();
+    if (whole_samples) req.speeds_rpm = {1200, 1500, 1600};  // 500, 400 and 375 samples per revolution
+    req.probes.keyphasor = false;
+    req.time_base = rig_time_base::shaft;
+    const rig_output o = run_rig(req);
+    std::vector<loop_dwell> dwells;
+    for (auto& d : split_dwells(o.measurement, "rig")) {
+      d.clearance = req.params.delta;
+      dwells.push_back({std::move(d), "rig"});
+    }
+    model_point m;
+    m.p = req.params;
+    m.fx = req.effects;
+    m.shift.assign(dwells.size(), 0.0);
+    orbit_predictor seen(dwells, req.probes.noise);
+    (void)seen.residuals(m).value();
+    for (const double turn : {1e-5, 0.37, -0.61}) {  // of a revolution: a little, and across many wraps
+      for (std::size_t k = 0; k < dwells.size(); ++k) m.shift[k] = turn * 60.0 / dwells[k].data.rpm;
+      orbit_predictor fresh(dwells, req.probes.noise);
+      const Eigen::VectorXd a = seen.residuals(m).value(), b = fresh.residuals(m).value();
+      ASSERT_EQ(a.size(), b.size());
+      EXPECT_TRUE(a == b) << (whole_samples ? "whole samples, " : "") << "turn " << turn << ": largest difference "
+                          << (a - b).cwiseAbs().maxCoeff() << " m";
+    }
+  }
+}
+
 // A model point whose orbit cannot be computed (a 20 g stator under the identified law runs
 // away, docs/loop.md) is a failure, named per dwell, never a number in the residual; the dwell
 // without contact still gets its orbit.
