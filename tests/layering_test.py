@@ -8,7 +8,7 @@ import re
 import sys
 
 # In order; folders on one line share a layer.
-LAYERS = [["base"], ["format"], ["model", "variants"], ["integrate"], ["analysis", "orbits"], ["identification"], ["rig"], ["loop"],
+LAYERS = [["base"], ["format"], ["model", "variants"], ["integrate"], ["analysis", "orbits"], ["identification"], ["rig"], ["loop"], ["tracking"],
           ["validation"], ["study"], ["app"], ["cli"]]
 RANK = {folder: i for i, layer in enumerate(LAYERS) for folder in layer}
 

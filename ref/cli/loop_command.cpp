@@ -7,9 +7,12 @@
 #include "ref/cli/commands.hpp"
 #include "ref/cli/options.hpp"
 #include "ref/format/atomic_output.hpp"
+#include "ref/format/order_table.hpp"
 #include "ref/format/record.hpp"
 #include "ref/loop/loop.hpp"
 #include "ref/loop/report.hpp"
+#include "ref/tracking/tracking_loop.hpp"
+#include "ref/tracking/tracking_report.hpp"
 
 namespace rubref::cli {
 
@@ -19,14 +22,56 @@ struct loop_state {
   std::vector<std::string> files;
   std::string out;
   bool figures = true;
+  order_conventions conventions;        // order-tracked tables only
+  std::vector<std::string> probe_angles;  // "DEG" or "NAME=DEG"
+  double scale = 0.0;
 };
+
+// `rubref loop TABLE`: an order-tracked table (docs/real-data.md).
+void run_on_table(const loop_state& st, staged_directory& dir) {
+  if (st.files.size() != 1) throw input_error("an order-tracked table is fitted alone: give one table, not " + std::to_string(st.files.size()) + " files");
+  order_conventions c = st.conventions;
+  if (st.scale != 0.0) c.scale_mV_per_um = st.scale;
+  for (const auto& a : st.probe_angles) {
+    const auto eq = a.find('=');
+    const std::string name = eq == std::string::npos ? "" : a.substr(0, eq), value = eq == std::string::npos ? a : a.substr(eq + 1);
+    double deg = 0.0;
+    try {
+      std::size_t used = 0;
+      deg = std::stod(value, &used);
+      if (used != value.size()) throw std::invalid_argument(value);
+    } catch (const std::exception&) {
+      throw input_error("--probe-angle '" + a + "': expected DEG or NAME=DEG");
+    }
+    c.probe_angles_deg.emplace_back(name, deg);
+  }
+  const order_table table = read_order_table(st.files.front(), c);
+  const tracking_result r = run_tracking_loop(table, [](const std::string& line) { std::cerr << line << std::endl; });
+  dir.write("report.json", to_json(r).dump(2) + "\n");
+  dir.write("report.md", to_markdown(r));
+  dir.write("plot_data.json", plot_data(r).dump() + "\n");
+  if (st.figures) run_python_script(default_python(), script_path("plot_tracking.py"), dir.path());
+  dir.commit();
+  std::cout << "error before " << r.error_before << " m, after " << r.error_after << " m; effects:";
+  for (const auto& e : r.effects) std::cout << " " << e;
+  if (r.effects.empty()) std::cout << " none";
+  if (!r.tentative.empty()) {
+    std::cout << " (tentative:";
+    for (const auto& e : r.tentative) std::cout << " " << e;
+    std::cout << ")";
+  }
+  std::cout << (r.claim == "partial" ? "; named, partial: " + format_digits(100.0 * r.remaining_share, 3) + " % of the excess remains"
+                : r.unexplained   ? "; residual unexplained"
+                                  : "; residual is noise")
+            << "\nwrote " << st.out << "/report.json, report.md\n";
+}
 }  // namespace
 
 void add_loop(CLI::App& app) {
   auto st = std::make_shared<loop_state>();
   auto& s = st->settings;
   auto* sub = app.add_subcommand("loop", "fit the paper's model to records, trace the residual to library effects, report before/after (docs/loop.md)");
-  sub->add_option("records", st->files, "measurement records (docs/data-format.md), with a keyphasor column if the rig has one")
+  sub->add_option("records", st->files, "measurement records (docs/data-format.md), with a keyphasor column if the rig has one; or one order-tracked table (docs/real-data.md)")
       ->required()
       ->check(CLI::ExistingFile);
   sub->add_option("--out", st->out, "report folder (report.json, report.md, figures)")->required();
@@ -35,9 +80,21 @@ void add_loop(CLI::App& app) {
   sub->add_option("--max-effects", s.max_effects, "trace rounds (effects added at most)")->capture_default_str()->check(CLI::Range(0, 11));
   sub->add_option("--refit", s.refit_candidates, "effects refitted per round (best scores)")->capture_default_str()->check(CLI::Range(1, 11));
   sub->add_flag("!--no-figures", st->figures, "write the report without drawing figures");
+  auto* table = sub->add_option_group("order-tracked tables", "conventions of a table the file does not declare (docs/data-format.md)");
+  table->add_option("--amplitude", st->conventions.amplitude, "amplitude convention: 0-peak, pk-pk or rms");
+  table->add_option("--amplitude-unit", st->conventions.amplitude_unit, "unit of amplitude columns without a unit suffix: m, mm, um, mil, V, mV");
+  table->add_option("--phase", st->conventions.phase, "phase convention: lead (A cos(k theta + phi)) or lag (A cos(k theta - phi)), theta after the keyphasor");
+  table->add_option("--phase-unit", st->conventions.phase_unit, "unit of phase columns without a unit suffix: deg, rad");
+  table->add_option("--scale", st->scale, "probe sensitivity for volt amplitudes [mV/um]")->check(CLI::PositiveNumber);
+  table->add_option("--probe-angle", st->probe_angles, "a probe's angle from +x towards +y [deg]: DEG (one probe) or NAME=DEG; repeatable");
   add_threads_option(*sub);
   sub->callback([st] {
     staged_directory dir(st->out);  // the output folder is checked before the work, not after it
+    if (is_order_table_header(header_of(st->files.front()))) return run_on_table(*st, dir);
+    if (!st->conventions.amplitude.empty() || !st->conventions.amplitude_unit.empty() || !st->conventions.phase.empty() ||
+        !st->conventions.phase_unit.empty() || st->scale != 0.0 || !st->probe_angles.empty())
+      throw input_error("--amplitude, --amplitude-unit, --phase, --phase-unit, --scale and --probe-angle describe an order-tracked table; " +
+                        st->files.front() + " is a time record");
     std::vector<std::pair<record, std::string>> records;
     for (const auto& f : st->files) records.emplace_back(read_record(f), f);
     loop_settings settings = st->settings;

@@ -4,6 +4,7 @@
 #include <charconv>
 #include <cmath>
 #include <fstream>
+#include <functional>
 #include <sstream>
 
 #include "ref/base/errors.hpp"
@@ -130,7 +131,8 @@ std::string explain_header(std::string_view line) {
 }
 }  // namespace
 
-record parse_record(std::string_view text, std::string_view source) {
+record parse_numeric_table(std::string_view text, std::string_view source, std::string_view format,
+                           const std::function<std::string(const std::vector<std::string>& columns)>& header_problem) {
   if (text.substr(0, 3) == "\xEF\xBB\xBF")
     fail(source, 1, "the file starts with a UTF-8 byte-order mark (BOM): save it as UTF-8 without BOM");
   record r;
@@ -157,8 +159,8 @@ record parse_record(std::string_view text, std::string_view source) {
         std::string key(trim(body.substr(0, colon)));
         std::string value(trim(body.substr(colon + 1)));
         if (r.find(key)) fail(source, line_no, "metadata key '" + key + "' given twice");
-        if (key == "format" && value != kRecordFormat)
-          fail(source, line_no, "unsupported format '" + value + "' (this reader knows '" + std::string(kRecordFormat) + "')");
+        if (key == "format" && value != format)
+          fail(source, line_no, "unsupported format '" + value + "' (this reader knows '" + std::string(format) + "')");
         r.metadata.emplace_back(std::move(key), std::move(value));
         r.metadata_lines.push_back(line_no);
         continue;
@@ -178,11 +180,10 @@ record parse_record(std::string_view text, std::string_view source) {
         if (comma >= line.size()) break;
         cpos = comma + 1;
       }
-      for (std::size_t i = 0; i < kRequiredColumns.size(); ++i)
-        if (r.columns.size() <= i || r.columns[i] != kRequiredColumns[i]) {
-          const std::string why = explain_header(line);
-          fail(source, line_no, "header must start with t_s,x_m,y_m,speed_rpm" + (why.empty() ? "" : ": " + why));
-        }
+      if (const std::string problem = header_problem(r.columns); !problem.empty()) {
+        const std::string why = explain_header(line);
+        fail(source, line_no, problem + (why.empty() ? "" : ": " + why));
+      }
       r.data.assign(r.columns.size(), {});
       header_seen = true;
       continue;
@@ -214,21 +215,32 @@ record parse_record(std::string_view text, std::string_view source) {
                                 (decimal_commas ? ": decimal commas? rubref reads '.' as the decimal point and ',' between columns" : ""));
     }
   }
-  if (!header_seen) fail(source, line_no, "no column header (t_s,x_m,y_m,speed_rpm,...)");
+  if (!header_seen) fail(source, line_no, "no column header");
   if (r.rows() == 0) fail(source, line_no, "no data rows");
-  const auto& t = r.data[0];
-  for (std::size_t i = 1; i < t.size(); ++i)
-    if (!(t[i] > t[i - 1])) fail(source, first_data_line + i, "t_s is not strictly increasing");
   return r;
 }
 
-record read_record(const std::filesystem::path& path) {
+record parse_record(std::string_view text, std::string_view source) {
+  record r = parse_numeric_table(text, source, kRecordFormat, [](const std::vector<std::string>& columns) {
+    for (std::size_t i = 0; i < kRequiredColumns.size(); ++i)
+      if (columns.size() <= i || columns[i] != kRequiredColumns[i]) return std::string("header must start with t_s,x_m,y_m,speed_rpm");
+    return std::string();
+  });
+  const auto& t = r.data[0];
+  for (std::size_t i = 1; i < t.size(); ++i)
+    if (!(t[i] > t[i - 1])) fail(source, r.first_data_line + i, "t_s is not strictly increasing");
+  return r;
+}
+
+std::string read_text_file(const std::filesystem::path& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in) throw input_error(path.string() + ": cannot open for reading");
   std::ostringstream buf;
   buf << in.rdbuf();
   if (in.bad()) throw input_error(path.string() + ": read error");
-  return parse_record(buf.str(), path.string());
+  return buf.str();
 }
+
+record read_record(const std::filesystem::path& path) { return parse_record(read_text_file(path), path.string()); }
 
 }  // namespace rubref

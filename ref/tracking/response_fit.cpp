@@ -1,0 +1,555 @@
+#include "ref/tracking/response_fit.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numbers>
+
+#include <Eigen/Dense>
+#include <boost/math/distributions/chi_squared.hpp>
+
+#include "ref/base/errors.hpp"
+#include "ref/base/number_text.hpp"
+
+namespace rubref {
+
+namespace {
+
+using cplx = std::complex<double>;
+constexpr double kPi = std::numbers::pi;
+constexpr double kRpmToRadS = 2.0 * kPi / 60.0;
+// The 95 % two-sided normal quantile: intervals are value +- 1.96 standard deviations in the
+// fit's chart (logarithms for critical speeds and damping ratios, so those intervals are ratios).
+constexpr double kZ95 = 1.959963984540054;
+// Damping ratios between nearly undamped and far past critical. Critical speeds inside the
+// table's speeds: a mode outside them bends the response inside only as a smooth background,
+// which runout, unbalance and the other mode mimic (on the RK-4 run-up a "mode" at a fifth of the
+// lowest speed took 58 µm of unbalance against 55 µm of runout); a mode the fit pushes to an edge
+// is reported as not determined.
+constexpr double kZetaLo = 1e-4, kZetaHi = 2.0;
+// Cross-coupling k_xy/m and k_yx/m in units of w_x w_y (the supports' stiffness per unit mass),
+// within the effect library's fit range in those units (+-20000 N/m against the paper's
+// sqrt(k_x k_y) = 39.8 kN/m); a fit that reaches the bound is reported as not determined.
+constexpr double kCrossBound = 0.5;
+// The grid of starts: critical speeds log-spaced over the table's speeds, both
+// modes, two damping ratios (lightly and well damped), four probe angles (when fitted); the best
+// few grid points start a Levenberg-Marquardt fit each.
+constexpr int kGridSpeeds = 12;
+constexpr double kGridZetas[] = {0.02, 0.1};
+constexpr int kGridAngles = 4;
+constexpr std::size_t kGridStarts = 4;
+// Splits of an isotropic fit's critical speed (ratios of the two) among the anisotropic starts.
+constexpr double kSplits[] = {1.02, 1.05, 1.1, 1.2};
+constexpr int kMaxIterations = 200;
+
+// The standard deviation of Gaussian values from their absolute values, robust to a minority of
+// outliers: 1.4826 times the median, then three times again over the values within 3 of those
+// standard deviations (a median counts every outlier as a value above it; clipped, the few that
+// are left move it little), the median of the clipped half-normal being 0.6727 rather than 0.6745.
+double clipped_scale(std::vector<double> a) {
+  if (a.empty()) return 0.0;
+  const auto median = [](std::vector<double> v) {
+    std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
+    return v[v.size() / 2];
+  };
+  double s = 1.4826 * median(a);
+  for (int it = 0; it < 3 && s > 0.0; ++it) {
+    std::vector<double> kept;
+    for (const double x : a)
+      if (x <= 3.0 * s) kept.push_back(x);
+    if (kept.empty()) break;
+    s = median(kept) / 0.6727;
+  }
+  return s;
+}
+
+// Robust scatter of a sequence of complex vectors in speed order: second differences remove a
+// response that is smooth on the rows' spacing; the clipped scale of both parts over sqrt(6) (a
+// second difference of white noise has 6 times its variance).
+double row_scatter(const std::vector<cplx>& v) {
+  std::vector<double> d;
+  for (std::size_t i = 1; i + 1 < v.size(); ++i) {
+    const cplx s = v[i + 1] - 2.0 * v[i] + v[i - 1];
+    d.push_back(std::abs(s.real())), d.push_back(std::abs(s.imag()));
+  }
+  return clipped_scale(std::move(d)) / std::sqrt(6.0);
+}
+
+// The fit's coordinates. Every fit's full set, in this order: ln w_x, ln w_y, ln z_x, ln z_y, the
+// probe angle beta (rad), k_xy/m and k_yx/m over w_x w_y. A fit moves the
+// ones its parts free: an isotropic rotor ties y's to x's; beta moves only for an anisotropic
+// rotor read by one probe without a declared angle (an isotropic rotor reads the same at every
+// angle, up to the unbalance's phase); the cross-coupling only when it is a part.
+enum slot : std::size_t { ln_wx, ln_wy, ln_zx, ln_zy, probe_beta, k_xy, k_yx, kSlots };
+
+struct problem {
+  const order_table& table;
+  response_parts parts;
+  std::vector<std::size_t> orders;  // the table's 1X tracked orders, one per probe
+  std::vector<std::size_t> rows;
+  std::vector<double> sigma;        // per probe
+  std::vector<std::optional<double>> beta;  // declared angle per probe
+  bool beta_fitted = false;
+  std::vector<std::size_t> free;    // the slot of each coordinate
+  double w_lo = 1.0, w_hi = 1.0;  // rad/s
+  int evaluations = 0;
+
+  void lay_out() {
+    free = parts.anisotropy ? std::vector<std::size_t>{ln_wx, ln_wy, ln_zx, ln_zy} : std::vector<std::size_t>{ln_wx, ln_zx};
+    if (beta_fitted) free.push_back(probe_beta);
+    if (parts.cross_coupling) free.push_back(k_xy), free.push_back(k_yx);
+  }
+  std::vector<double> full(const std::vector<double>& q) const {
+    std::vector<double> f(kSlots, 0.0);
+    for (std::size_t k = 0; k < free.size(); ++k) f[free[k]] = q[k];
+    if (!parts.anisotropy) f[ln_wy] = f[ln_wx], f[ln_zy] = f[ln_zx];
+    return f;
+  }
+  std::vector<double> reduce(const std::vector<double>& f) const {
+    std::vector<double> q(free.size());
+    for (std::size_t k = 0; k < free.size(); ++k) q[k] = f[free[k]];
+    return q;
+  }
+  std::size_t amplitudes() const { return 1 + orders.size() + (parts.shaft_bow ? 1 : 0); }
+
+  // The basis columns of one probe at one speed: unbalance, runout of each probe, bow.
+  void columns(const std::vector<double>& f, std::size_t p, double w, cplx* out) const {
+    const double wx = std::exp(f[ln_wx]), wy = std::exp(f[ln_wy]), zx = std::exp(f[ln_zx]), zy = std::exp(f[ln_zy]);
+    const double b = beta[p] ? *beta[p] : f[probe_beta];
+    const double kxy = f[k_xy] * wx * wy, kyx = f[k_yx] * wx * wy;
+    const cplx dxx(wx * wx - w * w, 2.0 * zx * wx * w), dyy(wy * wy - w * w, 2.0 * zy * wy * w);
+    const cplx det = dxx * dyy - kxy * kyx;
+    const auto probe = [&](cplx fx, cplx fy) {
+      const cplx x = (dyy * fx - kxy * fy) / det, y = (dxx * fy - kyx * fx) / det;
+      return std::cos(b) * x + std::sin(b) * y;
+    };
+    const cplx j(0.0, 1.0);
+    out[0] = w * w * probe(1.0, -j);
+    for (std::size_t q = 0; q < orders.size(); ++q) out[1 + q] = q == p ? 1.0 : 0.0;
+    if (parts.shaft_bow) out[1 + orders.size()] = probe(wx * wx, -j * wy * wy);
+  }
+
+  // Weighted residuals (real, imaginary per probe and row) at coordinates q; the amplitudes
+  // solved for (fixed = nullptr) or given.
+  Eigen::VectorXd residuals(const std::vector<double>& q, std::vector<cplx>& amp, const std::vector<cplx>* fixed = nullptr) {
+    ++evaluations;
+    const std::vector<double> f = full(q);
+    const std::size_t m = rows.size() * orders.size(), l = amplitudes();
+    Eigen::MatrixXcd a(m, l);
+    Eigen::VectorXcd data(m);
+    std::vector<cplx> col(l);
+    for (std::size_t p = 0; p < orders.size(); ++p)
+      for (std::size_t i = 0; i < rows.size(); ++i) {
+        const std::size_t row = p * rows.size() + i;
+        columns(f, p, table.rpm[rows[i]] * kRpmToRadS, col.data());
+        for (std::size_t c = 0; c < l; ++c) a(row, c) = col[c] / sigma[p];
+        data(row) = table.orders[orders[p]].vector[rows[i]] / sigma[p];
+      }
+    Eigen::VectorXcd x(l);
+    if (fixed) {
+      for (std::size_t c = 0; c < l; ++c) x(c) = (*fixed)[c];
+    } else {
+      x = a.colPivHouseholderQr().solve(data);
+      amp.assign(x.data(), x.data() + l);
+    }
+    const Eigen::VectorXcd r = data - a * x;
+    Eigen::VectorXd out(2 * m);
+    for (std::size_t i = 0; i < m; ++i) out(2 * i) = r(i).real(), out(2 * i + 1) = r(i).imag();
+    return out;
+  }
+
+  double cost(const std::vector<double>& q) {
+    std::vector<cplx> amp;
+    const Eigen::VectorXd r = residuals(q, amp);
+    const double c = r.squaredNorm();
+    return std::isfinite(c) ? c : std::numeric_limits<double>::infinity();
+  }
+
+  std::vector<double> clamp(const std::vector<double>& q) const {
+    std::vector<double> f = full(q);
+    for (const std::size_t k : {ln_wx, ln_wy}) f[k] = std::clamp(f[k], std::log(w_lo), std::log(w_hi));
+    for (const std::size_t k : {ln_zx, ln_zy}) f[k] = std::clamp(f[k], std::log(kZetaLo), std::log(kZetaHi));
+    for (const std::size_t k : {k_xy, k_yx}) f[k] = std::clamp(f[k], -kCrossBound, kCrossBound);
+    return reduce(f);
+  }
+};
+
+// Forward-difference Jacobian of the projected residuals (variable projection: the amplitudes
+// re-solved at each perturbed point).
+Eigen::MatrixXd jacobian(problem& pr, const std::vector<double>& th, const Eigen::VectorXd& r0, const std::vector<cplx>* fixed) {
+  Eigen::MatrixXd j(r0.size(), static_cast<Eigen::Index>(th.size()));
+  std::vector<cplx> amp;
+  for (std::size_t k = 0; k < th.size(); ++k) {
+    std::vector<double> t = th;
+    const double h = 1e-6 * std::max(1.0, std::abs(th[k]));
+    t[k] += h;
+    j.col(static_cast<Eigen::Index>(k)) = (pr.residuals(t, amp, fixed) - r0) / h;
+  }
+  return j;
+}
+
+// Levenberg-Marquardt on the projected residuals, inside the coordinates' bounds.
+std::vector<double> levenberg_marquardt(problem& pr, std::vector<double> th) {
+  th = pr.clamp(std::move(th));
+  std::vector<cplx> amp;
+  Eigen::VectorXd r = pr.residuals(th, amp);
+  double c = r.squaredNorm();
+  if (!std::isfinite(c)) return th;
+  double lambda = 1e-3;
+  for (int it = 0; it < kMaxIterations; ++it) {
+    const Eigen::MatrixXd j = jacobian(pr, th, r, nullptr);
+    const Eigen::MatrixXd jtj = j.transpose() * j;
+    const Eigen::VectorXd g = j.transpose() * r;
+    bool accepted = false;
+    while (lambda < 1e12) {
+      Eigen::MatrixXd a = jtj;
+      for (Eigen::Index d = 0; d < a.rows(); ++d) a(d, d) += lambda * std::max(jtj(d, d), 1e-12);
+      const Eigen::VectorXd step = a.ldlt().solve(-g);
+      std::vector<double> next = th;
+      for (std::size_t k = 0; k < th.size(); ++k) next[k] += step(static_cast<Eigen::Index>(k));
+      next = pr.clamp(next);
+      std::vector<cplx> next_amp;
+      const Eigen::VectorXd rn = pr.residuals(next, next_amp);
+      const double cn = rn.squaredNorm();
+      if (std::isfinite(cn) && cn < c) {
+        const double gain = (c - cn) / c;
+        th = next, r = rn, amp = next_amp;
+        lambda = std::max(lambda / 3.0, 1e-9);
+        accepted = true;
+        c = cn;
+        if (gain < 1e-12) return th;
+        break;
+      }
+      lambda *= 4.0;
+    }
+    if (!accepted) break;
+  }
+  return th;
+}
+
+estimate log_estimate(double chart, double sd, double unit, double max_ratio) {
+  estimate e;
+  e.value = std::exp(chart) / unit;
+  e.lo = std::exp(chart - kZ95 * sd) / unit, e.hi = std::exp(chart + kZ95 * sd) / unit;
+  e.determined = std::isfinite(sd) && e.hi / e.lo < max_ratio;
+  return e;
+}
+
+// |c| and arg c (degrees) of a complex amplitude with its covariance (re, im).
+std::pair<estimate, estimate> polar_estimate(cplx c, const Eigen::Matrix2d& cov) {
+  const double a = std::abs(c);
+  const Eigen::Vector2d ga(c.real() / a, c.imag() / a), gp(-c.imag() / (a * a), c.real() / (a * a));
+  const double sa = std::sqrt(std::max(0.0, ga.dot(cov * ga))), sp = std::sqrt(std::max(0.0, gp.dot(cov * gp))) * 180.0 / kPi;
+  estimate amp{a, std::max(0.0, a - kZ95 * sa), a + kZ95 * sa, std::isfinite(sa) && a > kZ95 * sa};
+  const double deg = std::arg(c) * 180.0 / kPi;
+  estimate phase{deg, deg - kZ95 * sp, deg + kZ95 * sp, amp.determined && kZ95 * sp < 45.0};
+  return {amp, phase};
+}
+
+}  // namespace
+
+std::vector<double> row_scatter_noise(const order_table& table) {
+  std::vector<double> out;
+  for (const auto& o : table.orders)
+    if (o.order == 1) out.push_back(row_scatter(o.vector));
+  return out;
+}
+
+std::vector<double> residual_noise(const order_table& table, const response_fit& fit) {
+  (void)table;
+  std::vector<double> out;
+  const std::size_t spent = fit.theta.empty() ? 0 : fit.parameters;
+  for (const auto& r : fit.residual) {
+    std::vector<double> parts;
+    for (const std::size_t i : fit.rows) parts.push_back(std::abs(r[i].real())), parts.push_back(std::abs(r[i].imag()));
+    if (parts.empty()) {
+      out.push_back(0.0);
+      continue;
+    }
+    const double n = static_cast<double>(parts.size()), per_probe = static_cast<double>(spent) / static_cast<double>(fit.residual.size());
+    out.push_back(clipped_scale(std::move(parts)) * std::sqrt(n / std::max(1.0, n - per_probe)));
+  }
+  return out;
+}
+
+response_fit fit_response(const order_table& table, const response_parts& parts, const response_fit_options& options) {
+  const std::vector<std::size_t>& rows = options.rows;
+  const response_fit* start = options.start;
+  const fit_starts how = options.starts;
+  // An anisotropic fit without a start splits the isotropic fit's mode (two close critical
+  // speeds fall between the grid's points).
+  response_fit isotropic;
+  if (parts.anisotropy && !start) {
+    response_parts iso = parts;
+    iso.anisotropy = false;
+    response_fit_options o = options;
+    isotropic = fit_response(table, iso, o);
+    start = &isotropic;
+  }
+  problem pr{table, parts, {}, rows, {}, {}, false, {}};
+  for (std::size_t o = 0; o < table.orders.size(); ++o)
+    if (table.orders[o].order == 1) pr.orders.push_back(o);
+  if (pr.orders.empty()) throw input_error(table.source + ": no 1X columns (amp_1x, phase_1x): the response fit reads the 1X");
+  if (pr.rows.empty()) {
+    pr.rows.resize(table.rows());
+    for (std::size_t i = 0; i < table.rows(); ++i) pr.rows[i] = i;
+  }
+  for (const std::size_t o : pr.orders) pr.beta.push_back(table.orders[o].probe_angle);
+  const bool any_undeclared = std::any_of(pr.beta.begin(), pr.beta.end(), [](const auto& b) { return !b.has_value(); });
+  if (any_undeclared && pr.orders.size() > 1)
+    throw input_error(table.source + ": the table has " + std::to_string(pr.orders.size()) +
+                      " probes: declare each one's angle (--probe-angle NAME=DEG, or '# probe_angle_deg.NAME: ...')");
+  pr.beta_fitted = any_undeclared && parts.anisotropy;
+  if (pr.rows.size() < 8) throw input_error(table.source + ": " + std::to_string(pr.rows.size()) + " rows: too few for a fit of the 1X response");
+  // Noise per probe from every row of the table (not only the fitted ones), floored at the
+  // numbers' own precision so a noise-free table still weighs its rows.
+  if (!options.noise_m.empty() && options.noise_m.size() != pr.orders.size()) throw input_error("fit_response: one noise per probe");
+  for (std::size_t p = 0; p < pr.orders.size(); ++p) {
+    const auto& v = table.orders[pr.orders[p]].vector;
+    double largest = 0.0;
+    for (const cplx& x : v) largest = std::max(largest, std::abs(x));
+    pr.sigma.push_back(std::max(options.noise_m.empty() ? row_scatter(v) : options.noise_m[p], 1e-12 * largest));
+    if (!(pr.sigma.back() > 0.0)) throw input_error(table.source + ": every 1X amplitude of " + table.orders[pr.orders[p]].amplitude_column + " is 0: nothing to fit");
+  }
+  double lo = std::numeric_limits<double>::infinity(), hi = 0.0;
+  for (const std::size_t i : pr.rows) lo = std::min(lo, table.rpm[i]), hi = std::max(hi, table.rpm[i]);
+  pr.w_lo = lo * kRpmToRadS, pr.w_hi = hi * kRpmToRadS;
+
+  pr.lay_out();
+
+  // The grid of starts, ranked by their projected residual.
+  const std::size_t n = pr.free.size();
+  std::vector<std::pair<double, std::vector<double>>> starts;
+  std::vector<double> speeds;
+  for (int i = 0; i < kGridSpeeds; ++i)
+    speeds.push_back(std::log(lo * kRpmToRadS) + std::log(hi / lo) * i / (kGridSpeeds - 1));
+  const int angles = pr.beta_fitted ? kGridAngles : 1;
+  const bool grid = how == fit_starts::grid || !start || start->theta.empty();
+  for (int a = 0; a < (grid ? kGridSpeeds : 0); ++a)
+    for (int b = parts.anisotropy ? (pr.beta_fitted ? a : 0) : a; b < (parts.anisotropy ? kGridSpeeds : a + 1); ++b)
+      for (const double z : kGridZetas)
+        for (int g = 0; g < angles; ++g) {
+          std::vector<double> f(kSlots, 0.0);
+          f[ln_wx] = speeds[static_cast<std::size_t>(a)], f[ln_wy] = speeds[static_cast<std::size_t>(b)];
+          f[ln_zx] = f[ln_zy] = std::log(z);
+          f[probe_beta] = kPi * g / angles;
+          const std::vector<double> q = pr.reduce(f);
+          starts.emplace_back(pr.cost(q), q);
+        }
+  // An isotropic fit's mode split into two close ones (either way round, each grid angle when
+  // beta is new): two critical speeds a few per cent apart fall between the grid's points.
+  if (grid && start && !start->theta.empty() && parts.anisotropy && !start->parts.anisotropy)
+    for (const double split : kSplits)
+      for (const double sign : {-1.0, 1.0})
+        for (int g = 0; g < angles; ++g) {
+          std::vector<double> f = start->theta;
+          f[ln_wx] -= sign * 0.5 * std::log(split), f[ln_wy] += sign * 0.5 * std::log(split);
+          f[probe_beta] = kPi * g / angles;
+          const std::vector<double> q = pr.clamp(pr.reduce(f));
+          starts.emplace_back(pr.cost(q), q);
+        }
+  std::stable_sort(starts.begin(), starts.end(), [](const auto& x, const auto& y) { return x.first < y.first; });
+  std::vector<std::vector<double>> from;
+  for (std::size_t i = 0; i < std::min(kGridStarts, starts.size()); ++i) from.push_back(starts[i].second);
+  // A previous fit's point as it is (a part it lacks starts from off: equal modes, no
+  // cross-coupling), with each grid angle when beta is new.
+  if (start && !start->theta.empty())
+    for (int g = 0; g < (start->parts.anisotropy || !pr.beta_fitted ? 1 : kGridAngles); ++g) {
+      std::vector<double> f = start->theta;
+      if (!start->parts.anisotropy && pr.beta_fitted) f[probe_beta] = kPi * g / kGridAngles;
+      from.push_back(pr.clamp(pr.reduce(f)));
+    }
+  std::vector<double> best_q;
+  double best_cost = std::numeric_limits<double>::infinity();
+  for (const auto& q0 : from) {
+    const std::vector<double> q = levenberg_marquardt(pr, q0);
+    const double c = pr.cost(q);
+    if (c < best_cost) best_cost = c, best_q = q;
+  }
+  if (!std::isfinite(best_cost)) throw numerical_error(table.source + ": the 1X response fit found no finite residual from any start");
+
+  std::vector<cplx> amp;
+  pr.residuals(best_q, amp);
+  std::vector<double> best = pr.full(best_q);
+  // One probe without a declared angle: the support axes have no names, so the modes are
+  // labelled by critical speed (a the lower), the frame turned to put x on mode a's axis (an
+  // exact symmetry of the model: every spatial angle turns by -90 degrees).
+  const cplx j(0.0, 1.0);
+  if (pr.beta_fitted && best[ln_wx] > best[ln_wy]) {
+    std::swap(best[ln_wx], best[ln_wy]), std::swap(best[ln_zx], best[ln_zy]);
+    best[probe_beta] -= kPi / 2.0;
+    amp[0] *= -j;
+    if (parts.shaft_bow) amp.back() *= -j;
+    const double kxy = best[k_xy], kyx = best[k_yx];
+    best[k_xy] = -kyx, best[k_yx] = -kxy;
+  }
+  if (pr.beta_fitted) {  // the probe's angle in [0, 180): turning it by 180 degrees flips its reading
+    const auto turn = [&](double by) {
+      best[probe_beta] += by, amp[0] = -amp[0];
+      if (parts.shaft_bow) amp.back() = -amp.back();
+    };
+    while (best[probe_beta] < 0.0) turn(kPi);
+    while (best[probe_beta] >= kPi) turn(-kPi);
+  }
+  best_q = pr.reduce(best);
+
+  // The covariance of every coordinate and amplitude (re, im) from the Jacobian at the fit, scaled
+  // by chi^2/dof where the residual exceeds the noise; directions the data do not constrain
+  // (eigenvalues below 1e-12 of the largest) get an infinite variance.
+  const Eigen::VectorXd r = pr.residuals(best_q, amp, &amp);
+  const std::size_t l = pr.amplitudes();
+  Eigen::MatrixXd jf(r.size(), static_cast<Eigen::Index>(n + 2 * l));
+  jf.leftCols(static_cast<Eigen::Index>(n)) = jacobian(pr, best_q, r, &amp);
+  {
+    std::vector<cplx> unit(l, 0.0), ignored;
+    for (std::size_t c = 0; c < l; ++c)
+      for (int part = 0; part < 2; ++part) {
+        std::fill(unit.begin(), unit.end(), cplx(0.0));
+        unit[c] = part == 0 ? cplx(1.0) : j;
+        // The residual is data - A x: its derivative along a unit amplitude is -A e_c.
+        std::vector<cplx> zero(l, 0.0);
+        const Eigen::VectorXd at_zero = pr.residuals(best_q, ignored, &zero), at_unit = pr.residuals(best_q, ignored, &unit);
+        jf.col(static_cast<Eigen::Index>(n + 2 * c + static_cast<std::size_t>(part))) = at_unit - at_zero;
+      }
+  }
+  response_fit f;
+  f.parts = parts;
+  f.chi2 = r.squaredNorm();
+  const std::size_t parameters = n + 2 * l;
+  f.dof = static_cast<std::size_t>(r.size()) > parameters ? static_cast<std::size_t>(r.size()) - parameters : 1;
+  const double ratio = f.chi2 / static_cast<double>(f.dof);
+  const double scale = std::max(1.0, ratio);
+  // Columns scaled to unit norm first: the coordinates (logarithms, angles) and the amplitudes
+  // (metres) differ by ~1e6 in their columns' sizes, which would hide every direction's scale.
+  Eigen::VectorXd norm = jf.colwise().norm().transpose();
+  for (Eigen::Index k = 0; k < norm.size(); ++k)
+    if (!(norm(k) > 0.0)) norm(k) = 1.0;
+  const Eigen::MatrixXd js = jf * norm.cwiseInverse().asDiagonal();
+  Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(js.transpose() * js);
+  const double largest = eig.eigenvalues().maxCoeff();
+  const Eigen::MatrixXd& v = eig.eigenvectors();
+  Eigen::MatrixXd cov = Eigen::MatrixXd::Zero(static_cast<Eigen::Index>(parameters), static_cast<Eigen::Index>(parameters));
+  std::vector<bool> unbounded(parameters, false);
+  for (Eigen::Index i = 0; i < eig.eigenvalues().size(); ++i) {
+    if (!(eig.eigenvalues()(i) > 1e-12 * largest)) {
+      for (std::size_t k = 0; k < parameters; ++k)
+        if (std::abs(v(static_cast<Eigen::Index>(k), i)) > 1e-6) unbounded[k] = true;
+      continue;
+    }
+    cov += scale / eig.eigenvalues()(i) * v.col(i) * v.col(i).transpose();
+  }
+  cov = norm.cwiseInverse().asDiagonal() * cov * norm.cwiseInverse().asDiagonal();
+  const auto sd = [&](std::size_t k) {
+    return unbounded[k] ? std::numeric_limits<double>::infinity() : std::sqrt(std::max(0.0, cov(static_cast<Eigen::Index>(k), static_cast<Eigen::Index>(k))));
+  };
+  const auto cov2 = [&](std::size_t k) {
+    Eigen::Matrix2d c = cov.block(static_cast<Eigen::Index>(k), static_cast<Eigen::Index>(k), 2, 2);
+    if (unbounded[k] || unbounded[k + 1]) c.setConstant(std::numeric_limits<double>::infinity());
+    return c;
+  };
+
+  // A slot's standard deviation (an isotropic rotor's y slots are its x slots).
+  const auto sd_of = [&](std::size_t slot) {
+    if (!parts.anisotropy && slot == ln_wy) slot = ln_wx;
+    if (!parts.anisotropy && slot == ln_zy) slot = ln_zx;
+    const auto at = std::find(pr.free.begin(), pr.free.end(), slot);
+    return at == pr.free.end() ? 0.0 : sd(static_cast<std::size_t>(at - pr.free.begin()));
+  };
+
+  // Critical speeds and damping ratios: determined when their 95 % interval is within a factor
+  // of 2 either way (4 end to end), and not at an edge of the table's speeds.
+  for (int m = 0; m < (parts.anisotropy ? 2 : 1); ++m) {
+    const std::size_t w_slot = m == 0 ? ln_wx : ln_wy, z_slot = m == 0 ? ln_zx : ln_zy;
+    response_mode mode;
+    mode.axis = !parts.anisotropy ? "both" : pr.beta_fitted ? (m == 0 ? "a" : "b") : (m == 0 ? "x" : "y");
+    mode.critical_speed_rpm = log_estimate(best[w_slot], sd_of(w_slot), kRpmToRadS, 4.0);
+    mode.damping_ratio = log_estimate(best[z_slot], sd_of(z_slot), 1.0, 4.0);
+    mode.at_edge = best[w_slot] <= std::log(pr.w_lo) + 1e-9 || best[w_slot] >= std::log(pr.w_hi) - 1e-9;
+    if (mode.at_edge) mode.critical_speed_rpm.determined = mode.damping_ratio.determined = false;
+    f.modes.push_back(mode);
+  }
+  if (f.modes.size() == 2 && f.modes[1].critical_speed_rpm.value < f.modes[0].critical_speed_rpm.value) std::swap(f.modes[0], f.modes[1]);
+  std::tie(f.unbalance_m, f.unbalance_phase_deg) = polar_estimate(amp[0], cov2(n));
+  for (std::size_t p = 0; p < pr.orders.size(); ++p) {
+    const tracked_order& o = table.orders[pr.orders[p]];
+    f.probes.push_back(o.probe);
+    if (pr.beta[p]) {
+      const double deg = *pr.beta[p] * 180.0 / kPi;
+      f.probe_angle_deg.push_back({deg, deg, deg, true});
+    } else if (pr.beta_fitted) {
+      const double deg = best[probe_beta] * 180.0 / kPi, s = sd_of(probe_beta) * 180.0 / kPi;
+      f.probe_angle_deg.push_back({deg, deg - kZ95 * s, deg + kZ95 * s, std::isfinite(s) && kZ95 * s < 45.0});
+    } else {  // an isotropic rotor, one probe: every angle reads alike (the unbalance phase takes it)
+      f.probe_angle_deg.push_back({0.0, 0.0, 180.0, false});
+    }
+    f.probe_angle_fitted.push_back(pr.beta_fitted);
+    const auto [ra, rp] = polar_estimate(amp[1 + p], cov2(n + 2 * (1 + p)));
+    f.runout_m.push_back(ra), f.runout_phase_deg.push_back(rp);
+    f.noise_m.push_back(pr.sigma[p]);
+  }
+  if (parts.shaft_bow) std::tie(f.bow_m, f.bow_phase_deg) = polar_estimate(amp.back(), cov2(n + 2 * (l - 1)));
+  // How much the model's parts (the unbalance's response, the bow's, each runout) cancel: the
+  // RMS over the fitted rows of the sum of their sizes over the RMS of their sum.
+  {
+    double parts_sq = 0.0, sum_sq = 0.0;
+    std::vector<cplx> col(l);
+    for (std::size_t p = 0; p < pr.orders.size(); ++p)
+      for (const std::size_t i : pr.rows) {
+        pr.columns(best, p, table.rpm[i] * kRpmToRadS, col.data());
+        double size = 0.0;
+        cplx sum = 0.0;
+        for (std::size_t c = 0; c < l; ++c) size += std::abs(amp[c] * col[c]), sum += amp[c] * col[c];
+        parts_sq += size * size, sum_sq += std::norm(sum);
+      }
+    f.cancellation = sum_sq > 0.0 ? std::sqrt(parts_sq / sum_sq) : std::numeric_limits<double>::infinity();
+  }
+  if (parts.cross_coupling) {
+    const double w2 = std::exp(best[ln_wx] + best[ln_wy]);
+    for (const std::size_t slot : {k_xy, k_yx}) {
+      const double val = best[slot] * w2, s = sd_of(slot) * w2;
+      const bool at_bound = std::abs(best[slot]) >= kCrossBound - 1e-9;
+      (slot == k_xy ? f.k_xy_over_m : f.k_yx_over_m) = {val, val - kZ95 * s, val + kZ95 * s, !at_bound && std::isfinite(s) && std::abs(val) > kZ95 * s};
+      f.cross_coupling_at_bound = f.cross_coupling_at_bound || at_bound;
+    }
+  }
+  f.consistent_with_noise = ratio <= boost::math::quantile(boost::math::chi_squared(static_cast<double>(f.dof)), 0.999) / static_cast<double>(f.dof);
+  f.theta = best;
+  f.amplitudes = amp;
+  f.rows = pr.rows;
+  f.parameters = parameters;
+  f.evaluations = pr.evaluations;
+
+  // The model and residual at every row of the table (fitted or not: a fold's held-out rows too).
+  double sum2 = 0.0;
+  std::size_t count = 0;
+  f.model.assign(pr.orders.size(), {}), f.residual.assign(pr.orders.size(), {});
+  for (std::size_t p = 0; p < pr.orders.size(); ++p)
+    for (std::size_t i = 0; i < table.rows(); ++i) {
+      const cplx mdl = response_at(f, p, table.rpm[i]);
+      f.model[p].push_back(mdl);
+      f.residual[p].push_back(table.orders[pr.orders[p]].vector[i] - mdl);
+    }
+  for (std::size_t p = 0; p < pr.orders.size(); ++p)
+    for (const std::size_t i : pr.rows) sum2 += std::norm(f.residual[p][i]), ++count;
+  f.rms_residual_m = std::sqrt(sum2 / static_cast<double>(2 * count));  // per component, as the noise
+  return f;
+}
+
+std::complex<double> response_at(const response_fit& fit, std::size_t probe, double rpm) {
+  const double w = rpm * kRpmToRadS;
+  const auto& th = fit.theta;
+  const double wx = std::exp(th[ln_wx]), wy = std::exp(th[ln_wy]), zx = std::exp(th[ln_zx]), zy = std::exp(th[ln_zy]);
+  const double b = fit.probe_angle_deg[probe].value * kPi / 180.0;
+  const double kxy = th[k_xy] * wx * wy, kyx = th[k_yx] * wx * wy;
+  const cplx dxx(wx * wx - w * w, 2.0 * zx * wx * w), dyy(wy * wy - w * w, 2.0 * zy * wy * w), det = dxx * dyy - kxy * kyx;
+  const auto read = [&](cplx fx, cplx fy) {
+    const cplx x = (dyy * fx - kxy * fy) / det, y = (dxx * fy - kyx * fx) / det;
+    return std::cos(b) * x + std::sin(b) * y;
+  };
+  const cplx j(0.0, 1.0);
+  cplx v = fit.amplitudes[0] * w * w * read(1.0, -j) + fit.amplitudes[1 + probe];
+  if (fit.parts.shaft_bow) v += fit.amplitudes.back() * read(wx * wx, -j * wy * wy);
+  return v;
+}
+
+}  // namespace rubref

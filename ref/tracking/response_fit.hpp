@@ -1,0 +1,112 @@
+#pragma once
+// The model's steady 1X response fitted to an order-tracked table (docs/real-data.md). Off contact
+// Eq. 1 is linear, so its 1X vector at speed w is closed form: with the mass divided out,
+//
+//   [w_x^2 - w^2 + 2j z_x w_x w      k_xy/m                     ] [X]   =  e w^2 e^{j phi} [ 1]  + B [ w_x^2]
+//   [k_yx/m                          w_y^2 - w^2 + 2j z_y w_y w ] [Y]                      [-j]      [-j w_y^2]
+//
+// (unbalance e at phi from the keyphasor; a shaft bow B, docs/loop.md's shaft_bow), and a probe at
+// angle beta reads  v = cos(beta) X + sin(beta) Y + R,  R its slow-roll runout (the shaft surface's
+// own 1X, the same at every speed). The complex amplitudes (e e^{j phi}, R, B) enter linearly and
+// are solved for at every step of the fit of the rest (variable projection); the critical speeds,
+// damping ratios, the probe's angle (one probe without a declared one) and the cross-coupling
+// are fitted by Levenberg-Marquardt from a grid of starts that spans the table's speeds. The
+// rotor's mass is not identifiable from displacements; nothing here depends on it.
+
+#include <complex>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "ref/format/order_table.hpp"
+
+namespace rubref {
+
+// Which parts beyond the base (an isotropic rotor: one critical speed and damping ratio; the
+// unbalance; each probe's runout) a fit carries.
+struct response_parts {
+  bool anisotropy = false;  // two critical speeds and damping ratios, along x and y (and, for one probe without a declared angle, its angle)
+  bool shaft_bow = false;
+  bool cross_coupling = false;
+};
+
+// A fitted quantity with its 95 % interval (from the fit's covariance, scaled by the residual's
+// chi^2/dof where that exceeds 1) and whether the table determines it (the rule per quantity is
+// in docs/real-data.md).
+struct estimate {
+  double value = 0.0;
+  double lo = 0.0, hi = 0.0;
+  bool determined = false;
+};
+
+struct response_mode {
+  std::string axis;            // "both" (isotropic), or "x", "y": the support direction it moves along (one probe, undeclared: "a", "b")
+  estimate critical_speed_rpm;
+  estimate damping_ratio;
+  bool at_edge = false;        // the fit put it at the lowest or highest speed of the table: not determined
+};
+
+struct response_fit {
+  response_parts parts;
+  std::vector<response_mode> modes;  // one (isotropic) or two, lower critical speed first
+  estimate unbalance_m;              // e
+  estimate unbalance_phase_deg;      // phi, from the keyphasor, in the rotation sense
+  std::vector<std::string> probes;   // per tracked probe
+  std::vector<estimate> probe_angle_deg;  // per probe: fitted (one probe, undeclared) or as declared (lo = hi)
+  std::vector<bool> probe_angle_fitted;
+  std::vector<estimate> runout_m, runout_phase_deg;  // per probe
+  estimate bow_m, bow_phase_deg;                      // shaft_bow only
+  // The model's parts (the unbalance's response, the bow's, each runout) over what they add up
+  // to: RMS over the rows of the sum of their sizes over the RMS of their sum (1: none cancels).
+  double cancellation = 1.0;
+  estimate k_xy_over_m, k_yx_over_m;                  // 1/s^2, cross_coupling only
+  bool cross_coupling_at_bound = false;               // a term reached +-w_x w_y / 2, the library's range
+
+  // The fit's quality.
+  std::vector<double> noise_m;       // per probe: the row-to-row scatter of its 1X vector (robust)
+  double chi2 = 0.0;                 // sum of (residual / noise)^2 over real and imaginary parts
+  std::size_t dof = 0;
+  double rms_residual_m = 0.0;
+  bool consistent_with_noise = false;  // chi2/dof within its 0.1 % false-alarm bound
+  int evaluations = 0;
+
+  // Per probe and row (the table's rows, rising speed): the model's 1X vector and the residual.
+  std::vector<std::vector<std::complex<double>>> model, residual;
+
+  // The fit itself, in its own chart, for response_at, a refit or a fold: the nonlinear
+  // coordinates and the complex amplitudes (e e^{j phi}, each probe's R, B).
+  std::vector<double> theta;
+  std::vector<std::complex<double>> amplitudes;
+  std::vector<std::size_t> rows;  // the rows fitted
+  std::size_t parameters = 0;     // real coordinates spent (the nonlinear ones and 2 per amplitude)
+};
+
+// How a fit starts: from its grid of starts (and `start`, when given), or from `start` alone (a
+// fold's refit stays in the basin of the fit on every row, as the waveform loop's folds do).
+enum class fit_starts { grid, given_only };
+
+struct response_fit_options {
+  std::vector<std::size_t> rows;      // the rows fitted (empty: all)
+  const response_fit* start = nullptr;  // a previous fit to start from (an isotropic one also by splitting its mode)
+  fit_starts starts = fit_starts::grid;
+  std::vector<double> noise_m;        // per probe (empty: row_scatter of each)
+};
+
+// The 1X tracked orders of the table, fitted with `parts`. input_error when the table has no 1X
+// column, or several probes of which one has no angle.
+response_fit fit_response(const order_table& table, const response_parts& parts, const response_fit_options& options = {});
+
+// Each probe's noise (m per real and imaginary part) from the scatter of its 1X vector from row
+// to row: second differences in speed order, a median-based scale clipped at 3 of itself, over
+// sqrt(6). A response that is not smooth on the rows' spacing (a sharp critical speed) can only
+// inflate it; the loop takes the smaller of this and the current model's residual scatter
+// (docs/real-data.md).
+std::vector<double> row_scatter_noise(const order_table& table);
+// Each probe's noise from a fit's residual over its fitted rows: the same clipped scale, corrected
+// for the coordinates the fit spent. A residual the model does not fit can only inflate it.
+std::vector<double> residual_noise(const order_table& table, const response_fit& fit);
+
+// The model's 1X vector of a fit at a speed for probe `probe` (index into the fit's probes).
+std::complex<double> response_at(const response_fit& fit, std::size_t probe, double rpm);
+
+}  // namespace rubref

@@ -1,0 +1,59 @@
+#pragma once
+// `rubref loop TABLE` on an order-tracked table (docs/real-data.md): the base fit (an isotropic
+// rotor's one critical speed, the unbalance, each probe's runout; ref/tracking/response_fit.hpp),
+// the residual traced to the effects a 1X table can show (anisotropy: two critical speeds;
+// shaft_bow; cross_coupling), each added on the waveform loop's evidence rules, the errors before
+// and after, and where in speed the residual that is left lies.
+
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "ref/format/order_table.hpp"
+#include "ref/tracking/response_fit.hpp"
+
+namespace rubref {
+
+// One candidate effect's test.
+struct tracked_candidate {
+  std::string effect;
+  int parameters = 0;            // coordinates it adds (a complex amplitude counts 2)
+  double chi2_before = 0.0, chi2_after = 0.0;
+  double bic_drop = 0.0;         // BIC of the model without it minus with it
+  std::vector<double> held_out_before, held_out_after;  // chi^2 of each fold's held-out rows
+  bool added = false;
+  std::string estimates;         // its fitted parameters with their 95 % intervals, one line
+  std::string verdict;           // why added or not, one line
+};
+
+// A stretch of speed where the final residual is not noise.
+struct residual_band {
+  std::string probe;
+  double from_rpm = 0.0, to_rpm = 0.0;
+  std::size_t rows = 0;
+  double rms_over_noise = 0.0;
+};
+
+struct tracking_result {
+  order_table table;
+  response_fit before;                   // the base fit
+  response_fit after;                    // with the effects added
+  std::vector<std::string> effects;      // claimed, in the order added
+  std::vector<std::string> tentative;    // added by the trace but not claimed (the residual stays far from the noise)
+  std::vector<tracked_candidate> candidates;  // every test, in order
+  double error_before = 0.0, error_after = 0.0;  // m, RMS residual per component
+  // "full" (the residual is noise), "partial" (effects named, the residual is not noise but they
+  // removed 96 % of the base fit's excess: the remaining share is said), "tentative" (added, not
+  // claimed), "none" (nothing added; unexplained unless the base fit is noise).
+  std::string claim = "none";
+  double remaining_share = 0.0;          // of the base fit's chi^2 excess over its dof, left after
+  bool unexplained = false;
+  std::vector<residual_band> bands;
+  std::vector<double> noise_scatter_m, noise_residual_m;  // per probe: the two noise estimates; the fits use the smaller
+  std::vector<std::string> cannot_see;   // what such a table cannot show
+  std::vector<std::string> notes;
+};
+
+tracking_result run_tracking_loop(const order_table& table, const std::function<void(const std::string&)>& progress = {});
+
+}  // namespace rubref

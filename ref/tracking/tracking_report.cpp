@@ -1,0 +1,175 @@
+#include "ref/tracking/tracking_report.hpp"
+
+#include <cmath>
+
+#include "ref/base/number_text.hpp"
+#include "ref/base/version.hpp"
+
+namespace rubref {
+
+namespace {
+
+using json = nlohmann::ordered_json;
+
+json interval(const estimate& e) { return json::array({e.lo, e.hi}); }
+
+json quantity(const estimate& e) { return {{"value", e.value}, {"interval_95", interval(e)}, {"determined", e.determined}}; }
+
+json fit_json(const response_fit& f) {
+  json j;
+  j["modes"] = json::array();
+  for (const auto& m : f.modes)
+    j["modes"].push_back({{"axis", m.axis},
+                          {"critical_speed_rpm", m.critical_speed_rpm.value},
+                          {"critical_speed_rpm_interval_95", interval(m.critical_speed_rpm)},
+                          {"damping_ratio", m.damping_ratio.value},
+                          {"damping_ratio_interval_95", interval(m.damping_ratio)},
+                          {"at_edge_of_speeds", m.at_edge},
+                          {"determined", m.critical_speed_rpm.determined && m.damping_ratio.determined}});
+  j["unbalance"] = {{"e_m", quantity(f.unbalance_m)}, {"phase_deg", quantity(f.unbalance_phase_deg)}};
+  j["probes"] = json::array();
+  for (std::size_t p = 0; p < f.probes.size(); ++p)
+    j["probes"].push_back({{"name", f.probes[p]},
+                           {"angle_deg", quantity(f.probe_angle_deg[p])},
+                           {"angle_fitted", static_cast<bool>(f.probe_angle_fitted[p])},
+                           {"runout_m", quantity(f.runout_m[p])},
+                           {"runout_phase_deg", quantity(f.runout_phase_deg[p])},
+                           {"noise_m", f.noise_m[p]}});
+  if (f.parts.shaft_bow) j["shaft_bow"] = {{"bow_m", quantity(f.bow_m)}, {"phase_deg", quantity(f.bow_phase_deg)}};
+  if (f.parts.cross_coupling) j["cross_coupling"] = {{"k_xy_over_m_1_s2", quantity(f.k_xy_over_m)}, {"k_yx_over_m_1_s2", quantity(f.k_yx_over_m)}};
+  j["cancellation"] = f.cancellation;
+  j["chi2"] = f.chi2;
+  j["dof"] = f.dof;
+  j["chi2_per_dof"] = f.chi2 / static_cast<double>(f.dof);
+  j["rms_residual_m"] = f.rms_residual_m;
+  j["consistent_with_noise"] = f.consistent_with_noise;
+  j["evaluations"] = f.evaluations;
+  return j;
+}
+
+std::string um(double m, int digits = 3) { return format_digits(m * 1e6, digits) + " µm"; }
+std::string range(const estimate& e, double scale = 1.0, int digits = 3) {
+  return format_digits(e.value * scale, digits) + " [" + format_digits(e.lo * scale, digits) + ", " + format_digits(e.hi * scale, digits) + "]";
+}
+std::string yes_no(bool b) { return b ? "yes" : "no"; }
+
+}  // namespace
+
+json to_json(const tracking_result& r) {
+  json j;
+  j["generator"] = "rubref " + std::string(version()) + " loop";
+  j["kind"] = "order-tracked";
+  j["source"] = r.table.source;
+  j["rows"] = r.table.rows();
+  j["speed_range_rpm"] = json::array({r.table.rpm.front(), r.table.rpm.back()});
+  j["intake"] = {{"conventions", r.table.conventions}, {"notes", r.notes}};
+  const json after = fit_json(r.after);
+  j["modes"] = after["modes"];
+  j["unbalance"] = after["unbalance"];
+  j["probes"] = after["probes"];
+  j["noise"] = {{"from_row_scatter_m", r.noise_scatter_m}, {"from_base_residual_m", r.noise_residual_m}, {"rule", "the smaller of the two, per probe"}};
+  j["effects"] = r.effects;
+  j["tentative"] = r.tentative;
+  j["claim"] = r.claim;
+  j["unexplained"] = r.unexplained;
+  j["remaining_share"] = r.remaining_share;
+  j["error_before"] = r.error_before;
+  j["error_after"] = r.error_after;
+  j["error_unit"] = "m, RMS of the 1X residual per real and imaginary part";
+  j["before_fit"] = fit_json(r.before);
+  j["after_fit"] = after;
+  j["candidates"] = json::array();
+  for (const auto& c : r.candidates)
+    j["candidates"].push_back({{"effect", c.effect},
+                               {"parameters", c.parameters},
+                               {"chi2_before", c.chi2_before},
+                               {"chi2_after", c.chi2_after},
+                               {"bic_drop", c.bic_drop},
+                               {"held_out_chi2_before", c.held_out_before},
+                               {"held_out_chi2_after", c.held_out_after},
+                               {"estimates", c.estimates},
+                               {"added", c.added},
+                               {"verdict", c.verdict}});
+  j["residual_bands"] = json::array();
+  for (const auto& b : r.bands)
+    j["residual_bands"].push_back({{"probe", b.probe}, {"order", 1}, {"from_rpm", b.from_rpm}, {"to_rpm", b.to_rpm}, {"rows", b.rows}, {"rms_over_noise", b.rms_over_noise}});
+  j["cannot_see"] = r.cannot_see;
+  return j;
+}
+
+std::string to_markdown(const tracking_result& r) {
+  std::string s = "# rubref loop: order-tracked table\n\n";
+  s += "`" + r.table.source + "`: " + std::to_string(r.table.rows()) + " rows, " + format_fixed(r.table.rpm.front(), 0) + "–" +
+       format_fixed(r.table.rpm.back(), 0) + " rpm. Read as: " + r.table.conventions + ".\n\n";
+  for (const auto& n : r.notes) s += "- " + n + "\n";
+  const response_fit& f = r.after;
+  s += "\n## Modes\n\n| mode | critical speed (rpm) [95 %] | damping ratio [95 %] | determined |\n|---|---|---|---|\n";
+  for (const auto& m : f.modes)
+    s += "| " + m.axis + " | " + range(m.critical_speed_rpm, 1.0, 4) + " | " + range(m.damping_ratio) + " | " +
+         yes_no(m.critical_speed_rpm.determined && m.damping_ratio.determined) + (m.at_edge ? " (at the edge of the table's speeds)" : "") + " |\n";
+  s += "\n## Unbalance, probes, runout\n\n";
+  s += "- unbalance e: " + range(f.unbalance_m, 1e6) + " µm at " + range(f.unbalance_phase_deg) + "° from the keyphasor\n";
+  for (std::size_t p = 0; p < f.probes.size(); ++p) {
+    const std::string name = f.probes[p].empty() ? "the probe" : "probe " + f.probes[p];
+    s += "- " + name + ": angle " + range(f.probe_angle_deg[p]) + "° " + (f.probe_angle_fitted[p] ? "(fitted, from mode a's axis)" : "(declared)") +
+         "; runout " + range(f.runout_m[p], 1e6) + " µm at " + range(f.runout_phase_deg[p]) + "°; noise " + um(f.noise_m[p]) + "\n";
+  }
+  if (f.parts.shaft_bow) s += "- shaft bow: " + range(f.bow_m, 1e6) + " µm at " + range(f.bow_phase_deg) + "°\n";
+  if (f.parts.cross_coupling)
+    s += "- cross-coupling k_xy/m " + range(f.k_xy_over_m) + " 1/s², k_yx/m " + range(f.k_yx_over_m) + " 1/s²\n";
+  for (std::size_t p = 0; p < r.noise_scatter_m.size(); ++p)
+    s += "- noise" + (f.probes[p].empty() ? std::string() : " of " + f.probes[p]) + ": " + um(r.noise_scatter_m[p]) + " from the rows' scatter, " +
+         um(r.noise_residual_m[p]) + " from the base fit's residual; the smaller is used\n";
+  s += "\n## Verdict\n\n";
+  s += "- error before (base fit): " + um(r.error_before) + " RMS; after: " + um(r.error_after) + " (χ²/dof " +
+       format_digits(r.before.chi2 / static_cast<double>(r.before.dof), 3) + " → " + format_digits(f.chi2 / static_cast<double>(f.dof), 3) + ")\n";
+  s += "- effects: " + (r.effects.empty() ? std::string("none") : "");
+  for (std::size_t i = 0; i < r.effects.size(); ++i) s += (i ? ", " : "") + r.effects[i];
+  if (!r.tentative.empty()) {
+    s += " (tentative, not claimed: ";
+    for (std::size_t i = 0; i < r.tentative.size(); ++i) s += (i ? ", " : "") + r.tentative[i];
+    s += ")";
+  }
+  s += "\n- claim: " + r.claim + (r.claim == "partial" || r.claim == "tentative" ? " (" + format_fixed(100.0 * r.remaining_share, 1) + " % of the excess remains)" : "") +
+       (r.unexplained ? "; the residual is unexplained" : f.consistent_with_noise ? "; the residual is noise" : "") + "\n";
+  for (const auto& c : r.candidates) s += "- " + c.effect + " (" + c.estimates + "): " + c.verdict + "\n";
+  if (!r.bands.empty()) {
+    s += "\nWhere the residual is not noise (1X, 0.1 % false-alarm rate per stretch):\n\n| probe | from (rpm) | to (rpm) | rows | RMS / noise |\n|---|---|---|---|---|\n";
+    for (const auto& b : r.bands)
+      s += "| " + (b.probe.empty() ? std::string("-") : b.probe) + " | " + format_fixed(b.from_rpm, 0) + " | " + format_fixed(b.to_rpm, 0) + " | " +
+           std::to_string(b.rows) + " | " + format_digits(b.rms_over_noise, 3) + " |\n";
+  }
+  s += "\n## What such a table cannot show\n\n";
+  for (const auto& c : r.cannot_see) s += "- " + c + "\n";
+  return s;
+}
+
+json plot_data(const tracking_result& r) {
+  json j;
+  j["source"] = r.table.source;
+  j["rpm"] = r.table.rpm;
+  j["probes"] = json::array();
+  for (std::size_t p = 0; p < r.after.probes.size(); ++p) {
+    json probe;
+    probe["name"] = r.after.probes[p];
+    std::vector<double> dre, dim, bre, bim, are, aim;
+    std::size_t order = 0;
+    for (std::size_t o = 0; o < r.table.orders.size(); ++o)
+      if (r.table.orders[o].order == 1 && r.table.orders[o].probe == r.after.probes[p]) order = o;
+    for (std::size_t i = 0; i < r.table.rows(); ++i) {
+      dre.push_back(r.table.orders[order].vector[i].real()), dim.push_back(r.table.orders[order].vector[i].imag());
+      bre.push_back(r.before.model[p][i].real()), bim.push_back(r.before.model[p][i].imag());
+      are.push_back(r.after.model[p][i].real()), aim.push_back(r.after.model[p][i].imag());
+    }
+    probe["data_re"] = dre, probe["data_im"] = dim;
+    probe["before_re"] = bre, probe["before_im"] = bim;
+    probe["after_re"] = are, probe["after_im"] = aim;
+    probe["noise_m"] = r.after.noise_m[p];
+    j["probes"].push_back(probe);
+  }
+  j["effects"] = r.after.parts.anisotropy || r.after.parts.shaft_bow || r.after.parts.cross_coupling ? (r.effects.empty() ? r.tentative : r.effects)
+                                                                                                   : std::vector<std::string>{};
+  return j;
+}
+
+}  // namespace rubref
