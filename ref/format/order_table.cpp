@@ -330,12 +330,13 @@ order_table parse_order_table(std::string_view text, std::string_view source, co
       }
       o.vector.push_back(std::polar(a * *kind_factor, sign * r.data[phase_col][i] * to_rad));
     }
-    units_used += (units_used.empty() ? "" : "; ") + label + ": '" + o.amplitude_column + "' in " + amps.front().unit + " (from the " + amps.front().from +
-                  "), '" + o.phase_column + "' in " + phase_unit + " (from the " + (phase_from == "file" ? "file" : phase_from == "given" ? "given conventions" : phase_from) + ")";
+    const auto source_of = [](const std::string& from) { return from == "given" ? std::string("given") : "from the " + from; };
+    units_used += (units_used.empty() ? "" : "; ") + label + ": '" + o.amplitude_column + "' in " + amps.front().unit + " (" + source_of(amps.front().from) +
+                  "), '" + o.phase_column + "' in " + phase_unit + " (" + source_of(phase_from) + ")";
     t.orders.push_back(std::move(o));
   }
-  t.conventions = "amplitude " + amplitude_kind.value + " (" + (amplitude_kind.where == "file" ? "the file" : "given") + "), phase " + sense + " (" +
-                  (phase_sense.where == "file" ? "the file" : "given") + "); " + units_used;
+  t.conventions = "amplitude " + amplitude_kind.value + " (" + (amplitude_kind.where == "file" ? "from the file" : "given") + "), phase " + sense + " (" +
+                  (phase_sense.where == "file" ? "from the file" : "given") + "); " + units_used;
 
   // Dwells: the longest run of rows, in file order, within 1 % of its first row's speed. Said, so
   // a reader knows where the table's weight lies; the fit takes every row as one measurement.
