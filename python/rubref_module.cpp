@@ -4,6 +4,7 @@
 // Errors: rubref.InputError (a ValueError) for bad input, rubref.NumericalError (a RuntimeError)
 // for a failed integration, each with the library's one-line message.
 
+#include <pybind11/complex.h>
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
@@ -24,6 +25,7 @@
 #include "ref/base/setting_names.hpp"
 #include "ref/base/version.hpp"
 #include "ref/format/atomic_output.hpp"
+#include "ref/format/order_table.hpp"
 #include "ref/format/record.hpp"
 #include "ref/identification/identify.hpp"
 #include "ref/loop/loop.hpp"
@@ -35,6 +37,8 @@
 #include "ref/orbits/periodic_orbit_io.hpp"
 #include "ref/rig/rig.hpp"
 #include "ref/study/study_run.hpp"
+#include "ref/tracking/tracking_loop.hpp"
+#include "ref/tracking/tracking_report.hpp"
 #include "ref/validation/golden.hpp"
 #include "ref/validation/validate.hpp"
 
@@ -416,6 +420,55 @@ PYBIND11_MODULE(_rubref, m) {
         return to_python(to_json(r));
       },
       py::arg("paths"), py::arg("clearance") = py::none(), py::arg("mass") = py::none(), py::arg("max_effects") = loop_settings{}.max_effects);
+
+  // Order-tracked tables (docs/real-data.md): the conventions a file does not declare, as keyword
+  // arguments; probe angles as {name: degrees} ("" for a table's only probe).
+  const auto conventions_of = [](const std::string& amplitude, const std::string& amplitude_unit, const std::string& phase,
+                                 const std::string& phase_unit, std::optional<double> scale, const std::map<std::string, double>& probe_angles) {
+    order_conventions c;
+    c.amplitude = amplitude, c.amplitude_unit = amplitude_unit, c.phase = phase, c.phase_unit = phase_unit, c.scale_mV_per_um = scale;
+    for (const auto& [name, deg] : probe_angles) c.probe_angles_deg.emplace_back(name, deg);
+    return c;
+  };
+  m.def(
+      "read_order_table",
+      [conventions_of](const std::string& path, const std::string& amplitude, const std::string& amplitude_unit, const std::string& phase,
+                       const std::string& phase_unit, std::optional<double> scale, const std::map<std::string, double>& probe_angles) {
+        const order_table t = read_order_table(path, conventions_of(amplitude, amplitude_unit, phase, phase_unit, scale, probe_angles));
+        py::list orders;
+        for (const auto& o : t.orders) {
+          py::array_t<std::complex<double>> v(static_cast<py::ssize_t>(o.vector.size()), o.vector.data());
+          py::dict d;
+          d["probe"] = o.probe, d["order"] = o.order, d["vector_m"] = v;
+          d["probe_angle_deg"] = o.probe_angle ? py::object(py::float_(*o.probe_angle * 180.0 / 3.141592653589793)) : py::object(py::none());
+          d["amplitude_column"] = o.amplitude_column, d["phase_column"] = o.phase_column;
+          orders.append(d);
+        }
+        py::dict out;
+        out["rpm"] = to_array(t.rpm);
+        out["orders"] = orders;
+        out["notes"] = t.notes;
+        out["conventions"] = t.conventions;
+        return out;
+      },
+      py::arg("path"), py::arg("amplitude") = "", py::arg("amplitude_unit") = "", py::arg("phase") = "", py::arg("phase_unit") = "",
+      py::arg("scale") = py::none(), py::arg("probe_angles") = std::map<std::string, double>{});
+  m.def(
+      "loop_table",
+      [conventions_of](const std::string& path, const std::string& amplitude, const std::string& amplitude_unit, const std::string& phase,
+                       const std::string& phase_unit, std::optional<double> scale, const std::map<std::string, double>& probe_angles) {
+        const order_table t = read_order_table(path, conventions_of(amplitude, amplitude_unit, phase, phase_unit, scale, probe_angles));
+        tracking_result r;
+        {
+          py::gil_scoped_release free;
+          r = run_tracking_loop(t);
+        }
+        return to_python(to_json(r));
+      },
+      py::arg("path"), py::arg("amplitude") = "", py::arg("amplitude_unit") = "", py::arg("phase") = "", py::arg("phase_unit") = "",
+      py::arg("scale") = py::none(), py::arg("probe_angles") = std::map<std::string, double>{});
+  m.def(
+      "is_order_table", [](const std::string& path) { return is_order_table_header(header_of(path)); }, py::arg("path"));
 
   // A parameter study into the folder `out` (docs/studies.md): the points of `shard` not yet
   // there, then the results when that completes the study. No figures (the command line draws

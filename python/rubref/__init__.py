@@ -29,7 +29,7 @@ from . import _rubref
 
 __all__ = [
     "InputError", "NumericalError", "__version__", "commit", "continuation", "default_parameters", "identify", "loop", "orbit",
-    "read_record", "rig", "simulate", "simulate_batch", "study", "study_merge", "validate", "variants", "write_record",
+    "read_order_table", "read_record", "rig", "simulate", "simulate_batch", "study", "study_merge", "validate", "variants", "write_record",
 ]
 
 _REQUIRED_COLUMNS = ("t_s", "x_m", "y_m", "speed_rpm")
@@ -49,10 +49,44 @@ def identify(paths, **settings):
     return _rubref.identify(_paths(paths), **settings)
 
 
+_TABLE_SETTINGS = ("amplitude", "amplitude_unit", "phase", "phase_unit", "scale", "probe_angle")
+
+
+def _table_conventions(settings):
+    unknown = [k for k in settings if k not in _TABLE_SETTINGS]
+    if unknown:
+        raise InputError(f"unknown setting '{unknown[0]}' for an order-tracked table (known: {', '.join(_TABLE_SETTINGS)})")
+    angle = settings.pop("probe_angle", None)
+    if angle is None:
+        angles = {}
+    elif isinstance(angle, dict):
+        angles = {str(k): float(v) for k, v in angle.items()}
+    else:
+        angles = {"": float(angle)}
+    return dict(settings, probe_angles=angles)
+
+
+def read_order_table(path, **conventions):
+    """An order-tracked table (docs/data-format.md) as ``{'rpm': array, 'orders': [{'probe', 'order',
+    'probe_angle_deg', 'vector_m': complex array (0-to-peak, m; the reading is Re(v e^{j k theta}),
+    theta the shaft angle after the keyphasor), ...}], 'notes', 'conventions'}``, rows in rising
+    speed. Conventions the file does not declare: amplitude ('0-peak', 'pk-pk', 'rms'),
+    amplitude_unit ('m', 'mm', 'um', 'mil', 'V', 'mV'), phase ('lead', 'lag'), phase_unit ('deg',
+    'rad'), scale (mV/um, for volts), probe_angle (degrees, or {probe: degrees})."""
+    return _rubref.read_order_table(str(path), **_table_conventions(dict(conventions)))
+
+
 def loop(paths, **settings):
     """The loop on record files (one path or a list): fit, residual trace, effects, refit; the
-    same dict as ``rubref loop``'s report.json. Settings: clearance, mass, max_effects."""
-    return _rubref.loop(_paths(paths), **settings)
+    same dict as ``rubref loop``'s report.json. Settings: clearance, mass, max_effects. On one
+    order-tracked table (docs/real-data.md) the settings are its conventions, as
+    ``read_order_table`` takes them."""
+    paths = _paths(paths)
+    if any(_rubref.is_order_table(p) for p in paths):
+        if len(paths) != 1:
+            raise InputError(f"an order-tracked table is fitted alone: give one table, not {len(paths)} files")
+        return _rubref.loop_table(paths[0], **_table_conventions(dict(settings)))
+    return _rubref.loop(paths, **settings)
 
 
 def study(spec, out, shard="1/1", threads=0):

@@ -193,3 +193,32 @@ def test_study_in_shards_equals_one_run_and_names_its_keys(tmp_path):
         rubref.study({"study": "grid", "grid": [{"name": "mu", "values": [0.2]}, {"name": "speed_rpm", "from": 1, "to": 2, "step": -1}]},
                      tmp_path / "bad")
     assert not (tmp_path / "bad").exists()
+
+
+def _write_table(path, amplitude_scale=1.0):
+    # The closed-form 1X of an isotropic rotor (critical speed 160 rad/s, damping ratio 0.03,
+    # e = 5 um) with 1 um of runout, in micrometres 0-peak, phase lead, one unnamed probe.
+    import cmath
+    import math
+    with open(path, "w") as f:
+        f.write("rpm,amp_1x_um,phase_1x_deg\n")
+        for i in range(120):
+            rpm = 800 + 15 * i
+            w = rpm * 2 * math.pi / 60
+            v = 5e-6 * w * w / complex(160 ** 2 - w * w, 2 * 0.03 * 160 * w) + 1e-6 * cmath.exp(0.3j)
+            f.write(f"{rpm},{amplitude_scale * abs(v) * 1e6!r},{math.degrees(cmath.phase(v))!r}\n")
+
+
+def test_order_table_reads_as_complex_vectors_and_loops(tmp_path):
+    _write_table(tmp_path / "t.csv")
+    t = rubref.read_order_table(tmp_path / "t.csv", amplitude="0-peak", phase="lead")
+    assert t["rpm"].shape == (120,) and t["orders"][0]["vector_m"].dtype == complex
+    assert t["orders"][0]["probe_angle_deg"] is None
+    with pytest.raises(rubref.InputError, match="the phase convention is not declared"):
+        rubref.read_order_table(tmp_path / "t.csv", amplitude="0-peak")
+    with pytest.raises(rubref.InputError, match="unknown setting 'mass'"):
+        rubref.loop(tmp_path / "t.csv", amplitude="0-peak", phase="lead", mass=1.0)
+    report = rubref.loop(tmp_path / "t.csv", amplitude="0-peak", phase="lead")
+    assert report["kind"] == "order-tracked" and report["effects"] == [] and report["unexplained"] is False
+    import math
+    assert abs(report["modes"][0]["critical_speed_rpm"] - 160 * 30 / math.pi) < 1e-6 * 160 * 30 / math.pi
