@@ -67,7 +67,8 @@ struct response_fit {
   double chi2 = 0.0;                 // sum of (residual / noise)^2 over real and imaginary parts
   std::size_t dof = 0;
   double rms_residual_m = 0.0;
-  bool consistent_with_noise = false;  // chi2/dof within its 0.1 % false-alarm bound
+  double chi2_bound = 1.0;           // chi2/dof's 0.1 % false-alarm bound, widened by the noise estimate's uncertainty
+  bool consistent_with_noise = false;  // chi2/dof within chi2_bound
   int evaluations = 0;
 
   // Per probe and row (the table's rows, rising speed): the model's 1X vector and the residual.
@@ -90,6 +91,7 @@ struct response_fit_options {
   const response_fit* start = nullptr;  // a previous fit to start from (an isotropic one also by splitting its mode)
   fit_starts starts = fit_starts::grid;
   std::vector<double> noise_m;        // per probe (empty: row_scatter of each)
+  double noise_relative_error = 0.0;  // the noise estimate's relative standard error (widens the chi^2 test)
 };
 
 // The 1X tracked orders of the table, fitted with `parts`. input_error when the table has no 1X
