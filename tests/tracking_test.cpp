@@ -67,7 +67,7 @@ void expect_within(const estimate& e, double truth_value, double slack, const ch
 // What the loop tried, for a failure's message.
 std::string trace(const tracking_result& r) {
   std::string s;
-  for (const auto& c : r.candidates) s += c.effect + " (" + c.estimates + "): " + c.verdict + "\n";
+  for (const auto& m : r.models) s += m.estimates + ": " + m.verdict + "\n";
   return s;
 }
 

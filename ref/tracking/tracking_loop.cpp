@@ -1,7 +1,9 @@
 #include "ref/tracking/tracking_loop.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <optional>
 
 #include <boost/math/distributions/chi_squared.hpp>
 
@@ -11,10 +13,11 @@ namespace rubref {
 
 namespace {
 
-// The evidence rules of the waveform loop (docs/loop.md, "Adds"), in the same numbers: BIC must
-// fall by more than 10 (very strong evidence, Kass & Raftery 1995); the out-of-sample gain over
-// two folds must exceed 10 and a third of the gain on every row; a claim needs the residual at
-// the noise ("full") or 96 % of the base fit's excess removed ("partial").
+// The evidence rules of the waveform loop (docs/loop.md, "Adds"), in the same numbers: an effect
+// is needed when BIC without it is higher by more than 10 (very strong evidence, Kass & Raftery
+// 1995) and its out-of-sample gain over two folds exceeds 10 and a third of its gain on every
+// row; a claim needs the residual at the noise ("full") or 96 % of the base fit's excess removed
+// ("partial").
 constexpr double kBicDrop = 10.0;
 constexpr double kHoldoutGain = 10.0;
 constexpr double kHoldoutShare = 1.0 / 3.0;
@@ -143,103 +146,125 @@ tracking_result run_tracking_loop(const order_table& table, const std::function<
     return lower;
   };
   r.noise_scatter_m = noise;
+  const response_fit first = fit_response(table, {}, options(nullptr));
+  r.noise_residual_m = residual_noise(table, first);
+  lower_noise(first);
+
+  // Every combination of the effects (bit k: kEffects[k]), fewer effects first, each from the
+  // grid and from the fit of every combination with one effect fewer (the better one kept).
+  constexpr std::array<const char*, 3> kEffects{"anisotropy", "shaft_bow", "cross_coupling"};
+  const auto parts_of = [](unsigned mask) {
+    response_parts p;
+    p.anisotropy = mask & 1u, p.shaft_bow = mask & 2u, p.cross_coupling = mask & 4u;
+    return p;
+  };
+  std::vector<unsigned> masks{0u, 1u, 2u, 4u, 3u, 5u, 6u, 7u};
+  std::vector<response_fit> fits(8);
+  const auto fit_all = [&](bool again) {
+    for (const unsigned mask : masks) {
+      if (again) {  // the noise came down: the same fits, weighed again
+        const response_fit same = fits[mask];
+        fits[mask] = fit_response(table, parts_of(mask), options(&same, {}, fit_starts::given_only));
+        continue;
+      }
+      if (mask == 0u) {
+        fits[0] = fit_response(table, {}, options(&first));
+        continue;
+      }
+      say("  " + std::string(mask & 1u ? "anisotropy " : "") + (mask & 2u ? "shaft_bow " : "") + (mask & 4u ? "cross_coupling " : "") + "...");
+      std::optional<response_fit> best;
+      for (unsigned k = 0; k < 3; ++k) {
+        if (!(mask & (1u << k))) continue;
+        response_fit f = fit_response(table, parts_of(mask), options(&fits[mask & ~(1u << k)]));
+        if (!best || f.chi2 < best->chi2) best = std::move(f);
+      }
+      fits[mask] = std::move(*best);
+    }
+  };
+  fit_all(false);
+  // The noise from the best-fitting plausible model's residual, when that is lower.
   {
-    const response_fit first = fit_response(table, {}, options(nullptr));
-    r.noise_residual_m = residual_noise(table, first);
-    lower_noise(first);
-    r.before = fit_response(table, {}, options(&first));
+    std::size_t lowest = 0;
+    for (const unsigned mask : masks)
+      if (undetermined_part(fits[mask]).empty() && fits[mask].chi2 < fits[lowest].chi2) lowest = mask;
+    if (lower_noise(fits[lowest])) {
+      say("  noise now " + format_digits(noise.front()) + " m (the residual scatter of the best plausible model)");
+      fit_all(true);
+    }
   }
-  say("  chi^2/dof " + format_digits(r.before.chi2 / static_cast<double>(r.before.dof)) + ", RMS residual " + format_digits(r.before.rms_residual_m) + " m (noise " +
-      format_digits(r.before.noise_m.front()) + " m)");
+  r.before = fits[0];
+  say("  base: chi^2/dof " + format_digits(r.before.chi2 / static_cast<double>(r.before.dof)) + ", RMS residual " + format_digits(r.before.rms_residual_m) +
+      " m (noise " + format_digits(r.before.noise_m.front()) + " m)");
   const std::size_t observations = 2 * table.rows() * r.before.residual.size();
 
   // The folds: alternate rows in speed order, as the waveform loop alternates dwells (a row is
-  // one speed's measurement, as a dwell is).
+  // one speed's measurement, as a dwell is); each model refitted on one fold from its fit on
+  // every row, judged on the other.
   std::vector<std::size_t> fold[2];
   for (std::size_t i = 0; i < table.rows(); ++i) fold[i % 2].push_back(i);
-  const auto held_out_chi2 = [&](const response_parts& parts, const response_fit& from) {
-    std::vector<double> out;
-    for (int k = 0; k < 2; ++k) {
-      if (fold[k].size() < 8 || fold[1 - k].size() < 8) return std::vector<double>{};
-      const response_fit f = fit_response(table, parts, options(&from, fold[k], fit_starts::given_only));
-      out.push_back(chi2_of(f, fold[1 - k]));
+  std::vector<std::optional<std::vector<double>>> held(8);
+  const auto held_out = [&](unsigned mask) {
+    if (!held[mask]) {
+      std::vector<double> out;
+      for (int k = 0; k < 2 && fold[0].size() >= 8 && fold[1].size() >= 8; ++k)
+        out.push_back(chi2_of(fit_response(table, parts_of(mask), options(&fits[mask], fold[k], fit_starts::given_only)), fold[1 - k]));
+      held[mask] = out;
     }
-    return out;
+    return *held[mask];
   };
 
-  // Rounds while a candidate passes, whether or not the residual is already within the noise
-  // bound: that bound is an omnibus test, weaker against one effect than the effect's own
-  // BIC and out-of-sample tests, and a table's noise is known to a few per cent only.
-  response_fit current = r.before;
-  response_parts parts;
-  bool more = true;
-  while (more) {
-    more = false;
-    if (lower_noise(current)) {
-      const response_fit same = current;
-      current = fit_response(table, parts, options(&same, {}, fit_starts::given_only));
-      say("  noise now " + format_digits(noise.front()) + " m (the current model's residual scatter)");
-    }
-    std::vector<std::pair<tracked_candidate, response_fit>> round;
-    for (const std::string name : {"anisotropy", "shaft_bow", "cross_coupling"}) {
-      if (std::find(r.effects.begin(), r.effects.end(), name) != r.effects.end()) continue;
-      response_parts with = parts;
-      (name == "anisotropy" ? with.anisotropy : name == "shaft_bow" ? with.shaft_bow : with.cross_coupling) = true;
-      say("  " + name + ": refit with every coordinate free ...");
-      const response_fit f = fit_response(table, with, options(&current));
-      tracked_candidate c;
-      c.effect = name;
-      c.parameters = name == "anisotropy" ? (f.probe_angle_fitted.front() ? 3 : 2) : 2;
-      c.chi2_before = current.chi2, c.chi2_after = f.chi2;
-      const double drop = bic(current, observations) - bic(f, observations);
-      c.bic_drop = drop;
-      const std::string undetermined = undetermined_part(f);
-      c.estimates = estimates_of(name, f);
-      if (!(drop > kBicDrop)) {
-        c.verdict = "BIC falls by " + format_digits(drop, 3) + ", not more than " + format_digits(kBicDrop, 2);
-      } else if (!undetermined.empty()) {
-        c.verdict = "BIC falls by " + format_digits(drop, 3) + ", but " + undetermined;
-      } else {
-        const std::vector<double> without_held = held_out_chi2(parts, current), with_held = held_out_chi2(with, f);
-        c.held_out_before = without_held, c.held_out_after = with_held;
-        double gain = 0.0;
-        for (std::size_t k = 0; k < without_held.size() && k < with_held.size(); ++k) gain += without_held[k] - with_held[k];
-        const double full_gain = current.chi2 - f.chi2;
-        if (without_held.empty() || with_held.empty()) c.verdict = "too few rows for the out-of-sample test";
-        else if (!(gain > kHoldoutGain && gain > kHoldoutShare * full_gain))
-          c.verdict = "out of sample it gains " + format_digits(gain, 3) + " in chi^2 (needs more than " + format_digits(kHoldoutGain, 2) + " and a third of its " +
-                      format_digits(full_gain, 3) + " on every row)";
-        else
-          c.added = true, c.verdict = "BIC falls by " + format_digits(drop, 3) + "; out of sample it gains " + format_digits(gain, 3) + " in chi^2";
+  // Each combination judged: plausible (every part determined), and every effect in it needed
+  // against the combination without it: BIC rises by more than 10 without it, and out of sample
+  // it gains more than 10 and a third of its gain on every row.
+  std::size_t chosen = 0;
+  for (const unsigned mask : masks) {
+    tracked_model m;
+    const response_fit& f = fits[mask];
+    for (unsigned k = 0; k < 3; ++k)
+      if (mask & (1u << k)) m.effects.push_back(kEffects[k]);
+    m.chi2 = f.chi2, m.bic = bic(f, observations);
+    m.undetermined = undetermined_part(f);
+    for (const auto& e : m.effects) m.estimates += (m.estimates.empty() ? "" : "; ") + estimates_of(e, f);
+    bool all_needed = true;
+    for (unsigned k = 0; k < 3; ++k) {
+      if (!(mask & (1u << k))) continue;
+      tracked_model::need n;
+      n.effect = kEffects[k];
+      const unsigned without = mask & ~(1u << k);
+      n.bic_rise = bic(fits[without], observations) - m.bic;
+      if (n.bic_rise > kBicDrop && m.undetermined.empty()) {
+        n.held_out_without = held_out(without), n.held_out_with = held_out(mask);
+        for (std::size_t i = 0; i < n.held_out_with.size() && i < n.held_out_without.size(); ++i) n.held_out_gain += n.held_out_without[i] - n.held_out_with[i];
+        const double full_gain = fits[without].chi2 - f.chi2;
+        n.needed = n.held_out_with.size() == 2 && n.held_out_gain > kHoldoutGain && n.held_out_gain > kHoldoutShare * full_gain;
       }
-      say("    " + c.estimates + ": " + c.verdict);
-      round.emplace_back(c, f);
+      all_needed = all_needed && n.needed;
+      m.needs.push_back(n);
     }
-    // The passing candidate with the largest BIC drop is added; the others are tried again next round.
-    std::size_t best = round.size();
-    for (std::size_t i = 0; i < round.size(); ++i)
-      if (round[i].first.added && (best == round.size() || round[i].first.bic_drop > round[best].first.bic_drop)) best = i;
-    for (std::size_t i = 0; i < round.size(); ++i) {
-      if (i != best) round[i].first.added = false;
-      if (i != best && round[i].first.verdict.rfind("BIC falls", 0) == 0 && round[i].first.held_out_after.size() == 2 && best != round.size())
-        round[i].first.verdict += "; a stronger effect was added first";
-      r.candidates.push_back(round[i].first);
+    m.eligible = m.undetermined.empty() && all_needed;
+    if (!m.undetermined.empty()) {
+      m.verdict = "not plausible: " + m.undetermined;
+    } else {
+      m.verdict = "BIC " + format_digits(m.bic - bic(fits[0], observations), 4) + " against the base";
+      for (const auto& n : m.needs)
+        m.verdict += "; " + n.effect + (n.needed ? " needed" : " not needed") + " (without it BIC rises by " + format_digits(n.bic_rise, 3) +
+                     (n.held_out_with.empty() ? "" : ", out of sample it gains " + format_digits(n.held_out_gain, 3)) + ")";
     }
-    if (best != round.size()) {
-      r.effects.push_back(round[best].first.effect);
-      parts = round[best].second.parts;
-      current = round[best].second;
-      more = true;
-    }
+    say("    " + (m.effects.empty() ? std::string("base") : m.estimates) + ": " + m.verdict);
+    r.models.push_back(m);
+    if (m.eligible && (r.models[chosen].eligible ? m.bic < r.models[chosen].bic : true)) chosen = r.models.size() - 1;
   }
-  r.after = current;
+  const unsigned chosen_mask = masks[chosen];
+  r.models[chosen].verdict = "chosen: " + r.models[chosen].verdict;
+  r.effects = r.models[chosen].effects;
+  r.after = fits[chosen_mask];
   r.error_before = r.before.rms_residual_m, r.error_after = r.after.rms_residual_m;
   const double excess_before = r.before.chi2 - static_cast<double>(r.before.dof), excess_after = r.after.chi2 - static_cast<double>(r.after.dof);
   r.remaining_share = excess_before > 0.0 ? std::clamp(excess_after / excess_before, 0.0, 1.0) : 0.0;
   if (r.after.consistent_with_noise) r.claim = r.effects.empty() ? "none" : "full";
   else if (!r.effects.empty()) r.claim = 1.0 - r.remaining_share >= kClaimShare ? "partial" : "tentative";
   r.unexplained = !r.after.consistent_with_noise && r.claim != "partial";
-  if (r.claim == "tentative") std::swap(r.effects, r.tentative);  // added by the trace, not claimed
+  if (r.claim == "tentative") std::swap(r.effects, r.tentative);  // chosen by the rules, not claimed
   r.bands = bands_of(table, r.after);
   r.cannot_see = {
       "a static offset such as a preload's deflection: an order-tracked table holds no DC, and AC-coupled probes lose it anyway",

@@ -1,9 +1,10 @@
 #pragma once
 // `rubref loop TABLE` on an order-tracked table (docs/real-data.md): the base fit (an isotropic
 // rotor's one critical speed, the unbalance, each probe's runout; ref/tracking/response_fit.hpp),
-// the residual traced to the effects a 1X table can show (anisotropy: two critical speeds;
-// shaft_bow; cross_coupling), each added on the waveform loop's evidence rules, the errors before
-// and after, and where in speed the residual that is left lies.
+// every combination of the effects a 1X table can show (anisotropy: two critical speeds;
+// shaft_bow; cross_coupling) fitted, the one with the lowest BIC of those whose every part the
+// table determines and whose every effect is needed (the waveform loop's evidence rules), the
+// errors before and after, and where in speed the residual that is left lies.
 
 #include <functional>
 #include <string>
@@ -14,16 +15,23 @@
 
 namespace rubref {
 
-// One candidate effect's test.
-struct tracked_candidate {
-  std::string effect;
-  int parameters = 0;            // coordinates it adds (a complex amplitude counts 2)
-  double chi2_before = 0.0, chi2_after = 0.0;
-  double bic_drop = 0.0;         // BIC of the model without it minus with it
-  std::vector<double> held_out_before, held_out_after;  // chi^2 of each fold's held-out rows
-  bool added = false;
-  std::string estimates;         // its fitted parameters with their 95 % intervals, one line
-  std::string verdict;           // why added or not, one line
+// One combination of the effects, fitted with every coordinate free, and what the rules say of it.
+struct tracked_model {
+  std::vector<std::string> effects;  // in the library's order (anisotropy, shaft_bow, cross_coupling)
+  double chi2 = 0.0, bic = 0.0;
+  std::string undetermined;          // "" when every part is determined (the plausibility rule), else what is not
+  std::string estimates;             // its effects' parameters with their 95 % intervals, one line
+  // Per effect in it: the model without that effect against this one.
+  struct need {
+    std::string effect;
+    double bic_rise = 0.0;                        // BIC without it minus with it
+    std::vector<double> held_out_without, held_out_with;  // chi^2 of each fold's held-out rows
+    double held_out_gain = 0.0;
+    bool needed = false;
+  };
+  std::vector<need> needs;
+  bool eligible = false;             // plausible, and every effect in it needed
+  std::string verdict;               // one line
 };
 
 // A stretch of speed where the final residual is not noise.
@@ -38,9 +46,9 @@ struct tracking_result {
   order_table table;
   response_fit before;                   // the base fit
   response_fit after;                    // with the effects added
-  std::vector<std::string> effects;      // claimed, in the order added
-  std::vector<std::string> tentative;    // added by the trace but not claimed (the residual stays far from the noise)
-  std::vector<tracked_candidate> candidates;  // every test, in order
+  std::vector<std::string> effects;      // claimed, in the library's order
+  std::vector<std::string> tentative;    // chosen but not claimed (the residual stays far from the noise)
+  std::vector<tracked_model> models;     // every combination, the base first
   double error_before = 0.0, error_after = 0.0;  // m, RMS residual per component
   // "full" (the residual is noise), "partial" (effects named, the residual is not noise but they
   // removed 96 % of the base fit's excess: the remaining share is said), "tentative" (added, not

@@ -78,18 +78,26 @@ json to_json(const tracking_result& r) {
   j["error_unit"] = "m, RMS of the 1X residual per real and imaginary part";
   j["before_fit"] = fit_json(r.before);
   j["after_fit"] = after;
-  j["candidates"] = json::array();
-  for (const auto& c : r.candidates)
-    j["candidates"].push_back({{"effect", c.effect},
-                               {"parameters", c.parameters},
-                               {"chi2_before", c.chi2_before},
-                               {"chi2_after", c.chi2_after},
-                               {"bic_drop", c.bic_drop},
-                               {"held_out_chi2_before", c.held_out_before},
-                               {"held_out_chi2_after", c.held_out_after},
-                               {"estimates", c.estimates},
-                               {"added", c.added},
-                               {"verdict", c.verdict}});
+  j["models"] = json::array();
+  for (const auto& m : r.models) {
+    json needs = json::array();
+    for (const auto& n : m.needs)
+      needs.push_back({{"effect", n.effect},
+                       {"bic_rise_without", n.bic_rise},
+                       {"held_out_chi2_without", n.held_out_without},
+                       {"held_out_chi2_with", n.held_out_with},
+                       {"held_out_gain", n.held_out_gain},
+                       {"needed", n.needed}});
+    j["models"].push_back({{"effects", m.effects},
+                           {"chi2", m.chi2},
+                           {"bic", m.bic},
+                           {"plausible", m.undetermined.empty()},
+                           {"undetermined", m.undetermined},
+                           {"estimates", m.estimates},
+                           {"needs", needs},
+                           {"eligible", m.eligible},
+                           {"verdict", m.verdict}});
+  }
   j["residual_bands"] = json::array();
   for (const auto& b : r.bands)
     j["residual_bands"].push_back({{"probe", b.probe}, {"order", 1}, {"from_rpm", b.from_rpm}, {"to_rpm", b.to_rpm}, {"rows", b.rows}, {"rms_over_noise", b.rms_over_noise}});
@@ -132,7 +140,13 @@ std::string to_markdown(const tracking_result& r) {
   }
   s += "\n- claim: " + r.claim + (r.claim == "partial" || r.claim == "tentative" ? " (" + format_fixed(100.0 * r.remaining_share, 1) + " % of the excess remains)" : "") +
        (r.unexplained ? "; the residual is unexplained" : f.consistent_with_noise ? "; the residual is noise" : "") + "\n";
-  for (const auto& c : r.candidates) s += "- " + c.effect + " (" + c.estimates + "): " + c.verdict + "\n";
+  s += "\nEvery combination of the effects, fitted (the chosen one has the lowest BIC of those whose every part is determined and every effect "
+       "needed):\n\n| effects | their parameters [95 %] | verdict |\n|---|---|---|\n";
+  for (const auto& m : r.models) {
+    std::string names;
+    for (const auto& e : m.effects) names += (names.empty() ? "" : ", ") + e;
+    s += "| " + (names.empty() ? std::string("base") : names) + " | " + (m.estimates.empty() ? std::string("–") : m.estimates) + " | " + m.verdict + " |\n";
+  }
   if (!r.bands.empty()) {
     s += "\nWhere the residual is not noise (1X, 0.1 % false-alarm rate per stretch):\n\n| probe | from (rpm) | to (rpm) | rows | RMS / noise |\n|---|---|---|---|---|\n";
     for (const auto& b : r.bands)
