@@ -30,6 +30,11 @@ struct loop_state {
 // `rubref loop TABLE`: an order-tracked table (docs/real-data.md).
 void run_on_table(const loop_state& st, staged_directory& dir) {
   if (st.files.size() != 1) throw input_error("an order-tracked table is fitted alone: give one table, not " + std::to_string(st.files.size()) + " files");
+  const loop_settings defaults;
+  if (st.settings.mass != defaults.mass || st.settings.clearance != defaults.clearance || st.settings.max_effects != defaults.max_effects ||
+      st.settings.refit_candidates != defaults.refit_candidates)
+    throw input_error("--mass, --clearance, --max-effects and --refit are settings of the loop on time records; " + st.files.front() +
+                      " is an order-tracked table (docs/real-data.md)");
   order_conventions c = st.conventions;
   if (st.scale != 0.0) c.scale_mV_per_um = st.scale;
   for (const auto& a : st.probe_angles) {
