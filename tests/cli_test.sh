@@ -194,6 +194,9 @@ expect_error "--probe-angle 'north': expected DEG or NAME=DEG" loop "$work/table
 expect_error "an order-tracked table is fitted alone" loop "$work/table.csv" "$work/free.csv" --out "$work/loop"
 expect_error "describe an order-tracked table" loop "$work/free.csv" --amplitude rms --out "$work/loop"
 expect_error "is an order-tracked table" loop "$work/table.csv" --mass 2 --out "$work/loop"
+printf 'rpm,amp_1x_um,phase_1x_deg\n' >"$work/flat.csv"
+for i in $(seq 1 20); do echo "1500,1.$i,1$i" >>"$work/flat.csv"; done
+expect_error "needs rows at more than one speed" loop "$work/flat.csv" --amplitude rms --phase lag --out "$work/loop"
 [ ! -e "$work/loop" ] || fail "loop on a bad table left a report behind"
 # A table of the closed form's 1X (an isotropic rotor: 160 rad/s, damping ratio 0.03, e 5 um, runout
 # 1 um, in mils pk-pk and lagging phase): fitted, nothing added, the critical speed in report.json.

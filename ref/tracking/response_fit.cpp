@@ -320,6 +320,9 @@ response_fit fit_response(const order_table& table, const response_parts& parts,
   double lo = std::numeric_limits<double>::infinity(), hi = 0.0;
   for (const std::size_t i : pr.rows) lo = std::min(lo, table.rpm[i]), hi = std::max(hi, table.rpm[i]);
   pr.w_lo = lo * kRpmToRadS, pr.w_hi = hi * kRpmToRadS;
+  // A critical speed is fitted inside the table's speeds: rows at one speed have no such range.
+  if (!(hi > lo * (1.0 + 1e-9)))
+    throw input_error(table.source + ": every row is at " + format_digits(lo) + " rpm: a response against speed needs rows at more than one speed");
 
   pr.lay_out();
 
