@@ -278,6 +278,15 @@ std::vector<double> residual_noise(const order_table& table, const response_fit&
   return out;
 }
 
+void check_fittable(const order_table& table) {
+  if (std::none_of(table.orders.begin(), table.orders.end(), [](const tracked_order& o) { return o.order == 1; }))
+    throw input_error(table.source + ": no 1X columns (amp_1x, phase_1x): the response fit reads the 1X");
+  if (table.rows() < 8) throw input_error(table.source + ": " + std::to_string(table.rows()) + " rows: too few for a fit of the 1X response");
+  // A critical speed is fitted inside the table's speeds: rows at one speed have no such range.
+  if (!(table.rpm.back() > table.rpm.front() * (1.0 + 1e-9)))
+    throw input_error(table.source + ": every row is at " + format_digits(table.rpm.front()) + " rpm: a response against speed needs rows at more than one speed");
+}
+
 response_fit fit_response(const order_table& table, const response_parts& parts, const response_fit_options& options) {
   const std::vector<std::size_t>& rows = options.rows;
   const response_fit* start = options.start;
@@ -320,10 +329,8 @@ response_fit fit_response(const order_table& table, const response_parts& parts,
   double lo = std::numeric_limits<double>::infinity(), hi = 0.0;
   for (const std::size_t i : pr.rows) lo = std::min(lo, table.rpm[i]), hi = std::max(hi, table.rpm[i]);
   pr.w_lo = lo * kRpmToRadS, pr.w_hi = hi * kRpmToRadS;
-  // A critical speed is fitted inside the table's speeds: rows at one speed have no such range.
-  if (!(hi > lo * (1.0 + 1e-9)))
-    throw input_error(table.source + ": every row is at " + format_digits(lo) + " rpm: a response against speed needs rows at more than one speed");
 
+  check_fittable(table);
   pr.lay_out();
 
   // The grid of starts, ranked by their projected residual.

@@ -94,6 +94,9 @@ struct response_fit_options {
   double noise_relative_error = 0.0;  // the noise estimate's relative standard error (widens the chi^2 test)
 };
 
+// input_error unless the table can be fitted: a 1X column, at least 8 rows, more than one speed.
+void check_fittable(const order_table& table);
+
 // The 1X tracked orders of the table, fitted with `parts`. input_error when the table has no 1X
 // column, or several probes of which one has no angle.
 response_fit fit_response(const order_table& table, const response_parts& parts, const response_fit_options& options = {});

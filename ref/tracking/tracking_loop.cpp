@@ -113,6 +113,7 @@ tracking_result run_tracking_loop(const order_table& table, const std::function<
   const auto say = [&](const std::string& s) {
     if (progress) progress(s);
   };
+  check_fittable(table);  // before the first progress line: a table it cannot fit writes nothing
   tracking_result r;
   r.table = table;
   r.notes = table.notes;
