@@ -36,6 +36,7 @@ TEST(fuzz_regression, parameter_file) { replay("parameter_file", fuzz::parameter
 TEST(fuzz_regression, measurement) { replay("measurement", fuzz::measurement); }
 TEST(fuzz_regression, golden) { replay("golden", fuzz::golden); }
 TEST(fuzz_regression, candidate) { replay("candidate", fuzz::candidate); }
+TEST(fuzz_regression, order_table) { replay("order_table", fuzz::order_table_file); }
 
 // The contract itself: a refusal is one line that names the file.
 TEST(fuzz_regression, refusals_are_one_line_and_name_the_file) {

@@ -14,6 +14,7 @@
 #include <string_view>
 
 #include "ref/base/errors.hpp"
+#include "ref/format/order_table.hpp"
 #include "ref/format/record.hpp"
 #include "ref/identification/dwells.hpp"
 #include "ref/loop/loop.hpp"
@@ -100,6 +101,25 @@ inline void candidate(std::string_view bytes) {
     const candidate_data c = read_candidate(g, parse_record(bytes, kSource), std::string(kSource));
     expect(c.t.size() >= 4, "a candidate of fewer than 4 samples");
     statistics_of(c.t, c.x, c.y, rpm_to_rad_s(g.request.rpm), 3e-4);
+  });
+}
+
+// An order-tracked table (loop on a table, docs/real-data.md), its conventions given as the
+// RK-4 file needs them: accepted only with rows in rising speed, finite vectors, one per row.
+inline void order_table_file(std::string_view bytes) {
+  refuse_or_accept([&] {
+    order_conventions given;
+    given.amplitude = "0-peak", given.phase = "lead";
+    const order_table t = parse_order_table(bytes, kSource, given);
+    expect(t.rows() > 0 && !t.orders.empty(), "the table reader accepted a table without rows or orders");
+    for (std::size_t i = 0; i < t.rows(); ++i) {
+      expect(t.rpm[i] > 0.0 && std::isfinite(t.rpm[i]), "the table reader accepted a speed that is not positive");
+      expect(i == 0 || t.rpm[i] >= t.rpm[i - 1], "the table reader left rows out of speed order");
+    }
+    for (const auto& o : t.orders) {
+      expect(o.vector.size() == t.rows(), "a tracked order with another row count than the table's");
+      for (const auto& v : o.vector) expect(std::isfinite(v.real()) && std::isfinite(v.imag()), "the table reader accepted a non-finite vector");
+    }
   });
 }
 
