@@ -67,7 +67,10 @@ json to_json(const tracking_result& r) {
   j["modes"] = after["modes"];
   j["unbalance"] = after["unbalance"];
   j["probes"] = after["probes"];
-  j["noise"] = {{"from_row_scatter_m", r.noise_scatter_m}, {"from_base_residual_m", r.noise_residual_m}, {"rule", "the smaller of the two, per probe"}};
+  j["noise"] = {{"from_row_scatter_m", r.noise_scatter_m},
+                {"from_base_residual_m", r.noise_residual_m},
+                {"used_m", r.after.noise_m},
+                {"rule", "per probe, the smallest of the rows' scatter and the residual scatter of the base fit and of the best-fitting plausible model"}};
   j["effects"] = r.effects;
   j["tentative"] = r.tentative;
   j["claim"] = r.claim;
@@ -127,7 +130,8 @@ std::string to_markdown(const tracking_result& r) {
     s += "- cross-coupling k_xy/m " + range(f.k_xy_over_m) + " 1/s², k_yx/m " + range(f.k_yx_over_m) + " 1/s²\n";
   for (std::size_t p = 0; p < r.noise_scatter_m.size(); ++p)
     s += "- noise" + (f.probes[p].empty() ? std::string() : " of " + f.probes[p]) + ": " + um(r.noise_scatter_m[p]) + " from the rows' scatter, " +
-         um(r.noise_residual_m[p]) + " from the base fit's residual; the smaller is used\n";
+         um(r.noise_residual_m[p]) + " from the base fit's residual; used " + um(f.noise_m[p]) +
+         " (the smallest of those and the best-fitting plausible model's residual scatter)\n";
   s += "\n## Verdict\n\n";
   s += "- error before (base fit): " + um(r.error_before) + " RMS; after: " + um(r.error_after) + " (χ²/dof " +
        format_digits(r.before.chi2 / static_cast<double>(r.before.dof), 3) + " → " + format_digits(f.chi2 / static_cast<double>(f.dof), 3) + ")\n";
