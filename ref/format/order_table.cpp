@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cctype>
+#include <charconv>
 #include <cmath>
 #include <map>
 #include <numbers>
@@ -32,7 +33,9 @@ std::vector<std::string> split(std::string_view s, char sep) {
   }
 }
 
-// A column `[probe_]amp_<k>x[_unit]` or `[probe_]phase_<k>x[_unit]`.
+// A column `[probe_]amp_<k>x[_unit]` or `[probe_]phase_<k>x[_unit]`, k a shaft order up to this
+// (order tracking of a rotor kit goes to a few orders; a monitoring system's to tens).
+constexpr int kMaxOrder = 100;
 struct order_column {
   bool amplitude = false;
   std::string probe, unit;
@@ -48,10 +51,12 @@ std::optional<order_column> parse_order_column(std::string_view name) {
       continue;
     order_column c;
     c.amplitude = word != "phase";
-    c.order = std::stoi(next.substr(0, next.size() - 1));
+    // Shaft orders 1..kMaxOrder; more digits than an int holds (the fuzzer's "amp_99999999999x")
+    // or order 0 make it no order column.
+    const auto [end, ec] = std::from_chars(next.data(), next.data() + next.size() - 1, c.order);
+    if (ec != std::errc() || end != next.data() + next.size() - 1 || c.order < 1 || c.order > kMaxOrder) return std::nullopt;
     for (std::size_t j = 0; j < i; ++j) c.probe += (j ? "_" : "") + tokens[j];
     for (std::size_t j = i + 2; j < tokens.size(); ++j) c.unit += (j > i + 2 ? "_" : "") + tokens[j];
-    if (c.order < 1) return std::nullopt;
     return c;
   }
   return std::nullopt;
@@ -122,7 +127,7 @@ std::vector<std::string> header_of(const std::filesystem::path& path) {
 }
 
 order_table parse_order_table(std::string_view text, std::string_view source, const order_conventions& given) {
-  const record r = parse_numeric_table(text, source, kOrderTableFormat, [](const std::vector<std::string>& columns) {
+  const record r = parse_numeric_table(text, source, kOrderTableFormat, "rpm,amp_1x_um,phase_1x_deg,...", [](const std::vector<std::string>& columns) {
     if (!is_order_table_header(columns))
       return std::string("an order-tracked table needs a speed column (rpm, speed_rpm or speed_hz) and amplitude columns ([probe_]amp_<k>x[_unit])");
     return std::string();

@@ -131,7 +131,7 @@ std::string explain_header(std::string_view line) {
 }
 }  // namespace
 
-record parse_numeric_table(std::string_view text, std::string_view source, std::string_view format,
+record parse_numeric_table(std::string_view text, std::string_view source, std::string_view format, std::string_view header_example,
                            const std::function<std::string(const std::vector<std::string>& columns)>& header_problem) {
   if (text.substr(0, 3) == "\xEF\xBB\xBF")
     fail(source, 1, "the file starts with a UTF-8 byte-order mark (BOM): save it as UTF-8 without BOM");
@@ -215,13 +215,13 @@ record parse_numeric_table(std::string_view text, std::string_view source, std::
                                 (decimal_commas ? ": decimal commas? rubref reads '.' as the decimal point and ',' between columns" : ""));
     }
   }
-  if (!header_seen) fail(source, line_no, "no column header");
+  if (!header_seen) fail(source, line_no, "no column header (" + std::string(header_example) + ")");
   if (r.rows() == 0) fail(source, line_no, "no data rows");
   return r;
 }
 
 record parse_record(std::string_view text, std::string_view source) {
-  record r = parse_numeric_table(text, source, kRecordFormat, [](const std::vector<std::string>& columns) {
+  record r = parse_numeric_table(text, source, kRecordFormat, "t_s,x_m,y_m,speed_rpm,...", [](const std::vector<std::string>& columns) {
     for (std::size_t i = 0; i < kRequiredColumns.size(); ++i)
       if (columns.size() <= i || columns[i] != kRequiredColumns[i]) return std::string("header must start with t_s,x_m,y_m,speed_rpm");
     return std::string();

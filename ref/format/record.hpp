@@ -56,9 +56,10 @@ record parse_record(std::string_view text, std::string_view source);
 record read_record(const std::filesystem::path& path);
 
 // The format's grammar without its columns' meaning: metadata, a header, rows of finite numbers
-// (`format`: the only `# format:` value accepted). `header_problem` returns what is wrong with a
-// header ("" when nothing); an order-tracked table (ref/format/order_table.hpp) is read by it too.
-record parse_numeric_table(std::string_view text, std::string_view source, std::string_view format,
+// (`format`: the only `# format:` value accepted; `header_example` is quoted when the header is
+// missing). `header_problem` returns what is wrong with a header ("" when nothing); an
+// order-tracked table (ref/format/order_table.hpp) is read by it too.
+record parse_numeric_table(std::string_view text, std::string_view source, std::string_view format, std::string_view header_example,
                            const std::function<std::string(const std::vector<std::string>& columns)>& header_problem);
 // A whole file as text; input_error naming the path when it cannot be read.
 std::string read_text_file(const std::filesystem::path& path);
