@@ -261,8 +261,7 @@ std::vector<double> row_scatter_noise(const order_table& table) {
   return out;
 }
 
-std::vector<double> residual_noise(const order_table& table, const response_fit& fit) {
-  (void)table;
+std::vector<double> residual_noise(const response_fit& fit) {
   std::vector<double> out;
   const std::size_t spent = fit.theta.empty() ? 0 : fit.parameters;
   for (const auto& r : fit.residual) {

@@ -109,7 +109,7 @@ response_fit fit_response(const order_table& table, const response_parts& parts,
 std::vector<double> row_scatter_noise(const order_table& table);
 // Each probe's noise from a fit's residual over its fitted rows: the same clipped scale, corrected
 // for the coordinates the fit spent. A residual the model does not fit can only inflate it.
-std::vector<double> residual_noise(const order_table& table, const response_fit& fit);
+std::vector<double> residual_noise(const response_fit& fit);
 
 // The model's 1X vector of a fit at a speed for probe `probe` (index into the fit's probes).
 std::complex<double> response_at(const response_fit& fit, std::size_t probe, double rpm);

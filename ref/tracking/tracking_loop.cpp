@@ -140,7 +140,7 @@ tracking_result run_tracking_loop(const order_table& table, const std::function<
   // scatter closer to the noise (an isotropic fit of an anisotropic rotor's table inflates it
   // 3-4 times); true when it came down.
   const auto lower_noise = [&](const response_fit& model) {
-    const std::vector<double> now = residual_noise(table, model);
+    const std::vector<double> now = residual_noise(model);
     bool lower = false;
     for (std::size_t p = 0; p < noise.size(); ++p)
       if (now[p] < noise[p]) noise[p] = now[p], noise_error[p] = residual_error, lower = true;
@@ -148,7 +148,7 @@ tracking_result run_tracking_loop(const order_table& table, const std::function<
   };
   r.noise_scatter_m = noise;
   const response_fit first = fit_response(table, {}, options(nullptr));
-  r.noise_residual_m = residual_noise(table, first);
+  r.noise_residual_m = residual_noise(first);
   lower_noise(first);
 
   // Every combination of the effects (bit k: kEffects[k]), fewer effects first, each from the
