@@ -117,6 +117,44 @@ TEST(ResponseFit, OneProbeWithoutAnAngleHasItFittedFromTheLowerModesAxis) {
   expect_within(f.unbalance_phase_deg, 0.0, 0.0, "unbalance phase");
 }
 
+// A table that cannot pin a quantity says so: whatever is not determined has an interval that
+// says so (infinite, or more than twice its value), never a narrow one around a guess (an
+// unconstrained amplitude once came out with a zero-width interval: a NaN variance clamped to 0).
+TEST(ResponseFit, AQuantityTheTableCannotPinIsNotDeterminedAndItsIntervalSaysSo) {
+  truth t{anisotropic_rotor()};
+  t.p.k_y = t.p.k_x, t.p.c_y = t.p.c_x;
+  order_table table = closed_form_table(t, 0.1e-6, std::nullopt);
+  order_table two = table;
+  for (auto& o : two.orders) o.vector.clear();
+  two.rpm.clear(), two.line.clear();
+  for (std::size_t i = 0; i < table.rows(); ++i)
+    if (table.rpm[i] == 800.0 || table.rpm[i] == 2500.0)
+      for (int k = 0; k < 5; ++k) {  // five rows each, the same vector with fresh noise
+        two.rpm.push_back(table.rpm[i]), two.line.push_back(0);
+        for (std::size_t o = 0; o < two.orders.size(); ++o)
+          two.orders[o].vector.push_back(table.orders[o].vector[i] + std::complex<double>(1e-8 * k, -1e-8 * k));
+      }
+  // With a bow too, one probe: three complex amplitudes (unbalance, runout, bow) from two speeds,
+  // a direction no row constrains at all.
+  response_parts with_bow;
+  with_bow.shaft_bow = true;
+  order_table one = two;
+  one.orders.resize(1);
+  one.orders[0].probe_angle.reset();
+  const response_fit f = fit_response(one, with_bow);
+  ASSERT_EQ(f.modes.size(), 1u);
+  const estimate& w = f.modes[0].critical_speed_rpm;
+  EXPECT_FALSE(f.unbalance_m.determined);
+  EXPECT_FALSE(f.runout_m[0].determined);
+  EXPECT_FALSE(f.bow_m.determined);
+  for (const estimate* e : {&w, &f.modes[0].damping_ratio, &f.unbalance_m, &f.runout_m[0], &f.bow_m}) {
+    EXPECT_FALSE(std::isnan(e->lo) || std::isnan(e->hi) || std::isnan(e->value));
+    if (!e->determined) {
+      EXPECT_TRUE(std::isinf(e->hi) || e->hi > 2.0 * e->value) << e->value << " [" << e->lo << ", " << e->hi << "]";
+    }
+  }
+}
+
 TEST(TrackingLoop, AnIsotropicRotorWithRunoutIsLeftAlone) {
   truth t{anisotropic_rotor()};
   t.p.k_y = t.p.k_x, t.p.c_y = t.p.c_x;

@@ -245,7 +245,14 @@ estimate log_estimate(double chart, double sd, double unit, double max_ratio) {
 std::pair<estimate, estimate> polar_estimate(cplx c, const Eigen::Matrix2d& cov) {
   const double a = std::abs(c);
   const Eigen::Vector2d ga(c.real() / a, c.imag() / a), gp(-c.imag() / (a * a), c.real() / (a * a));
-  const double sa = std::sqrt(std::max(0.0, ga.dot(cov * ga))), sp = std::sqrt(std::max(0.0, gp.dot(cov * gp))) * 180.0 / kPi;
+  // A direction the table does not constrain (an infinite variance) or an amplitude of exactly 0
+  // (its phase undefined) gives an infinite interval, never a NaN.
+  // (std::max(0, NaN) is 0: the variance is tested before it is clamped.)
+  const auto sd_along = [&cov](const Eigen::Vector2d& g) {
+    const double v = g.dot(cov * g);
+    return std::isfinite(v) ? std::sqrt(std::max(0.0, v)) : std::numeric_limits<double>::infinity();
+  };
+  const double sa = sd_along(ga), sp = sd_along(gp) * 180.0 / kPi;
   estimate amp{a, std::max(0.0, a - kZ95 * sa), a + kZ95 * sa, std::isfinite(sa) && a > kZ95 * sa};
   const double deg = std::arg(c) * 180.0 / kPi;
   estimate phase{deg, deg - kZ95 * sp, deg + kZ95 * sp, amp.determined && kZ95 * sp < 45.0};
