@@ -31,6 +31,16 @@ std::vector<loop_dwell> rig_dwells(const rig_request& req) {
   return out;
 }
 
+// The dwells of a rig without keyphasor whose t_s is shaft-synchronous, with their clearance.
+std::vector<loop_dwell> shaft_synchronous_dwells(const rig_request& req) {
+  std::vector<loop_dwell> dwells;
+  for (auto& d : split_dwells(run_rig(req).measurement, "rig")) {
+    d.clearance = req.params.delta;
+    dwells.push_back({std::move(d), "rig"});
+  }
+  return dwells;
+}
+
 rig_request below_the_rub() {
   rig_request req;
   req.params.delta = 1.0;  // m: never reached
@@ -202,12 +212,7 @@ TEST(loop_steps, whole_samples_per_revolution_are_all_predicted) {
   req.speeds_rpm = {1200, 1500, 1600};  // 500, 400 and 375 samples per revolution
   req.probes.keyphasor = false;
   req.time_base = rig_time_base::shaft;
-  const rig_output o = run_rig(req);
-  std::vector<loop_dwell> dwells;
-  for (auto& d : split_dwells(o.measurement, "rig")) {
-    d.clearance = req.params.delta;
-    dwells.push_back({std::move(d), "rig"});
-  }
+  const std::vector<loop_dwell> dwells = shaft_synchronous_dwells(req);
   orbit_predictor predictor(dwells, req.probes.noise);
   model_point truth;
   truth.p = req.params;
@@ -228,12 +233,7 @@ TEST(loop_steps, a_new_shift_predicts_what_a_fresh_sort_does) {
     if (whole_samples) req.speeds_rpm = {1200, 1500, 1600};  // 500, 400 and 375 samples per revolution
     req.probes.keyphasor = false;
     req.time_base = rig_time_base::shaft;
-    const rig_output o = run_rig(req);
-    std::vector<loop_dwell> dwells;
-    for (auto& d : split_dwells(o.measurement, "rig")) {
-      d.clearance = req.params.delta;
-      dwells.push_back({std::move(d), "rig"});
-    }
+    const std::vector<loop_dwell> dwells = shaft_synchronous_dwells(req);
     model_point m;
     m.p = req.params;
     m.fx = req.effects;

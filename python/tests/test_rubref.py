@@ -195,18 +195,14 @@ def test_study_in_shards_equals_one_run_and_names_its_keys(tmp_path):
     assert not (tmp_path / "bad").exists()
 
 
-def _write_table(path, amplitude_scale=1.0):
-    # The closed-form 1X of an isotropic rotor (critical speed 160 rad/s, damping ratio 0.03,
-    # e = 5 um) with 1 um of runout, in micrometres 0-peak, phase lead, one unnamed probe.
-    import cmath
-    import math
-    with open(path, "w") as f:
-        f.write("rpm,amp_1x_um,phase_1x_deg\n")
-        for i in range(120):
-            rpm = 800 + 15 * i
-            w = rpm * 2 * math.pi / 60
-            v = 5e-6 * w * w / complex(160 ** 2 - w * w, 2 * 0.03 * 160 * w) + 1e-6 * cmath.exp(0.3j)
-            f.write(f"{rpm},{amplitude_scale * abs(v) * 1e6!r},{math.degrees(cmath.phase(v))!r}\n")
+def _write_table(path):
+    # tests/closed_form_table.py: an isotropic rotor's closed-form 1X, micrometres 0-peak, lead.
+    import importlib.util
+    import pathlib
+    spec = importlib.util.spec_from_file_location("closed_form_table", pathlib.Path(__file__).resolve().parents[2] / "tests" / "closed_form_table.py")
+    table = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(table)
+    table.write(path, "um-0peak-lead")
 
 
 def test_order_table_reads_as_complex_vectors_and_loops(tmp_path):
@@ -221,4 +217,5 @@ def test_order_table_reads_as_complex_vectors_and_loops(tmp_path):
     report = rubref.loop(tmp_path / "t.csv", amplitude="0-peak", phase="lead")
     assert report["kind"] == "order-tracked" and report["effects"] == [] and report["unexplained"] is False
     import math
+    # 1e-6: a noise-free table, fitted to its own rounding.
     assert abs(report["modes"][0]["critical_speed_rpm"] - 160 * 30 / math.pi) < 1e-6 * 160 * 30 / math.pi
