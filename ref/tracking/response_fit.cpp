@@ -88,6 +88,29 @@ double row_scatter(const std::vector<cplx>& v) {
 // angle, up to the unbalance's phase); the cross-coupling only when it is a part.
 enum slot : std::size_t { ln_wx, ln_wy, ln_zx, ln_zy, probe_beta, k_xy, k_yx, kSlots };
 
+// What the model's reading needs of the coordinates (the full slots) and one probe's angle,
+// formed once per probe and evaluation, not per row.
+struct probe_point {
+  double wx, wy, zx, zy, kxy, kyx, cos_b, sin_b;
+};
+probe_point point_of(const std::vector<double>& f, double beta) {
+  const double wx = std::exp(f[ln_wx]), wy = std::exp(f[ln_wy]);
+  return {wx, wy, std::exp(f[ln_zx]), std::exp(f[ln_zy]), f[k_xy] * wx * wy, f[k_yx] * wx * wy, std::cos(beta), std::sin(beta)};
+}
+
+// The probe's 1X reading at speed w per unit unbalance e e^{j phi} and per unit bow B (the
+// equation in response_fit.hpp, solved by Cramer's rule).
+std::pair<cplx, cplx> reading(const probe_point& c, double w) {
+  const cplx dxx(c.wx * c.wx - w * w, 2.0 * c.zx * c.wx * w), dyy(c.wy * c.wy - w * w, 2.0 * c.zy * c.wy * w);
+  const cplx det = dxx * dyy - c.kxy * c.kyx;
+  const auto probe = [&](cplx fx, cplx fy) {
+    const cplx x = (dyy * fx - c.kxy * fy) / det, y = (dxx * fy - c.kyx * fx) / det;
+    return c.cos_b * x + c.sin_b * y;
+  };
+  const cplx j(0.0, 1.0);
+  return {w * w * probe(1.0, -j), probe(c.wx * c.wx, -j * c.wy * c.wy)};
+}
+
 struct problem {
   const order_table& table;
   response_parts parts;
@@ -118,21 +141,14 @@ struct problem {
   }
   std::size_t amplitudes() const { return 1 + orders.size() + (parts.shaft_bow ? 1 : 0); }
 
-  // The basis columns of one probe at one speed: unbalance, runout of each probe, bow.
-  void columns(const std::vector<double>& f, std::size_t p, double w, cplx* out) const {
-    const double wx = std::exp(f[ln_wx]), wy = std::exp(f[ln_wy]), zx = std::exp(f[ln_zx]), zy = std::exp(f[ln_zy]);
-    const double b = beta[p] ? *beta[p] : f[probe_beta];
-    const double kxy = f[k_xy] * wx * wy, kyx = f[k_yx] * wx * wy;
-    const cplx dxx(wx * wx - w * w, 2.0 * zx * wx * w), dyy(wy * wy - w * w, 2.0 * zy * wy * w);
-    const cplx det = dxx * dyy - kxy * kyx;
-    const auto probe = [&](cplx fx, cplx fy) {
-      const cplx x = (dyy * fx - kxy * fy) / det, y = (dxx * fy - kyx * fx) / det;
-      return std::cos(b) * x + std::sin(b) * y;
-    };
-    const cplx j(0.0, 1.0);
-    out[0] = w * w * probe(1.0, -j);
+  probe_point point(const std::vector<double>& f, std::size_t p) const { return point_of(f, beta[p] ? *beta[p] : f[probe_beta]); }
+
+  // The basis columns of probe p at one speed: unbalance, runout of each probe, bow.
+  void columns(const probe_point& c, std::size_t p, double w, cplx* out) const {
+    const auto [unbalance, bow] = reading(c, w);
+    out[0] = unbalance;
     for (std::size_t q = 0; q < orders.size(); ++q) out[1 + q] = q == p ? 1.0 : 0.0;
-    if (parts.shaft_bow) out[1 + orders.size()] = probe(wx * wx, -j * wy * wy);
+    if (parts.shaft_bow) out[1 + orders.size()] = bow;
   }
 
   // Weighted residuals (real, imaginary per probe and row) at coordinates q; the amplitudes
@@ -144,13 +160,15 @@ struct problem {
     Eigen::MatrixXcd a(m, l);
     Eigen::VectorXcd data(m);
     std::vector<cplx> col(l);
-    for (std::size_t p = 0; p < orders.size(); ++p)
+    for (std::size_t p = 0; p < orders.size(); ++p) {
+      const probe_point at = point(f, p);
       for (std::size_t i = 0; i < rows.size(); ++i) {
         const std::size_t row = p * rows.size() + i;
-        columns(f, p, table.rpm[rows[i]] * kRpmToRadS, col.data());
+        columns(at, p, table.rpm[rows[i]] * kRpmToRadS, col.data());
         for (std::size_t c = 0; c < l; ++c) a(row, c) = col[c] / sigma[p];
         data(row) = table.orders[orders[p]].vector[rows[i]] / sigma[p];
       }
+    }
     Eigen::VectorXcd x(l);
     if (fixed) {
       for (std::size_t c = 0; c < l; ++c) x(c) = (*fixed)[c];
@@ -560,7 +578,7 @@ response_fit fit_response(const order_table& table, const response_parts& parts,
     std::vector<cplx> col(l);
     for (std::size_t p = 0; p < pr.orders.size(); ++p)
       for (const std::size_t i : pr.rows) {
-        pr.columns(best, p, table.rpm[i] * kRpmToRadS, col.data());
+        pr.columns(pr.point(best, p), p, table.rpm[i] * kRpmToRadS, col.data());
         double size = 0.0;
         cplx sum = 0.0;
         for (std::size_t c = 0; c < l; ++c) size += std::abs(amp[c] * col[c]), sum += amp[c] * col[c];
@@ -606,19 +624,9 @@ response_fit fit_response(const order_table& table, const response_parts& parts,
 }
 
 std::complex<double> response_at(const response_fit& fit, std::size_t probe, double rpm) {
-  const double w = rpm * kRpmToRadS;
-  const auto& th = fit.theta;
-  const double wx = std::exp(th[ln_wx]), wy = std::exp(th[ln_wy]), zx = std::exp(th[ln_zx]), zy = std::exp(th[ln_zy]);
-  const double b = fit.probe_angle_deg[probe].value * kPi / 180.0;
-  const double kxy = th[k_xy] * wx * wy, kyx = th[k_yx] * wx * wy;
-  const cplx dxx(wx * wx - w * w, 2.0 * zx * wx * w), dyy(wy * wy - w * w, 2.0 * zy * wy * w), det = dxx * dyy - kxy * kyx;
-  const auto read = [&](cplx fx, cplx fy) {
-    const cplx x = (dyy * fx - kxy * fy) / det, y = (dxx * fy - kyx * fx) / det;
-    return std::cos(b) * x + std::sin(b) * y;
-  };
-  const cplx j(0.0, 1.0);
-  cplx v = fit.amplitudes[0] * w * w * read(1.0, -j) + fit.amplitudes[1 + probe];
-  if (fit.parts.shaft_bow) v += fit.amplitudes.back() * read(wx * wx, -j * wy * wy);
+  const auto [unbalance, bow] = reading(point_of(fit.theta, fit.probe_angle_deg[probe].value * kPi / 180.0), rpm * kRpmToRadS);
+  cplx v = fit.amplitudes[0] * unbalance + fit.amplitudes[1 + probe];
+  if (fit.parts.shaft_bow) v += fit.amplitudes.back() * bow;
   return v;
 }
 
