@@ -2,7 +2,8 @@
 """Figures of `rubref loop` on an order-tracked table (docs/real-data.md): reads plot_data.json,
 writes bode.png (1X amplitude and phase against speed: the table, the base fit, the fit with the
 effects found), polar.png (the 1X vector in the complex plane) and residual.png (|residual| / noise
-against speed, before and after), one set per probe."""
+against speed, before and after), one set per probe; with 2X columns also bode_2x.png (the 2X
+table, its runout-only fit and the fit the loop kept)."""
 import cmath
 import json
 import math
@@ -76,3 +77,21 @@ for p in d["probes"]:
     fig.tight_layout()
     fig.savefig(folder / f"residual{suffix}.png", dpi=120)
     plt.close(fig)
+
+    if "two_x" in p:
+        t = p["two_x"]
+        data2, before2, after2 = vectors(t, "data"), vectors(t, "before"), vectors(t, "after")
+        fig, axs = plt.subplots(2, 1, figsize=(7.5, 6), sharex=True)
+        for ax, f in ((axs[0], abs), (axs[1], lambda v: math.degrees(cmath.phase(v)))):
+            ax.plot(rpm, [f(v) for v in data2], ".", ms=2, color="0.55", label="table")
+            ax.plot(rpm, [f(v) for v in before2], "-", lw=1.2, color="tab:red", label="2X runout alone")
+            ax.plot(rpm, [f(v) for v in after2], "-", lw=1.0, color="tab:blue", label="kept by the loop")
+        axs[0].set_ylabel("2X amplitude, 0-peak [µm]")
+        axs[0].legend(fontsize=8)
+        axs[0].set_title(title + ": 2X")
+        axs[1].set_ylabel("2X phase (lead) [deg]")
+        axs[1].set_xlabel("speed [rpm]")
+        axs[1].set_ylim(-180, 180)
+        fig.tight_layout()
+        fig.savefig(folder / f"bode_2x{suffix}.png", dpi=120)
+        plt.close(fig)

@@ -242,6 +242,33 @@ TEST(TrackingLoop, ARigRunUpOrderTrackedAndWrittenInMilsIsFittedToItsTruth) {
   expect_within(r.after.unbalance_m, req.params.e, 0.05, "e");
   expect_within(r.after.bow_m, 30e-6, 0.05, "bow");
   expect_within(r.after.runout_m[0], 2e-6, 0.05, "x runout");
+  // Its 2X columns hold the quantised noise only: no misalignment named, the 2X residual is noise.
+  ASSERT_TRUE(r.two_x.has_value());
+  EXPECT_FALSE(r.two_x->named) << r.two_x->verdict;
+  EXPECT_FALSE(r.two_x->unexplained) << r.two_x->verdict;
+}
+
+// A misalignment's 2X (the library's moderate level, 0.5 N) and a 2X runout on a rig run-up that
+// passes half of each critical speed, where the forced 2X peaks: named from the 2X columns, its
+// force per unit mass recovered through the modes the 1X fit found.
+TEST(TrackingLoop, AMisalignmentIsNamedFromTheTwoXColumnsOfARigRunUp) {
+  rig_request req;
+  req.params = anisotropic_rotor();
+  req.params.delta = 5e-3;  // no contact
+  req.speeds_rpm.clear();
+  for (double rpm = 600.0; rpm <= 2000.0; rpm += 25.0) req.speeds_rpm.push_back(rpm);
+  req.settle_revs = 60;
+  req.effects.misalignment_force = 0.5, req.effects.misalignment_phase = 0.8;
+  req.effects.runout_2x = 1e-6, req.effects.runout_2x_phase = -1.0;
+  const order_table table = track_orders(run_rig(req).measurement, "rig");
+  const tracking_result r = run_tracking_loop(table);
+  ASSERT_TRUE(r.two_x.has_value());
+  EXPECT_TRUE(r.two_x->named) << r.two_x->verdict;
+  EXPECT_NE(std::find(r.effects.begin(), r.effects.end(), "misalignment_2x"), r.effects.end()) << trace(r) << r.two_x->verdict;
+  EXPECT_LT(r.two_x->after().rms_residual_m, r.two_x->before.rms_residual_m);
+  // 2 %: the critical speeds' own 0.5 % (as above) at 2X, where the forced response is steep.
+  expect_within(r.two_x->with.force_over_m, 0.5 / req.params.m, 0.02, "F2/m");
+  expect_within(r.two_x->with.runout_m[0], 1e-6, 0.05, "x 2X runout");
 }
 
 }  // namespace

@@ -98,17 +98,20 @@ probe_point point_of(const std::vector<double>& f, double beta) {
   return {wx, wy, std::exp(f[ln_zx]), std::exp(f[ln_zy]), f[k_xy] * wx * wy, f[k_yx] * wx * wy, std::cos(beta), std::sin(beta)};
 }
 
-// The probe's 1X reading at speed w per unit unbalance e e^{j phi} and per unit bow B (the
+// The probe's reading at frequency w of the response to a force per unit mass (fx, fy) (the
 // equation in response_fit.hpp, solved by Cramer's rule).
-std::pair<cplx, cplx> reading(const probe_point& c, double w) {
+cplx probe_reading(const probe_point& c, double w, cplx fx, cplx fy) {
   const cplx dxx(c.wx * c.wx - w * w, 2.0 * c.zx * c.wx * w), dyy(c.wy * c.wy - w * w, 2.0 * c.zy * c.wy * w);
   const cplx det = dxx * dyy - c.kxy * c.kyx;
-  const auto probe = [&](cplx fx, cplx fy) {
-    const cplx x = (dyy * fx - c.kxy * fy) / det, y = (dxx * fy - c.kyx * fx) / det;
-    return c.cos_b * x + c.sin_b * y;
-  };
+  const cplx x = (dyy * fx - c.kxy * fy) / det, y = (dxx * fy - c.kyx * fx) / det;
+  return c.cos_b * x + c.sin_b * y;
+}
+
+// The probe's 1X reading at speed w per unit unbalance e e^{j phi} and per unit bow B: a forward
+// force w^2 (1, -j), and the springs' push towards the bow (w_x^2, -j w_y^2).
+std::pair<cplx, cplx> reading(const probe_point& c, double w) {
   const cplx j(0.0, 1.0);
-  return {w * w * probe(1.0, -j), probe(c.wx * c.wx, -j * c.wy * c.wy)};
+  return {w * w * probe_reading(c, w, 1.0, -j), probe_reading(c, w, c.wx * c.wx, -j * c.wy * c.wy)};
 }
 
 struct problem {
@@ -278,6 +281,19 @@ std::pair<estimate, estimate> polar_estimate(cplx c, const Eigen::Matrix2d& cov)
 }
 
 }  // namespace
+
+std::pair<estimate, estimate> polar_estimate(std::complex<double> c, double var_re, double var_im, double cov_re_im) {
+  Eigen::Matrix2d cov;
+  cov << var_re, cov_re_im, cov_re_im, var_im;
+  return polar_estimate(c, cov);
+}
+
+double robust_scale(std::vector<double> magnitudes) { return clipped_scale(std::move(magnitudes)); }
+double row_scatter_of(const std::vector<std::complex<double>>& vectors) { return row_scatter(vectors); }
+
+std::complex<double> forward_force_response(const response_fit& fit, std::size_t probe, double w) {
+  return probe_reading(point_of(fit.theta, fit.probe_angle_deg[probe].value * kPi / 180.0), w, 1.0, cplx(0.0, -1.0));
+}
 
 std::vector<double> row_scatter_noise(const order_table& table) {
   std::vector<double> out;

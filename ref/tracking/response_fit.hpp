@@ -112,6 +112,20 @@ std::vector<double> row_scatter_noise(const order_table& table);
 // for the coordinates the fit spent. A residual the model does not fit can only inflate it.
 std::vector<double> residual_noise(const response_fit& fit);
 
+// The standard deviation of Gaussian values from their magnitudes, robust to a minority of
+// outliers (a median-based scale, clipped at 3 of itself); and the row-to-row scatter of a
+// sequence of complex vectors in speed order (row_scatter_noise's, for one column).
+double robust_scale(std::vector<double> magnitudes);
+// |c| (with the 95 % interval of the amplitude and "determined" when it excludes 0) and arg c in
+// degrees (determined when within +-45 degrees), from the covariance of (Re c, Im c).
+std::pair<estimate, estimate> polar_estimate(std::complex<double> c, double var_re, double var_im, double cov_re_im);
+double row_scatter_of(const std::vector<std::complex<double>>& vectors);
+
+// The reading of probe `probe` at frequency w (rad/s) per unit forward force per unit mass,
+// (cos wt, sin wt) = Re((1, -j) e^{j w t}), through the fit's modes (a misalignment's 2X is one
+// at w = 2 x the shaft's speed).
+std::complex<double> forward_force_response(const response_fit& fit, std::size_t probe, double w);
+
 // The model's 1X vector of a fit at a speed for probe `probe` (index into the fit's probes).
 std::complex<double> response_at(const response_fit& fit, std::size_t probe, double rpm);
 

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <complex>
 #include <optional>
 
 #include <boost/math/distributions/chi_squared.hpp>
@@ -45,11 +46,12 @@ double bic(const response_fit& f, std::size_t observations) {
   return f.chi2 + static_cast<double>(k) * std::log(static_cast<double>(observations));
 }
 
-std::vector<residual_band> bands_of(const order_table& t, const response_fit& f) {
+std::vector<residual_band> bands_of(const order_table& t, const std::vector<std::vector<std::complex<double>>>& residual, const std::vector<double>& noise,
+                                    const std::vector<std::string>& probes, int order) {
   std::vector<residual_band> out;
   const double lo = t.rpm.front(), hi = t.rpm.back(), width = (hi - lo) / kBandCount;
   if (!(width > 0.0)) return out;
-  for (std::size_t p = 0; p < f.residual.size(); ++p) {
+  for (std::size_t p = 0; p < residual.size(); ++p) {
     residual_band open;
     bool is_open = false;
     double open_sum = 0.0;
@@ -58,10 +60,10 @@ std::vector<residual_band> bands_of(const order_table& t, const response_fit& f)
       std::size_t n = 0;
       for (std::size_t i = 0; i < t.rows(); ++i)
         if (t.rpm[i] >= lo + b * width && (t.rpm[i] < lo + (b + 1) * width || (b + 1 == kBandCount && t.rpm[i] <= hi)))
-          s += std::norm(f.residual[p][i]) / (f.noise_m[p] * f.noise_m[p]), ++n;
+          s += std::norm(residual[p][i]) / (noise[p] * noise[p]), ++n;
       const double dof = 2.0 * static_cast<double>(n);
       const bool high = n > 0 && s > boost::math::quantile(boost::math::chi_squared(dof), 0.999);
-      if (high && !is_open) open = {f.probes[p], lo + b * width, lo + (b + 1) * width, 0, 0.0}, open_sum = 0.0, is_open = true;
+      if (high && !is_open) open = {probes[p], order, lo + b * width, lo + (b + 1) * width, 0, 0.0}, open_sum = 0.0, is_open = true;
       if (high) open.to_rpm = lo + (b + 1) * width, open.rows += n, open_sum += s;
       if ((!high || b + 1 == kBandCount) && is_open) {
         open.rms_over_noise = std::sqrt(open_sum / (2.0 * static_cast<double>(open.rows)));
@@ -107,6 +109,76 @@ std::string estimates_of(const std::string& name, const response_fit& f) {
   return "k_xy/m " + interval_text(f.k_xy_over_m, 1.0, " 1/s^2") + ", k_yx/m " + interval_text(f.k_yx_over_m, 1.0, " 1/s^2");
 }
 
+// The 2X: each probe's runout alone, then with a misalignment's forced response through the
+// chosen modes, the noise as for the 1X (the smaller of the rows' scatter and a plausible fit's
+// residual scatter), and the misalignment named on the 1X's rules: plausible (its force's
+// interval away from 0, its parts not cancelling), BIC rise above 10, and out of sample on the
+// same folds a gain above 10 and a third of its gain on every row.
+two_x_result judge_two_x(const order_table& table, const response_fit& modes, const std::vector<std::size_t> (&fold)[2],
+                         const std::function<void(const std::string&)>& say) {
+  two_x_result t;
+  say("2X: runout alone, and with a misalignment's forced response through the chosen modes ...");
+  std::vector<double> noise = two_x_scatter_noise(table, modes);
+  t.noise_scatter_m = noise;
+  std::vector<double> error(noise.size(), 1.166 * std::sqrt(1.94 / std::max(1.0, 2.0 * (static_cast<double>(table.rows()) - 2.0))));
+  const double residual_error = 1.166 / std::sqrt(2.0 * static_cast<double>(table.rows()));
+  const auto options = [&](std::vector<std::size_t> rows = {}) {
+    two_x_options o;
+    o.rows = std::move(rows), o.noise_m = noise, o.noise_relative_error = *std::max_element(error.begin(), error.end());
+    return o;
+  };
+  const auto lower_noise = [&](const two_x_fit& f) {
+    const std::vector<double> now = two_x_residual_noise(f);
+    for (std::size_t p = 0; p < noise.size(); ++p)
+      if (now[p] < noise[p]) noise[p] = now[p], error[p] = residual_error;
+  };
+  const auto plausibility = [](const two_x_fit& f) -> std::string {
+    if (f.cancellation > kMaxCancellation) return "its parts cancel: together they are " + format_digits(f.cancellation, 3) + " times what they add up to";
+    if (!f.force_over_m.determined) return "the misalignment force's 95 % interval reaches 0";
+    return {};
+  };
+  t.noise_residual_m = two_x_residual_noise(fit_two_x(table, modes, false, options()));
+  lower_noise(fit_two_x(table, modes, false, options()));
+  if (plausibility(fit_two_x(table, modes, true, options())).empty()) lower_noise(fit_two_x(table, modes, true, options()));
+  t.before = fit_two_x(table, modes, false, options());
+  t.with = fit_two_x(table, modes, true, options());
+  t.undetermined = plausibility(t.with);
+  const double observations = static_cast<double>(2 * table.rows() * t.before.residual.size());
+  const double bic_before = t.before.chi2 + static_cast<double>(t.before.parameters) * std::log(observations);
+  const double bic_with = t.with.chi2 + static_cast<double>(t.with.parameters) * std::log(observations);
+  tracked_model::need& n = t.need;
+  n.effect = "misalignment_2x";
+  n.bic_rise = bic_before - bic_with;
+  if (n.bic_rise > kBicDrop && t.undetermined.empty() && fold[0].size() >= 8 && fold[1].size() >= 8) {
+    for (int k = 0; k < 2; ++k) {
+      const auto chi2_on = [&](const two_x_fit& f) {
+        double s = 0.0;
+        for (std::size_t p = 0; p < f.residual.size(); ++p)
+          for (const std::size_t i : fold[1 - k]) s += std::norm(f.residual[p][i]) / (noise[p] * noise[p]);
+        return s;
+      };
+      n.held_out_without.push_back(chi2_on(fit_two_x(table, modes, false, options(fold[k]))));
+      n.held_out_with.push_back(chi2_on(fit_two_x(table, modes, true, options(fold[k]))));
+      n.held_out_gain += n.held_out_without.back() - n.held_out_with.back();
+    }
+    n.needed = n.held_out_gain > kHoldoutGain && n.held_out_gain > kHoldoutShare * (t.before.chi2 - t.with.chi2);
+  }
+  t.named = n.needed;
+  const two_x_fit& after = t.after();
+  const double excess_before = t.before.chi2 - static_cast<double>(t.before.dof), excess_after = after.chi2 - static_cast<double>(after.dof);
+  t.remaining_share = excess_before > 0.0 ? std::clamp(excess_after / excess_before, 0.0, 1.0) : 0.0;
+  if (after.consistent_with_noise) t.claim = t.named ? "full" : "none";
+  else if (t.named) t.claim = 1.0 - t.remaining_share >= kClaimShare ? "partial" : "tentative";
+  t.unexplained = !after.consistent_with_noise && t.claim != "partial";
+  t.verdict = !t.undetermined.empty() ? "misalignment_2x not plausible: " + t.undetermined
+              : "misalignment_2x " + std::string(n.needed ? "needed" : "not needed") + " (without it BIC rises by " + format_digits(n.bic_rise, 3) +
+                    (n.held_out_with.empty() ? "" : ", out of sample it gains " + format_digits(n.held_out_gain, 3)) + ")";
+  t.verdict += "; 2X chi^2/dof " + format_digits(t.before.chi2 / static_cast<double>(t.before.dof), 3) + " -> " +
+               format_digits(after.chi2 / static_cast<double>(after.dof), 3) + (after.consistent_with_noise ? " (noise)" : " (not noise)");
+  say("  " + t.verdict);
+  return t;
+}
+
 }  // namespace
 
 tracking_result run_tracking_loop(const order_table& table, const std::function<void(const std::string&)>& progress) {
@@ -118,8 +190,8 @@ tracking_result run_tracking_loop(const order_table& table, const std::function<
   r.table = table;
   r.notes = table.notes;
   for (const auto& o : table.orders)
-    if (o.order != 1) {
-      r.notes.push_back("the " + std::to_string(o.order) + "X columns are read but not fitted: the response fit and its effects read the 1X");
+    if (o.order > 2) {
+      r.notes.push_back("the " + std::to_string(o.order) + "X columns are read but not fitted: the fits read the 1X and the 2X");
       break;
     }
   say("base fit: one critical speed (isotropic), unbalance, runout, from " + std::to_string(table.rows()) + " rows ...");
@@ -266,7 +338,15 @@ tracking_result run_tracking_loop(const order_table& table, const std::function<
   else if (!r.effects.empty()) r.claim = 1.0 - r.remaining_share >= kClaimShare ? "partial" : "tentative";
   r.unexplained = !r.after.consistent_with_noise && r.claim != "partial";
   if (r.claim == "tentative") std::swap(r.effects, r.tentative);  // chosen by the rules, not claimed
-  r.bands = bands_of(table, r.after);
+  r.bands = bands_of(table, r.after.residual, r.after.noise_m, r.after.probes, 1);
+  if (!two_x_columns(table, r.after).empty()) {
+    r.two_x = judge_two_x(table, r.after, fold, say);
+    const two_x_result& t2 = *r.two_x;
+    if (t2.named) (t2.claim == "tentative" ? r.tentative : r.effects).push_back("misalignment_2x");
+    r.unexplained = r.unexplained || t2.unexplained;
+    const auto more = bands_of(table, t2.after().residual, t2.after().noise_m, t2.after().probes, 2);
+    r.bands.insert(r.bands.end(), more.begin(), more.end());
+  }
   r.cannot_see = {
       "a static offset such as a preload's deflection: an order-tracked table holds no DC, and AC-coupled probes lose it anyway",
       "the rotor's mass: every force scales with it, so stiffness, damping and cross-coupling are per unit mass",

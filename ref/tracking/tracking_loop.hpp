@@ -7,11 +7,13 @@
 // errors before and after, and where in speed the residual that is left lies.
 
 #include <functional>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "ref/format/order_table.hpp"
 #include "ref/tracking/response_fit.hpp"
+#include "ref/tracking/two_x_fit.hpp"
 
 namespace rubref {
 
@@ -37,9 +39,26 @@ struct tracked_model {
 // A stretch of speed where the final residual is not noise.
 struct residual_band {
   std::string probe;
+  int order = 1;
   double from_rpm = 0.0, to_rpm = 0.0;
   std::size_t rows = 0;
   double rms_over_noise = 0.0;
+};
+
+// The 2X columns (a table with one for every probe): each probe's 2X runout alone, against it
+// with a misalignment's forced 2X through the chosen 1X modes, judged by the same rules.
+struct two_x_result {
+  two_x_fit before;                      // runout only
+  two_x_fit with;                        // with the misalignment
+  std::string undetermined;              // "" when the misalignment fit's every part is determined
+  tracked_model::need need;              // the misalignment against the runout alone
+  bool named = false;                    // needed and plausible: the 2X model is `with`
+  std::string claim = "none";            // as tracking_result::claim, for the 2X
+  double remaining_share = 0.0;
+  bool unexplained = false;
+  std::vector<double> noise_scatter_m, noise_residual_m;
+  std::string verdict;                   // one line
+  const two_x_fit& after() const { return named ? with : before; }
 };
 
 struct tracking_result {
@@ -50,13 +69,14 @@ struct tracking_result {
   std::vector<std::string> tentative;    // chosen but not claimed (the residual stays far from the noise)
   std::vector<tracked_model> models;     // every combination, the base first
   double error_before = 0.0, error_after = 0.0;  // m, RMS residual per component
-  // "full" (the residual is noise), "partial" (effects named, the residual is not noise but they
+  // The 1X's claim: "full" (the residual is noise), "partial" (effects named, the residual is not noise but they
   // removed 96 % of the base fit's excess: the remaining share is said), "tentative" (added, not
   // claimed), "none" (nothing added; unexplained unless the base fit is noise).
   std::string claim = "none";
   double remaining_share = 0.0;          // of the base fit's chi^2 excess over its dof, left after
-  bool unexplained = false;
-  std::vector<residual_band> bands;
+  bool unexplained = false;              // the 1X's or the 2X's residual is not noise and no claim covers it
+  std::optional<two_x_result> two_x;     // when the table has a 2X column for every probe
+  std::vector<residual_band> bands;      // 1X and 2X
   std::vector<double> noise_scatter_m, noise_residual_m;  // per probe: the two noise estimates; the fits use the smaller
   std::vector<std::string> cannot_see;   // what such a table cannot show
   std::vector<std::string> notes;

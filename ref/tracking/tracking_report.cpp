@@ -47,6 +47,22 @@ json fit_json(const response_fit& f) {
   return j;
 }
 
+json two_x_fit_json(const two_x_fit& f) {
+  json j;
+  j["misalignment"] = f.misalignment;
+  if (f.misalignment) j["force_over_m_m_s2"] = quantity(f.force_over_m), j["force_phase_deg"] = quantity(f.force_phase_deg);
+  j["probes"] = json::array();
+  for (std::size_t p = 0; p < f.probes.size(); ++p)
+    j["probes"].push_back({{"name", f.probes[p]}, {"runout_m", quantity(f.runout_m[p])}, {"runout_phase_deg", quantity(f.runout_phase_deg[p])}, {"noise_m", f.noise_m[p]}});
+  j["cancellation"] = f.cancellation;
+  j["chi2"] = f.chi2;
+  j["dof"] = f.dof;
+  j["chi2_per_dof"] = f.chi2 / static_cast<double>(f.dof);
+  j["rms_residual_m"] = f.rms_residual_m;
+  j["consistent_with_noise"] = f.consistent_with_noise;
+  return j;
+}
+
 std::string um(double m, int digits = 3) { return format_digits(m * 1e6, digits) + " µm"; }
 std::string range(const estimate& e, double scale = 1.0, int digits = 3) {
   return format_digits(e.value * scale, digits) + " [" + format_digits(e.lo * scale, digits) + ", " + format_digits(e.hi * scale, digits) + "]";
@@ -79,6 +95,26 @@ json to_json(const tracking_result& r) {
   j["error_before"] = r.error_before;
   j["error_after"] = r.error_after;
   j["error_unit"] = "m, RMS of the 1X residual per real and imaginary part";
+  if (r.two_x) {
+    const two_x_result& t = *r.two_x;
+    j["two_x"] = {{"error_before", t.before.rms_residual_m},
+                  {"error_after", t.after().rms_residual_m},
+                  {"misalignment_named", t.named},
+                  {"claim", t.claim},
+                  {"remaining_share", t.remaining_share},
+                  {"unexplained", t.unexplained},
+                  {"undetermined", t.undetermined},
+                  {"need",
+                   {{"bic_rise_without", t.need.bic_rise},
+                    {"held_out_chi2_without", t.need.held_out_without},
+                    {"held_out_chi2_with", t.need.held_out_with},
+                    {"held_out_gain", t.need.held_out_gain},
+                    {"needed", t.need.needed}}},
+                  {"noise", {{"from_row_scatter_m", t.noise_scatter_m}, {"from_runout_residual_m", t.noise_residual_m}, {"used_m", t.after().noise_m}}},
+                  {"verdict", t.verdict},
+                  {"before_fit", two_x_fit_json(t.before)},
+                  {"with_misalignment_fit", two_x_fit_json(t.with)}};
+  }
   j["before_fit"] = fit_json(r.before);
   j["after_fit"] = after;
   j["models"] = json::array();
@@ -103,7 +139,7 @@ json to_json(const tracking_result& r) {
   }
   j["residual_bands"] = json::array();
   for (const auto& b : r.bands)
-    j["residual_bands"].push_back({{"probe", b.probe}, {"order", 1}, {"from_rpm", b.from_rpm}, {"to_rpm", b.to_rpm}, {"rows", b.rows}, {"rms_over_noise", b.rms_over_noise}});
+    j["residual_bands"].push_back({{"probe", b.probe}, {"order", b.order}, {"from_rpm", b.from_rpm}, {"to_rpm", b.to_rpm}, {"rows", b.rows}, {"rms_over_noise", b.rms_over_noise}});
   j["cannot_see"] = r.cannot_see;
   return j;
 }
@@ -144,6 +180,16 @@ std::string to_markdown(const tracking_result& r) {
   }
   s += "\n- claim: " + r.claim + (r.claim == "partial" || r.claim == "tentative" ? " (" + format_fixed(100.0 * r.remaining_share, 1) + " % of the excess remains)" : "") +
        (r.unexplained ? "; the residual is unexplained" : f.consistent_with_noise ? "; the residual is noise" : "") + "\n";
+  if (r.two_x) {
+    const two_x_result& t = *r.two_x;
+    s += "- 2X: error before (runout alone): " + um(t.before.rms_residual_m) + " RMS; after: " + um(t.after().rms_residual_m) + "; " + t.verdict +
+         "; claim " + t.claim + (t.unexplained ? " (the 2X residual is unexplained)" : "") + "\n";
+    if (t.with.misalignment)
+      s += "- misalignment fit: F2/m " + range(t.with.force_over_m) + " m/s² at " + range(t.with.force_phase_deg) + "° (through the chosen modes at 2X)\n";
+    for (std::size_t p = 0; p < t.after().probes.size(); ++p)
+      s += "- 2X runout" + (t.after().probes[p].empty() ? std::string() : " of " + t.after().probes[p]) + ": " + range(t.after().runout_m[p], 1e6) +
+           " µm at " + range(t.after().runout_phase_deg[p]) + "°; 2X noise " + um(t.after().noise_m[p]) + "\n";
+  }
   s += "\nEvery combination of the effects, fitted (the chosen one has the lowest BIC of those whose every part is determined and every effect "
        "needed):\n\n| effects | their parameters [95 %] | verdict |\n|---|---|---|\n";
   for (const auto& m : r.models) {
@@ -152,9 +198,9 @@ std::string to_markdown(const tracking_result& r) {
     s += "| " + (names.empty() ? std::string("base") : names) + " | " + (m.estimates.empty() ? std::string("–") : m.estimates) + " | " + m.verdict + " |\n";
   }
   if (!r.bands.empty()) {
-    s += "\nWhere the residual is not noise (1X, 0.1 % false-alarm rate per stretch):\n\n| probe | from (rpm) | to (rpm) | rows | RMS / noise |\n|---|---|---|---|---|\n";
+    s += "\nWhere the residual is not noise (0.1 % false-alarm rate per stretch):\n\n| probe | order | from (rpm) | to (rpm) | rows | RMS / noise |\n|---|---|---|---|---|---|\n";
     for (const auto& b : r.bands)
-      s += "| " + (b.probe.empty() ? std::string("-") : b.probe) + " | " + format_fixed(b.from_rpm, 0) + " | " + format_fixed(b.to_rpm, 0) + " | " +
+      s += "| " + (b.probe.empty() ? std::string("-") : b.probe) + " | " + std::to_string(b.order) + "X | " + format_fixed(b.from_rpm, 0) + " | " + format_fixed(b.to_rpm, 0) + " | " +
            std::to_string(b.rows) + " | " + format_digits(b.rms_over_noise, 3) + " |\n";
   }
   s += "\n## What such a table cannot show\n\n";
@@ -183,6 +229,18 @@ json plot_data(const tracking_result& r) {
     probe["before_re"] = bre, probe["before_im"] = bim;
     probe["after_re"] = are, probe["after_im"] = aim;
     probe["noise_m"] = r.after.noise_m[p];
+    if (r.two_x) {
+      const std::vector<std::size_t> columns = two_x_columns(r.table, r.after);
+      std::vector<double> d2re, d2im, b2re, b2im, a2re, a2im;
+      for (std::size_t i = 0; i < r.table.rows(); ++i) {
+        const auto d = r.table.orders[columns[p]].vector[i];
+        d2re.push_back(d.real()), d2im.push_back(d.imag());
+        b2re.push_back(r.two_x->before.model[p][i].real()), b2im.push_back(r.two_x->before.model[p][i].imag());
+        a2re.push_back(r.two_x->after().model[p][i].real()), a2im.push_back(r.two_x->after().model[p][i].imag());
+      }
+      probe["two_x"] = {{"data_re", d2re}, {"data_im", d2im}, {"before_re", b2re}, {"before_im", b2im}, {"after_re", a2re}, {"after_im", a2im},
+                        {"noise_m", r.two_x->after().noise_m[p]}};
+    }
     j["probes"].push_back(probe);
   }
   j["effects"] = r.after.parts.anisotropy || r.after.parts.shaft_bow || r.after.parts.cross_coupling ? (r.effects.empty() ? r.tentative : r.effects)
