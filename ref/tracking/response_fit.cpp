@@ -10,6 +10,7 @@
 
 #include "ref/base/errors.hpp"
 #include "ref/base/number_text.hpp"
+#include "ref/tracking/least_squares.hpp"
 
 namespace rubref {
 
@@ -217,41 +218,11 @@ Eigen::MatrixXd jacobian(problem& pr, const std::vector<double>& th, const Eigen
 
 // Levenberg-Marquardt on the projected residuals, inside the coordinates' bounds.
 std::vector<double> levenberg_marquardt(problem& pr, std::vector<double> th) {
-  th = pr.clamp(std::move(th));
   std::vector<cplx> amp;
-  Eigen::VectorXd r = pr.residuals(th, amp);
-  double c = r.squaredNorm();
-  if (!std::isfinite(c)) return th;
-  double lambda = 1e-3;
-  for (int it = 0; it < kMaxIterations; ++it) {
-    const Eigen::MatrixXd j = jacobian(pr, th, r, nullptr);
-    const Eigen::MatrixXd jtj = j.transpose() * j;
-    const Eigen::VectorXd g = j.transpose() * r;
-    bool accepted = false;
-    while (lambda < 1e12) {
-      Eigen::MatrixXd a = jtj;
-      for (Eigen::Index d = 0; d < a.rows(); ++d) a(d, d) += lambda * std::max(jtj(d, d), 1e-12);
-      const Eigen::VectorXd step = a.ldlt().solve(-g);
-      std::vector<double> next = th;
-      for (std::size_t k = 0; k < th.size(); ++k) next[k] += step(static_cast<Eigen::Index>(k));
-      next = pr.clamp(next);
-      std::vector<cplx> next_amp;
-      const Eigen::VectorXd rn = pr.residuals(next, next_amp);
-      const double cn = rn.squaredNorm();
-      if (std::isfinite(cn) && cn < c) {
-        const double gain = (c - cn) / c;
-        th = next, r = rn, amp = next_amp;
-        lambda = std::max(lambda / 3.0, 1e-9);
-        accepted = true;
-        c = cn;
-        if (gain < 1e-12) return th;
-        break;
-      }
-      lambda *= 4.0;
-    }
-    if (!accepted) break;
-  }
-  return th;
+  const least_squares_problem lsq{[&pr, &amp](const std::vector<double>& q) { return pr.residuals(q, amp); },
+                                  [&pr](const std::vector<double>& q, const Eigen::VectorXd& r) { return jacobian(pr, q, r, nullptr); },
+                                  [&pr](std::vector<double> q) { return pr.clamp(std::move(q)); }};
+  return rubref::levenberg_marquardt(lsq, std::move(th), kMaxIterations);
 }
 
 estimate log_estimate(double chart, double sd, double unit, double max_ratio) {
@@ -518,26 +489,9 @@ response_fit fit_response(const order_table& table, const response_parts& parts,
   f.dof = static_cast<std::size_t>(r.size()) > parameters ? static_cast<std::size_t>(r.size()) - parameters : 1;
   const double ratio = f.chi2 / static_cast<double>(f.dof);
   const double scale = std::max(1.0, ratio);
-  // Columns scaled to unit norm first: the coordinates (logarithms, angles) and the amplitudes
-  // (metres) differ by ~1e6 in their columns' sizes, which would hide every direction's scale.
-  Eigen::VectorXd norm = jf.colwise().norm().transpose();
-  for (Eigen::Index k = 0; k < norm.size(); ++k)
-    if (!(norm(k) > 0.0)) norm(k) = 1.0;
-  const Eigen::MatrixXd js = jf * norm.cwiseInverse().asDiagonal();
-  Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(js.transpose() * js);
-  const double largest = eig.eigenvalues().maxCoeff();
-  const Eigen::MatrixXd& v = eig.eigenvectors();
-  Eigen::MatrixXd cov = Eigen::MatrixXd::Zero(static_cast<Eigen::Index>(parameters), static_cast<Eigen::Index>(parameters));
-  std::vector<bool> unbounded(parameters, false);
-  for (Eigen::Index i = 0; i < eig.eigenvalues().size(); ++i) {
-    if (!(eig.eigenvalues()(i) > 1e-12 * largest)) {
-      for (std::size_t k = 0; k < parameters; ++k)
-        if (std::abs(v(static_cast<Eigen::Index>(k), i)) > 1e-6) unbounded[k] = true;
-      continue;
-    }
-    cov += scale / eig.eigenvalues()(i) * v.col(i) * v.col(i).transpose();
-  }
-  cov = norm.cwiseInverse().asDiagonal() * cov * norm.cwiseInverse().asDiagonal();
+  const coordinate_covariance cc = covariance_of(jf, scale);
+  const Eigen::MatrixXd& cov = cc.cov;
+  const std::vector<bool>& unbounded = cc.unbounded;
   const auto sd = [&](std::size_t k) {
     return unbounded[k] ? std::numeric_limits<double>::infinity() : std::sqrt(std::max(0.0, cov(static_cast<Eigen::Index>(k), static_cast<Eigen::Index>(k))));
   };
