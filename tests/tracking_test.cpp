@@ -13,6 +13,7 @@
 #include "ref/rig/rig.hpp"
 #include "ref/tracking/order_tracking.hpp"
 #include "ref/tracking/response_fit.hpp"
+#include "ref/tracking/rub_fit.hpp"
 #include "ref/tracking/tracking_loop.hpp"
 
 namespace rubref {
@@ -269,6 +270,34 @@ TEST(TrackingLoop, AMisalignmentIsNamedFromTheTwoXColumnsOfARigRunUp) {
   // 2 %: the critical speeds' own 0.5 % (as above) at 2X, where the forced response is steep.
   expect_within(r.two_x->with.force_over_m, 0.5 / req.params.m, 0.02, "F2/m");
   expect_within(r.two_x->with.runout_m[0], 1e-6, 0.05, "x 2X runout");
+}
+
+// A rub run-up: the rig's rotor touches a stator 50 µm above its centre near its critical speeds
+// (the contact-free peak is ~80 µm), under the piecewise-linear law with friction, run up with
+// each speed starting where the last ended.
+TEST(RubFit, ARigRubRunUpIsFittedWithItsClearance) {
+  rig_request req;
+  req.variant = "piecewise-linear";
+  req.params = anisotropic_rotor();
+  req.params.delta = 50e-6;
+  req.speeds_rpm.clear();
+  for (double rpm = 1000.0; rpm <= 2200.0; rpm += 25.0) req.speeds_rpm.push_back(rpm);
+  req.settle_revs = 60;
+  req.carry_over = true;
+  const order_table table = track_orders(run_rig(req).measurement, "rig");
+  response_parts parts;
+  parts.anisotropy = true;
+  const response_fit linear = fit_response(table, parts);
+  std::cerr << "linear chi2/dof " << linear.chi2 / linear.dof << "\n";
+  rub_fit_options o;
+  o.noise_m = linear.noise_m;
+  const rub_fit rub = fit_rub(table, linear, o);
+  std::cerr << "rub chi2/dof " << rub.chi2 / rub.dof << " delta " << rub.clearance_m.value << " [" << rub.clearance_m.lo << "," << rub.clearance_m.hi << "] k1/m "
+            << rub.contact_stiffness_over_m.value << " mu " << rub.friction.value << " [" << rub.friction.lo << "," << rub.friction.hi << "] contact rows " << rub.rows_in_contact
+            << " " << rub.contact_from_rpm << "-" << rub.contact_to_rpm << " evals " << rub.evaluations << " shots " << rub.shots << " notper " << rub.rows_not_periodic << "\n";
+  for (const auto& m : rub.modes) std::cerr << m.critical_speed_rpm.value << " " << m.damping_ratio.value << "\n";
+  std::cerr << "truth k1/m " << req.params.k1 / req.params.m << " crit " << critical_rpm(req.params.k_x, req.params.m) << " " << critical_rpm(req.params.k_y, req.params.m) << "\n";
+  expect_within(rub.clearance_m, 50e-6, 0.02, "clearance");
 }
 
 }  // namespace

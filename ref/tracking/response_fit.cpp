@@ -82,12 +82,11 @@ double row_scatter(const std::vector<cplx>& v) {
   return clipped_scale(std::move(d)) / std::sqrt(6.0);
 }
 
-// The fit's coordinates. Every fit's full set, in this order: ln w_x, ln w_y, ln z_x, ln z_y, the
-// probe angle beta (rad), k_xy/m and k_yx/m over w_x w_y. A fit moves the
-// ones its parts free: an isotropic rotor ties y's to x's; beta moves only for an anisotropic
-// rotor read by one probe without a declared angle (an isotropic rotor reads the same at every
-// angle, up to the unbalance's phase); the cross-coupling only when it is a part.
-enum slot : std::size_t { ln_wx, ln_wy, ln_zx, ln_zy, probe_beta, k_xy, k_yx, kSlots };
+// The fit's coordinates (response_slots). A fit moves the ones its parts free: an isotropic rotor
+// ties y's to x's; beta moves only for an anisotropic rotor read by one probe without a declared
+// angle (an isotropic rotor reads the same at every angle, up to the unbalance's phase); the
+// cross-coupling only when it is a part.
+using namespace response_slots;
 
 // What the model's reading needs of the coordinates (the full slots) and one probe's angle,
 // formed once per probe and evaluation, not per row.
@@ -225,13 +224,6 @@ std::vector<double> levenberg_marquardt(problem& pr, std::vector<double> th) {
   return rubref::levenberg_marquardt(lsq, std::move(th), kMaxIterations);
 }
 
-estimate log_estimate(double chart, double sd, double unit, double max_ratio) {
-  estimate e;
-  e.value = std::exp(chart) / unit;
-  e.lo = std::exp(chart - kZ95 * sd) / unit, e.hi = std::exp(chart + kZ95 * sd) / unit;
-  e.determined = std::isfinite(sd) && e.hi / e.lo < max_ratio;
-  return e;
-}
 
 // |c| and arg c (degrees) of a complex amplitude with its covariance (re, im).
 std::pair<estimate, estimate> polar_estimate(cplx c, const Eigen::Matrix2d& cov) {
@@ -252,6 +244,14 @@ std::pair<estimate, estimate> polar_estimate(cplx c, const Eigen::Matrix2d& cov)
 }
 
 }  // namespace
+
+estimate log_estimate(double chart, double sd, double unit, double max_ratio) {
+  estimate e;
+  e.value = std::exp(chart) / unit;
+  e.lo = std::exp(chart - kZ95 * sd) / unit, e.hi = std::exp(chart + kZ95 * sd) / unit;
+  e.determined = std::isfinite(sd) && e.hi / e.lo < max_ratio;
+  return e;
+}
 
 std::pair<estimate, estimate> polar_estimate(std::complex<double> c, double var_re, double var_im, double cov_re_im) {
   Eigen::Matrix2d cov;

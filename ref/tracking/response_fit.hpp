@@ -23,6 +23,12 @@
 
 namespace rubref {
 
+// The layout of response_fit::theta, every fit's full set: ln w_x, ln w_y (rad/s), ln z_x, ln z_y,
+// the probe angle beta (rad), k_xy/m and k_yx/m in units of w_x w_y.
+namespace response_slots {
+enum : std::size_t { ln_wx, ln_wy, ln_zx, ln_zy, probe_beta, k_xy, k_yx, kSlots };
+}
+
 // Which parts beyond the base (an isotropic rotor: one critical speed and damping ratio; the
 // unbalance; each probe's runout) a fit carries.
 struct response_parts {
@@ -76,7 +82,7 @@ struct response_fit {
   std::vector<std::vector<std::complex<double>>> model, residual;
 
   // The fit itself, in its own chart, for response_at, a refit or a fold: the nonlinear
-  // coordinates and the complex amplitudes (e e^{j phi}, each probe's R, B).
+  // coordinates (response_slots) and the complex amplitudes (e e^{j phi}, each probe's R, B).
   std::vector<double> theta;
   std::vector<std::complex<double>> amplitudes;
   std::vector<std::size_t> rows;  // the rows fitted
@@ -116,6 +122,9 @@ std::vector<double> residual_noise(const response_fit& fit);
 // outliers (a median-based scale, clipped at 3 of itself); and the row-to-row scatter of a
 // sequence of complex vectors in speed order (row_scatter_noise's, for one column).
 double robust_scale(std::vector<double> magnitudes);
+// A quantity fitted as its logarithm `chart` with standard deviation sd: exp(chart) / unit with
+// the 95 % interval exp(chart +- 1.96 sd) / unit, determined when that spans less than max_ratio.
+estimate log_estimate(double chart, double sd, double unit, double max_ratio);
 // |c| (with the 95 % interval of the amplitude and "determined" when it excludes 0) and arg c in
 // degrees (determined when within +-45 degrees), from the covariance of (Re c, Im c).
 std::pair<estimate, estimate> polar_estimate(std::complex<double> c, double var_re, double var_im, double cov_re_im);

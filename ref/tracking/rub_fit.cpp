@@ -1,0 +1,442 @@
+#include "ref/tracking/rub_fit.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numbers>
+#include <optional>
+
+#include <Eigen/Dense>
+#include <boost/math/distributions/chi_squared.hpp>
+
+#include "ref/base/errors.hpp"
+#include "ref/integrate/shooting.hpp"
+#include "ref/model/rotor_model.hpp"
+#include "ref/tracking/least_squares.hpp"
+#include "variants/identified.hpp"
+
+namespace rubref {
+
+namespace {
+
+using cplx = std::complex<double>;
+using state6 = std::array<double, 6>;
+using model = rotor_with_effects<identified>;  // k3 = c2 = 0: the piecewise-linear law k1 z with the effects' terms
+using namespace response_slots;
+constexpr double kPi = std::numbers::pi;
+constexpr double kRpmToRadS = 2.0 * kPi / 60.0;
+constexpr double kZ95 = 1.959963984540054;
+
+// The rub fit's coordinates beyond the response fit's: the unbalance and the bow (over a
+// reference size, so every coordinate is of order 1 for the finite differences), ln delta,
+// ln (k1/m), mu.
+enum rub_slot : std::size_t { re_a = kSlots, im_a, re_b, im_b, ln_delta, ln_kappa, friction_mu, kRubSlots };
+
+// One period read at this many samples: a contact's harmonics above the 127th would alias onto the
+// 1X and 2X, and a stiff contact's fall far below the noise by then.
+constexpr std::size_t kReadSamples = 256;
+// Revolutions a speed settles from the previous speed's orbit when Newton finds no stable orbit
+// from it (a run-up's jump off a fold): the slowest free decay rate z w of a lightly damped rotor
+// (z = 0.005 at 1000 rpm: 0.5 /s) would need more; the settled state only starts Newton again.
+constexpr int kSettleRevs = 60;
+constexpr int kShootIterations = 16;
+constexpr int kMaxIterations = 40;
+// The starts: the clearance as a share of the contact-free fit's largest vertical amplitude (the
+// rub flattens the peak, which the linear fit followed), the contact stiffness per unit mass in
+// units of the lower critical speed squared (a stator 5.5 and 17 times stiffer than the
+// supports), the friction in the middle of metals' range; the best two by their residual fitted.
+constexpr double kClearanceShares[] = {0.5, 0.7, 0.9};
+constexpr double kStiffnessRatios[] = {30.0, 300.0};
+constexpr double kFrictionStart = 0.1;
+constexpr std::size_t kFittedStarts = 2;
+// Bounds: the clearance within 5 % and twice the contact-free peak (beyond it nothing touches), the
+// stiffness from the supports' to 1e4 times them (stiffer only costs steps and reads alike), mu in [0, 1].
+constexpr double kClearanceLo = 0.05, kClearanceHi = 2.0;
+constexpr double kStiffnessHi = 1e4;
+
+struct row_orbit {
+  cplx x1{}, y1{}, x2{}, y2{};
+  bool contact = false, periodic = true;
+  std::optional<state6> state;  // the orbit's state at t = 0 (shot rows): the next speed's start
+};
+
+struct sample_recorder {
+  std::vector<state6>* out;
+  template <class System>
+  void on_sample(double, const state6& s, const System&) {
+    out->push_back(s);
+  }
+  void on_event(const basic_contact_event<state6>&) {}
+};
+
+integration_options read_integration() {
+  integration_options opt;
+  opt.stepper.kind = stepper_kind::rkf78;
+  opt.stepper.rtol = 1e-12, opt.stepper.atol = 1e-16;  // as the shooting's own (ref/integrate/shooting.hpp)
+  opt.max_steps = 1000000;
+  return opt;
+}
+
+struct rub_problem {
+  const order_table& table;
+  response_parts parts;
+  std::vector<std::size_t> orders;  // the 1X column of each probe
+  std::vector<double> beta;         // each probe's declared angle
+  std::vector<double> sigma;
+  std::vector<std::size_t> rows;    // fitted
+  std::vector<std::size_t> free;
+  double w_lo = 1.0, w_hi = 1.0, ref_m = 1.0, peak_m = 1.0;
+  int evaluations = 0;
+  std::size_t shots = 0;
+
+  void lay_out() {
+    free = {ln_wx, ln_zx};
+    if (parts.anisotropy) free.push_back(ln_wy), free.push_back(ln_zy);
+    if (parts.cross_coupling) free.push_back(k_xy), free.push_back(k_yx);
+    free.push_back(re_a), free.push_back(im_a);
+    if (parts.shaft_bow) free.push_back(re_b), free.push_back(im_b);
+    free.push_back(ln_delta), free.push_back(ln_kappa), free.push_back(friction_mu);
+  }
+  std::vector<double> full(const std::vector<double>& q, std::vector<double> f) const {
+    for (std::size_t k = 0; k < free.size(); ++k) f[free[k]] = q[k];
+    if (!parts.anisotropy) f[ln_wy] = f[ln_wx], f[ln_zy] = f[ln_zx];
+    return f;
+  }
+  std::vector<double> reduce(const std::vector<double>& f) const {
+    std::vector<double> q(free.size());
+    for (std::size_t k = 0; k < free.size(); ++k) q[k] = f[free[k]];
+    return q;
+  }
+  std::vector<double> base;  // the full vector the free coordinates are laid into (fixed slots: 0)
+  std::vector<double> clamp(std::vector<double> q) const {
+    std::vector<double> f = full(q, base);
+    for (const std::size_t k : {ln_wx, ln_wy}) f[k] = std::clamp(f[k], std::log(w_lo), std::log(w_hi));
+    for (const std::size_t k : {ln_zx, ln_zy}) f[k] = std::clamp(f[k], std::log(1e-4), std::log(2.0));
+    for (const std::size_t k : {k_xy, k_yx}) f[k] = std::clamp(f[k], -0.5, 0.5);
+    f[ln_delta] = std::clamp(f[ln_delta], std::log(kClearanceLo * peak_m), std::log(kClearanceHi * peak_m));
+    const double w2 = std::exp(2.0 * f[ln_wx]);
+    f[ln_kappa] = std::clamp(f[ln_kappa], std::log(w2), std::log(kStiffnessHi * w_hi * w_hi));
+    f[friction_mu] = std::clamp(f[friction_mu], 0.0, 1.0);
+    return reduce(f);
+  }
+
+  // The contact-free 1X displacement (X, Y) at speed w (the equation of response_fit.hpp).
+  std::pair<cplx, cplx> linear_xy(const std::vector<double>& f, double w) const {
+    const double wx = std::exp(f[ln_wx]), wy = std::exp(f[ln_wy]), zx = std::exp(f[ln_zx]), zy = std::exp(f[ln_zy]);
+    const double kxy = f[k_xy] * wx * wy, kyx = f[k_yx] * wx * wy;
+    const cplx j(0.0, 1.0), a = cplx(f[re_a], f[im_a]) * ref_m, b = parts.shaft_bow ? cplx(f[re_b], f[im_b]) * ref_m : cplx(0.0);
+    const cplx fx = a * w * w + b * wx * wx, fy = -j * (a * w * w + b * wy * wy);
+    const cplx dxx(wx * wx - w * w, 2.0 * zx * wx * w), dyy(wy * wy - w * w, 2.0 * zy * wy * w), det = dxx * dyy - kxy * kyx;
+    return {(dyy * fx - kxy * fy) / det, (dxx * fy - kyx * fx) / det};
+  }
+
+  // The model per unit mass at coordinates f.
+  std::pair<parameters, effect_parameters> rotor(const std::vector<double>& f) const {
+    parameters p;
+    const double wx = std::exp(f[ln_wx]), wy = std::exp(f[ln_wy]);
+    p.m = 1.0, p.k_x = wx * wx, p.k_y = wy * wy, p.c_x = 2.0 * std::exp(f[ln_zx]) * wx, p.c_y = 2.0 * std::exp(f[ln_zy]) * wy;
+    const cplx a = cplx(f[re_a], f[im_a]) * ref_m;
+    p.e = std::abs(a), p.unbalance_phase = std::arg(a);
+    p.delta = std::exp(f[ln_delta]), p.k1 = std::exp(f[ln_kappa]), p.k3 = 0.0, p.c2 = 0.0, p.mu = f[friction_mu];
+    effect_parameters fx;
+    if (parts.shaft_bow) {
+      const cplx b = cplx(f[re_b], f[im_b]) * ref_m;
+      fx.bow = std::abs(b), fx.bow_phase = std::arg(b);
+    }
+    fx.k_xy = f[k_xy] * wx * wy, fx.k_yx = f[k_yx] * wx * wy;
+    return {p, fx};
+  }
+
+  // Every row's steady orbit, in rising speed: closed form while the contact-free response stays
+  // inside the clearance and the previous speed did not touch; else shot from `warm`'s orbit at
+  // that row (a finite difference stays on the branch its base point followed), the previous
+  // speed's, or the contact-free response; where Newton finds no stable orbit, settled from
+  // there and shot again; where it still finds none, a transient's last revolution, counted.
+  // A failed integration is a numerical_error: the point is rejected, never read.
+  std::vector<row_orbit> orbits(const std::vector<double>& f, const std::vector<row_orbit>* warm) {
+    ++evaluations;
+    const auto [p, fx] = rotor(f);
+    std::vector<row_orbit> out(table.rows());
+    const integration_options opt = read_integration();
+    shooting_settings set;
+    set.max_iterations = kShootIterations;
+    bool previous_contact = false;
+    for (std::size_t i = 0; i < table.rows(); ++i) {
+      const double w = table.rpm[i] * kRpmToRadS;
+      const auto [x, y] = linear_xy(f, w);
+      row_orbit& o = out[i];
+      const bool warm_shot = warm && (*warm)[i].state;
+      if (!warm_shot && !previous_contact && std::abs(y) <= p.delta) {
+        o.x1 = x, o.y1 = y;
+        continue;
+      }
+      const model sys(p, fx, w);
+      const cplx j(0.0, 1.0);
+      state6 guess{x.real(), y.real(), (j * w * x).real(), (j * w * y).real(), 0.0, 0.0};
+      if (warm_shot) guess = *(*warm)[i].state;
+      else if (i > 0 && out[i - 1].state) guess = *out[i - 1].state;
+      const double period = sys.period();
+      const auto shoot = [&](const state6& g) -> std::optional<state6> {
+        ++shots;
+        const auto orbit = shoot_periodic_orbit(sys, g, 0.0, 1, set);
+        if (orbit.stable()) return orbit.state;
+        return std::nullopt;
+      };
+      std::optional<state6> on = shoot(guess);
+      state6 start = guess;
+      if (!on) {
+        null_observer none;
+        start = integrate_hybrid(sys, start_state(sys, guess, 0.0), kSettleRevs * period, opt, sample_grid{}, none).s;
+        on = shoot(start);
+      }
+      o.periodic = on.has_value();
+      if (on) o.state = *on;
+      std::vector<state6> samples;
+      sample_recorder rec{&samples};
+      const auto end = integrate_hybrid(sys, start_state(sys, on ? *on : start, 0.0), period, opt,
+                                        sample_grid(0.0, period / static_cast<double>(kReadSamples), kReadSamples), rec);
+      (void)end;
+      if (samples.size() != kReadSamples) throw numerical_error("rub fit: a period read " + std::to_string(samples.size()) + " samples");
+      double top = -std::numeric_limits<double>::infinity();
+      for (std::size_t k = 0; k < kReadSamples; ++k) {
+        const double t = period * static_cast<double>(k) / static_cast<double>(kReadSamples);
+        const cplx e1 = std::polar(2.0 / kReadSamples, -w * t), e2 = std::polar(2.0 / kReadSamples, -2.0 * w * t);
+        o.x1 += samples[k][0] * e1, o.y1 += samples[k][1] * e1, o.x2 += samples[k][0] * e2, o.y2 += samples[k][1] * e2;
+        top = std::max(top, samples[k][1]);
+      }
+      o.contact = top > p.delta;
+      previous_contact = o.contact;
+    }
+    return out;
+  }
+
+  // Weighted residuals (re, im per probe and row) at coordinates q; each probe's runout solved
+  // (the mean of data minus model over the fitted rows) or given.
+  Eigen::VectorXd residuals(const std::vector<double>& q, const std::vector<row_orbit>* warm, std::vector<row_orbit>* read, std::vector<cplx>& runout,
+                            const std::vector<cplx>* fixed) {
+    std::vector<row_orbit> o;
+    try {
+      o = orbits(full(q, base), warm);
+    } catch (const numerical_error&) {
+      return Eigen::VectorXd::Constant(static_cast<Eigen::Index>(2 * rows.size() * orders.size()), std::numeric_limits<double>::infinity());
+    }
+    Eigen::VectorXd r(static_cast<Eigen::Index>(2 * rows.size() * orders.size()));
+    runout.assign(orders.size(), 0.0);
+    for (std::size_t p = 0; p < orders.size(); ++p) {
+      const auto reading = [&](std::size_t i) { return std::cos(beta[p]) * o[i].x1 + std::sin(beta[p]) * o[i].y1; };
+      if (fixed) {
+        runout[p] = (*fixed)[p];
+      } else {
+        for (const std::size_t i : rows) runout[p] += table.orders[orders[p]].vector[i] - reading(i);
+        runout[p] /= static_cast<double>(rows.size());
+      }
+      for (std::size_t k = 0; k < rows.size(); ++k) {
+        const cplx e = (table.orders[orders[p]].vector[rows[k]] - reading(rows[k]) - runout[p]) / sigma[p];
+        const auto at = static_cast<Eigen::Index>(2 * (p * rows.size() + k));
+        r(at) = e.real(), r(at + 1) = e.imag();
+      }
+    }
+    if (read) *read = std::move(o);
+    return r;
+  }
+
+  Eigen::MatrixXd jacobian(const std::vector<double>& q, const Eigen::VectorXd& r0, const std::vector<row_orbit>& at, const std::vector<cplx>* fixed) {
+    Eigen::MatrixXd j(r0.size(), static_cast<Eigen::Index>(q.size()));
+    std::vector<cplx> runout;
+    for (std::size_t k = 0; k < q.size(); ++k) {
+      std::vector<double> t = q;
+      const double h = 1e-5 * std::max(1.0, std::abs(q[k]));
+      t[k] += h;
+      j.col(static_cast<Eigen::Index>(k)) = (residuals(t, &at, nullptr, runout, fixed) - r0) / h;
+    }
+    return j;
+  }
+};
+
+}  // namespace
+
+rub_fit fit_rub(const order_table& table, const response_fit& linear, const rub_fit_options& options) {
+  if (linear.probes.empty() || linear.theta.empty()) throw input_error("fit_rub: the 1X fit it starts from has no probes");
+  rub_problem pr{table, linear.parts, {}, {}, {}, options.rows, {}, 1.0, 1.0, 1.0, 1.0, 0, 0, {}};
+  for (std::size_t p = 0; p < linear.probes.size(); ++p) {
+    if (linear.probe_angle_fitted[p] || !(linear.probe_angle_deg[p].hi - linear.probe_angle_deg[p].lo < 1e-9))
+      throw input_error(table.source + ": the rub fit needs every probe's angle declared (the stator is at +y of those angles)");
+    const auto at = std::find_if(table.orders.begin(), table.orders.end(), [&](const tracked_order& o) { return o.order == 1 && o.probe == linear.probes[p]; });
+    pr.orders.push_back(static_cast<std::size_t>(at - table.orders.begin()));
+    pr.beta.push_back(linear.probe_angle_deg[p].value * kPi / 180.0);
+  }
+  pr.sigma = options.noise_m.empty() ? linear.noise_m : options.noise_m;
+  if (pr.rows.empty())
+    for (std::size_t i = 0; i < table.rows(); ++i) pr.rows.push_back(i);
+  double lo = std::numeric_limits<double>::infinity(), hi = 0.0;
+  for (const std::size_t i : pr.rows) lo = std::min(lo, table.rpm[i]), hi = std::max(hi, table.rpm[i]);
+  pr.w_lo = lo * kRpmToRadS, pr.w_hi = hi * kRpmToRadS;
+  pr.lay_out();
+
+  // The start: the linear fit's coordinates and amplitudes; its largest vertical amplitude over
+  // the table's speeds sets the clearance's scale.
+  std::vector<double> f0(kRubSlots, 0.0);
+  for (std::size_t k = 0; k < kSlots; ++k) f0[k] = linear.theta[k];
+  pr.ref_m = std::max(std::abs(linear.amplitudes[0]), 1e-12);
+  f0[re_a] = linear.amplitudes[0].real() / pr.ref_m, f0[im_a] = linear.amplitudes[0].imag() / pr.ref_m;
+  if (linear.parts.shaft_bow) f0[re_b] = linear.amplitudes.back().real() / pr.ref_m, f0[im_b] = linear.amplitudes.back().imag() / pr.ref_m;
+  pr.base = f0;
+  double peak = 0.0;
+  for (std::size_t i = 0; i < table.rows(); ++i) peak = std::max(peak, std::abs(pr.linear_xy(f0, table.rpm[i] * kRpmToRadS).second));
+  pr.peak_m = peak;
+  if (!(peak > 0.0)) throw numerical_error(table.source + ": the 1X fit it starts from has no vertical response");
+
+  const auto cost_of = [&](const std::vector<double>& q) {
+    std::vector<cplx> runout;
+    const double c = pr.residuals(q, nullptr, nullptr, runout, nullptr).squaredNorm();
+    return std::isfinite(c) ? c : std::numeric_limits<double>::infinity();
+  };
+  std::vector<std::vector<double>> from;
+  if (options.start) {
+    pr.base = options.start->q;
+    from.push_back(pr.clamp(pr.reduce(options.start->q)));
+  } else {
+    std::vector<std::pair<double, std::vector<double>>> starts;
+    for (const double share : kClearanceShares)
+      for (const double ratio : kStiffnessRatios) {
+        std::vector<double> f = f0;
+        f[ln_delta] = std::log(share * peak), f[ln_kappa] = std::log(ratio) + 2.0 * f0[ln_wx], f[friction_mu] = kFrictionStart;
+        const std::vector<double> q = pr.clamp(pr.reduce(f));
+        starts.emplace_back(cost_of(q), q);
+      }
+    std::stable_sort(starts.begin(), starts.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+    for (std::size_t i = 0; i < std::min(kFittedStarts, starts.size()); ++i) from.push_back(starts[i].second);
+  }
+
+  // Levenberg-Marquardt; each Jacobian's finite differences start every row from the orbits of
+  // the point they differ from.
+  std::vector<row_orbit> at;
+  std::vector<cplx> runout;
+  const least_squares_problem lsq{[&](const std::vector<double>& q) { return pr.residuals(q, nullptr, &at, runout, nullptr); },
+                                  [&](const std::vector<double>& q, const Eigen::VectorXd& r) {
+                                    std::vector<row_orbit> here;
+                                    std::vector<cplx> ignored;
+                                    (void)pr.residuals(q, nullptr, &here, ignored, nullptr);
+                                    return pr.jacobian(q, r, here, nullptr);
+                                  },
+                                  [&](std::vector<double> q) { return pr.clamp(std::move(q)); }};
+  std::vector<double> best_q;
+  double best_cost = std::numeric_limits<double>::infinity();
+  for (const auto& q0 : from) {
+    const std::vector<double> q = levenberg_marquardt(lsq, q0, kMaxIterations);
+    const double c = cost_of(q);
+    if (c < best_cost) best_cost = c, best_q = q;
+  }
+  if (!std::isfinite(best_cost)) throw numerical_error(table.source + ": the rub fit found no point whose every orbit could be computed");
+
+  // The fit's orbits, its runouts, and the covariance of every coordinate and runout (re, im).
+  std::vector<row_orbit> orbits;
+  const Eigen::VectorXd r = pr.residuals(best_q, nullptr, &orbits, runout, nullptr);
+  const std::size_t n = best_q.size(), probes = pr.orders.size();
+  Eigen::MatrixXd jf = Eigen::MatrixXd::Zero(r.size(), static_cast<Eigen::Index>(n + 2 * probes));
+  jf.leftCols(static_cast<Eigen::Index>(n)) = pr.jacobian(best_q, r, orbits, &runout);
+  for (std::size_t p = 0; p < probes; ++p)
+    for (std::size_t k = 0; k < pr.rows.size(); ++k) {
+      const auto row = static_cast<Eigen::Index>(2 * (p * pr.rows.size() + k));
+      jf(row, static_cast<Eigen::Index>(n + 2 * p)) = -1.0 / pr.sigma[p], jf(row + 1, static_cast<Eigen::Index>(n + 2 * p + 1)) = -1.0 / pr.sigma[p];
+    }
+  rub_fit f;
+  f.parts = linear.parts;
+  f.chi2 = r.squaredNorm();
+  f.parameters = n + 2 * probes;
+  f.dof = static_cast<std::size_t>(r.size()) > f.parameters ? static_cast<std::size_t>(r.size()) - f.parameters : 1;
+  const double ratio = f.chi2 / static_cast<double>(f.dof);
+  const coordinate_covariance cc = covariance_of(jf, std::max(1.0, ratio));
+  const auto sd = [&](std::size_t k) {
+    return cc.unbounded[k] ? std::numeric_limits<double>::infinity() : std::sqrt(std::max(0.0, cc.cov(static_cast<Eigen::Index>(k), static_cast<Eigen::Index>(k))));
+  };
+  const auto index_of = [&](std::size_t slot) {
+    if (!pr.parts.anisotropy && slot == ln_wy) slot = ln_wx;
+    if (!pr.parts.anisotropy && slot == ln_zy) slot = ln_zx;
+    return static_cast<std::size_t>(std::find(pr.free.begin(), pr.free.end(), slot) - pr.free.begin());
+  };
+  const auto sd_of = [&](std::size_t slot) { return sd(index_of(slot)); };
+  const auto polar_of = [&](std::size_t k, double unit) {
+    const auto i = static_cast<Eigen::Index>(k);
+    const double inf = std::numeric_limits<double>::infinity();
+    if (cc.unbounded[k] || cc.unbounded[k + 1]) return polar_estimate(cplx(best_q[k], best_q[k + 1]) * unit, inf, inf, inf);
+    return polar_estimate(cplx(best_q[k], best_q[k + 1]) * unit, cc.cov(i, i) * unit * unit, cc.cov(i + 1, i + 1) * unit * unit, cc.cov(i, i + 1) * unit * unit);
+  };
+  const std::vector<double> best = pr.full(best_q, pr.base);
+  for (int m = 0; m < (pr.parts.anisotropy ? 2 : 1); ++m) {
+    const std::size_t w_slot = m == 0 ? ln_wx : ln_wy, z_slot = m == 0 ? ln_zx : ln_zy;
+    response_mode mode;
+    mode.axis = !pr.parts.anisotropy ? "both" : (m == 0 ? "x" : "y");
+    mode.critical_speed_rpm = log_estimate(best[w_slot], sd_of(w_slot), kRpmToRadS, 4.0);
+    mode.damping_ratio = log_estimate(best[z_slot], sd_of(z_slot), 1.0, 4.0);
+    mode.at_edge = best[w_slot] <= std::log(pr.w_lo) + 1e-9 || best[w_slot] >= std::log(pr.w_hi) - 1e-9;
+    if (mode.at_edge) mode.critical_speed_rpm.determined = mode.damping_ratio.determined = false;
+    f.modes.push_back(mode);
+  }
+  if (f.modes.size() == 2 && f.modes[1].critical_speed_rpm.value < f.modes[0].critical_speed_rpm.value) std::swap(f.modes[0], f.modes[1]);
+  std::tie(f.unbalance_m, f.unbalance_phase_deg) = polar_of(index_of(re_a), pr.ref_m);
+  if (pr.parts.shaft_bow) std::tie(f.bow_m, f.bow_phase_deg) = polar_of(index_of(re_b), pr.ref_m);
+  if (pr.parts.cross_coupling) {
+    const double w2 = std::exp(best[ln_wx] + best[ln_wy]);
+    for (const std::size_t slot : {k_xy, k_yx}) {
+      const double val = best[slot] * w2, s = sd_of(slot) * w2;
+      (slot == k_xy ? f.k_xy_over_m : f.k_yx_over_m) = {val, val - kZ95 * s, val + kZ95 * s, std::isfinite(s) && std::abs(val) > kZ95 * s};
+    }
+  }
+  for (const std::size_t i : pr.rows)
+    if (orbits[i].contact) {
+      if (f.rows_in_contact == 0) f.contact_from_rpm = table.rpm[i];
+      f.contact_to_rpm = table.rpm[i], ++f.rows_in_contact;
+    }
+  for (const std::size_t i : pr.rows) f.rows_not_periodic += orbits[i].periodic ? 0 : 1;
+  // The clearance is determined when its interval spans less than a factor of 4 and some rows
+  // touch; the stiffness's interval says how far the table pins it (a stiff stator reads alike
+  // over decades); the friction is determined when its interval excludes 0.
+  f.clearance_m = log_estimate(best[ln_delta], sd_of(ln_delta), 1.0, 4.0);
+  f.clearance_m.determined = f.clearance_m.determined && f.rows_in_contact > 0;
+  f.contact_stiffness_over_m = log_estimate(best[ln_kappa], sd_of(ln_kappa), 1.0, 4.0);
+  {
+    const double mu = best[friction_mu], s = sd_of(friction_mu);
+    f.friction = {mu, std::max(0.0, mu - kZ95 * s), mu + kZ95 * s, std::isfinite(s) && mu > kZ95 * s};
+  }
+  f.probes = linear.probes;
+  for (std::size_t p = 0; p < probes; ++p) {
+    const auto k = static_cast<Eigen::Index>(n + 2 * p);
+    const double inf = std::numeric_limits<double>::infinity();
+    const bool open = cc.unbounded[n + 2 * p] || cc.unbounded[n + 2 * p + 1];
+    const auto [ra, rp] = polar_estimate(runout[p], open ? inf : cc.cov(k, k), open ? inf : cc.cov(k + 1, k + 1), open ? inf : cc.cov(k, k + 1));
+    f.runout_m.push_back(ra), f.runout_phase_deg.push_back(rp);
+  }
+  f.noise_m = pr.sigma;
+  const double chi2_bound = boost::math::quantile(boost::math::chi_squared(static_cast<double>(f.dof)), 0.999) / static_cast<double>(f.dof) - 1.0;
+  f.chi2_bound = 1.0 + std::hypot(chi2_bound, 3.29 * 2.0 * options.noise_relative_error);
+  f.consistent_with_noise = ratio <= f.chi2_bound;
+  double sum2 = 0.0;
+  f.model.assign(probes, {}), f.residual.assign(probes, {}), f.model_2x.assign(probes, {});
+  for (std::size_t p = 0; p < probes; ++p)
+    for (std::size_t i = 0; i < table.rows(); ++i) {
+      const double c = std::cos(pr.beta[p]), s = std::sin(pr.beta[p]);
+      f.model[p].push_back(c * orbits[i].x1 + s * orbits[i].y1 + runout[p]);
+      f.residual[p].push_back(table.orders[pr.orders[p]].vector[i] - f.model[p].back());
+      f.model_2x[p].push_back(c * orbits[i].x2 + s * orbits[i].y2);
+    }
+  for (std::size_t p = 0; p < probes; ++p)
+    for (const std::size_t i : pr.rows) sum2 += std::norm(f.residual[p][i]);
+  f.rms_residual_m = std::sqrt(sum2 / static_cast<double>(2 * probes * pr.rows.size()));
+  f.q = best;
+  f.rows = pr.rows;
+  f.evaluations = pr.evaluations;
+  f.shots = pr.shots;
+  return f;
+}
+
+response_fit linear_part(const response_fit& linear, const rub_fit& rub) {
+  response_fit out = linear;
+  for (std::size_t k = 0; k < kSlots; ++k) out.theta[k] = rub.q[k];
+  out.amplitudes[0] = std::polar(rub.unbalance_m.value, rub.unbalance_phase_deg.value * kPi / 180.0);
+  if (linear.parts.shaft_bow) out.amplitudes.back() = std::polar(rub.bow_m.value, rub.bow_phase_deg.value * kPi / 180.0);
+  for (std::size_t p = 0; p < rub.runout_m.size(); ++p) out.amplitudes[1 + p] = std::polar(rub.runout_m[p].value, rub.runout_phase_deg[p].value * kPi / 180.0);
+  return out;
+}
+
+}  // namespace rubref
