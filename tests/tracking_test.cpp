@@ -273,9 +273,10 @@ TEST(TrackingLoop, AMisalignmentIsNamedFromTheTwoXColumnsOfARigRunUp) {
 }
 
 // A rub run-up: the rig's rotor touches a stator 50 µm above its centre near its critical speeds
-// (the contact-free peak is ~80 µm), under the piecewise-linear law with friction, run up with
-// each speed starting where the last ended.
-TEST(RubFit, ARigRubRunUpIsFittedWithItsClearance) {
+// (the contact-free peak is ~80 µm), under the piecewise-linear law with the paper's friction,
+// run up with each speed starting where the last ended, order tracked by rubref. The loop's rub
+// fit shoots the model's orbit at every speed, following the run-up's branch.
+TEST(TrackingLoop, ARubRunUpIsNamedWithItsClearanceContactStiffnessAndFriction) {
   rig_request req;
   req.variant = "piecewise-linear";
   req.params = anisotropic_rotor();
@@ -285,19 +286,26 @@ TEST(RubFit, ARigRubRunUpIsFittedWithItsClearance) {
   req.settle_revs = 60;
   req.carry_over = true;
   const order_table table = track_orders(run_rig(req).measurement, "rig");
-  response_parts parts;
-  parts.anisotropy = true;
-  const response_fit linear = fit_response(table, parts);
-  std::cerr << "linear chi2/dof " << linear.chi2 / linear.dof << "\n";
-  rub_fit_options o;
-  o.noise_m = linear.noise_m;
-  const rub_fit rub = fit_rub(table, linear, o);
-  std::cerr << "rub chi2/dof " << rub.chi2 / rub.dof << " delta " << rub.clearance_m.value << " [" << rub.clearance_m.lo << "," << rub.clearance_m.hi << "] k1/m "
-            << rub.contact_stiffness_over_m.value << " mu " << rub.friction.value << " [" << rub.friction.lo << "," << rub.friction.hi << "] contact rows " << rub.rows_in_contact
-            << " " << rub.contact_from_rpm << "-" << rub.contact_to_rpm << " evals " << rub.evaluations << " shots " << rub.shots << " notper " << rub.rows_not_periodic << "\n";
-  for (const auto& m : rub.modes) std::cerr << m.critical_speed_rpm.value << " " << m.damping_ratio.value << "\n";
-  std::cerr << "truth k1/m " << req.params.k1 / req.params.m << " crit " << critical_rpm(req.params.k_x, req.params.m) << " " << critical_rpm(req.params.k_y, req.params.m) << "\n";
-  expect_within(rub.clearance_m, 50e-6, 0.02, "clearance");
+  const tracking_result r = run_tracking_loop(table);
+  ASSERT_TRUE(r.rub.has_value()) << trace(r);
+  EXPECT_TRUE(r.rub->named) << trace(r);
+  EXPECT_NE(std::find(r.effects.begin(), r.effects.end(), "rub"), r.effects.end()) << trace(r);
+  EXPECT_NE(std::find(r.effects.begin(), r.effects.end(), "anisotropy"), r.effects.end()) << trace(r);
+  const rub_fit& rub = r.rub->fit;
+  // 0.5 %: as the contact-free run-up's (the rig's quantisation and the tracker's finite dwells);
+  // the rub's own orbits are shot to 1e-12 m.
+  expect_within(rub.clearance_m, 50e-6, 5e-3, "clearance");
+  expect_within(rub.contact_stiffness_over_m, req.params.k1 / req.params.m, 0.02, "k1/m");
+  expect_within(rub.friction, req.params.mu, 0.02, "mu");
+  ASSERT_EQ(rub.modes.size(), 2u);
+  expect_within(rub.modes[0].critical_speed_rpm, critical_rpm(req.params.k_x, req.params.m), 5e-3, "x critical speed");
+  expect_within(rub.modes[1].critical_speed_rpm, critical_rpm(req.params.k_y, req.params.m), 5e-3, "y critical speed");
+  expect_within(rub.modes[0].damping_ratio, damping_ratio(req.params.c_x, req.params.k_x, req.params.m), 0.02, "x damping ratio");
+  EXPECT_LT(r.error_after, 0.05 * r.error_before);
+  // The 2X columns are the rub's own 2X: read from the shot orbits, nothing is left to name.
+  ASSERT_TRUE(r.two_x.has_value());
+  EXPECT_FALSE(r.two_x->named) << r.two_x->verdict;
+  EXPECT_TRUE(r.two_x->after().consistent_with_noise) << r.two_x->verdict;
 }
 
 }  // namespace

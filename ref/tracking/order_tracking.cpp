@@ -16,6 +16,9 @@ order_table track_orders(const record& r, const std::string& source) {
   t.conventions = "tracked by rubref from " + source + ": metres, 0-peak, lead, keyphasor at theta = 0";
   std::vector<dwell> dwells = split_dwells(r, source);
   constexpr int kOrders = 2;
+  // The least squares carry orders up to 8: a rubbing orbit's higher harmonics are not orthogonal
+  // to the 1X over a dwell that is not a whole number of revolutions, and left out they leak into it.
+  constexpr int kFitted = 8;
   for (const char* probe : {"x", "y"})
     for (int k = 1; k <= kOrders; ++k) {
       tracked_order o;
@@ -29,11 +32,11 @@ order_table track_orders(const record& r, const std::string& source) {
     align_by_keyphasor(d, t.notes);
     const double w = d.omega();
     // s(t) = a0 + sum_k (a_k cos k w t + b_k sin k w t) = a0 + sum_k Re((a_k - j b_k) e^{j k w t}).
-    Eigen::MatrixXd basis(static_cast<Eigen::Index>(d.size()), 1 + 2 * kOrders);
+    Eigen::MatrixXd basis(static_cast<Eigen::Index>(d.size()), 1 + 2 * kFitted);
     for (std::size_t i = 0; i < d.size(); ++i) {
       const auto row = static_cast<Eigen::Index>(i);
       basis(row, 0) = 1.0;
-      for (int k = 1; k <= kOrders; ++k) basis(row, 2 * k - 1) = std::cos(k * w * d.t[i]), basis(row, 2 * k) = std::sin(k * w * d.t[i]);
+      for (int k = 1; k <= kFitted; ++k) basis(row, 2 * k - 1) = std::cos(k * w * d.t[i]), basis(row, 2 * k) = std::sin(k * w * d.t[i]);
     }
     const auto qr = basis.colPivHouseholderQr();
     const Eigen::VectorXd cx = qr.solve(Eigen::Map<const Eigen::VectorXd>(d.x.data(), static_cast<Eigen::Index>(d.size())));

@@ -2,7 +2,7 @@
 // Order tracking of a waveform record (docs/real-data.md): each constant-speed dwell of a record
 // (docs/data-format.md) timed by its keyphasor becomes one row of an order-tracked table, its
 // x and y probes' 1X and 2X vectors fitted by least squares to the dwell's samples (a mean and
-// each order's cosine and sine: exact for any sampling, whole revolutions or not). What a rig's
+// each order's cosine and sine up to the 8th: exact for any sampling, whole revolutions or not). What a rig's
 // monitoring system exports, made from rubref's own records: the tests' tables with a known truth.
 
 #include <string>

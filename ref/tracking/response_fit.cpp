@@ -273,21 +273,22 @@ std::vector<double> row_scatter_noise(const order_table& table) {
   return out;
 }
 
-std::vector<double> residual_noise(const response_fit& fit) {
+std::vector<double> residual_noise(const std::vector<std::vector<std::complex<double>>>& residual, const std::vector<std::size_t>& rows, std::size_t parameters) {
   std::vector<double> out;
-  const std::size_t spent = fit.theta.empty() ? 0 : fit.parameters;
-  for (const auto& r : fit.residual) {
+  for (const auto& r : residual) {
     std::vector<double> parts;
-    for (const std::size_t i : fit.rows) parts.push_back(std::abs(r[i].real())), parts.push_back(std::abs(r[i].imag()));
+    for (const std::size_t i : rows) parts.push_back(std::abs(r[i].real())), parts.push_back(std::abs(r[i].imag()));
     if (parts.empty()) {
       out.push_back(0.0);
       continue;
     }
-    const double n = static_cast<double>(parts.size()), per_probe = static_cast<double>(spent) / static_cast<double>(fit.residual.size());
+    const double n = static_cast<double>(parts.size()), per_probe = static_cast<double>(parameters) / static_cast<double>(residual.size());
     out.push_back(clipped_scale(std::move(parts)) * std::sqrt(n / std::max(1.0, n - per_probe)));
   }
   return out;
 }
+
+std::vector<double> residual_noise(const response_fit& fit) { return residual_noise(fit.residual, fit.rows, fit.theta.empty() ? 0 : fit.parameters); }
 
 void check_fittable(const order_table& table) {
   if (std::none_of(table.orders.begin(), table.orders.end(), [](const tracked_order& o) { return o.order == 1; }))

@@ -117,6 +117,9 @@ std::vector<double> row_scatter_noise(const order_table& table);
 // Each probe's noise from a fit's residual over its fitted rows: the same clipped scale, corrected
 // for the coordinates the fit spent. A residual the model does not fit can only inflate it.
 std::vector<double> residual_noise(const response_fit& fit);
+// The same for any fit's residual (per probe and row) over its fitted rows, `parameters` real
+// coordinates spent in all.
+std::vector<double> residual_noise(const std::vector<std::vector<std::complex<double>>>& residual, const std::vector<std::size_t>& rows, std::size_t parameters);
 
 // The standard deviation of Gaussian values from their magnitudes, robust to a minority of
 // outliers (a median-based scale, clipped at 3 of itself); and the row-to-row scatter of a

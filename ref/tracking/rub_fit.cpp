@@ -294,6 +294,7 @@ rub_fit fit_rub(const order_table& table, const response_fit& linear, const rub_
   std::vector<std::vector<double>> from;
   if (options.start) {
     pr.base = options.start->q;
+    pr.ref_m = options.start->ref_m;
     from.push_back(pr.clamp(pr.reduce(options.start->q)));
   } else {
     std::vector<std::pair<double, std::vector<double>>> starts;
@@ -304,6 +305,15 @@ rub_fit fit_rub(const order_table& table, const response_fit& linear, const rub_
         const std::vector<double> q = pr.clamp(pr.reduce(f));
         starts.emplace_back(cost_of(q), q);
       }
+    // A fit of fewer parts, with this fit's extra parts off (equal modes, no bow, no cross-coupling),
+    // its unbalance and bow rescaled to this fit's reference size.
+    for (const rub_fit* smaller : options.also_from) {
+      std::vector<double> f = smaller->q;
+      const double rescale = smaller->ref_m / pr.ref_m;
+      for (const std::size_t k : {re_a, im_a, re_b, im_b}) f[k] *= rescale;
+      const std::vector<double> q = pr.clamp(pr.reduce(f));
+      starts.emplace_back(cost_of(q), q);
+    }
     std::stable_sort(starts.begin(), starts.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
     for (std::size_t i = 0; i < std::min(kFittedStarts, starts.size()); ++i) from.push_back(starts[i].second);
   }
@@ -424,6 +434,7 @@ rub_fit fit_rub(const order_table& table, const response_fit& linear, const rub_
     for (const std::size_t i : pr.rows) sum2 += std::norm(f.residual[p][i]);
   f.rms_residual_m = std::sqrt(sum2 / static_cast<double>(2 * probes * pr.rows.size()));
   f.q = best;
+  f.ref_m = pr.ref_m;
   f.rows = pr.rows;
   f.evaluations = pr.evaluations;
   f.shots = pr.shots;

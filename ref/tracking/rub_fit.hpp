@@ -49,6 +49,7 @@ struct rub_fit {
   std::vector<std::vector<std::complex<double>>> model_2x;         // per probe and row: the orbit's own 2X (0 off contact)
 
   std::vector<double> q;              // the fit's coordinates (for a refit from it)
+  double ref_m = 1.0;                 // the size the unbalance and bow coordinates are in units of
   std::vector<std::size_t> rows;      // the rows fitted
   std::size_t parameters = 0;         // real coordinates spent (runouts included)
   int evaluations = 0;                // evaluations of every row's orbit
@@ -60,6 +61,8 @@ struct rub_fit_options {
   std::vector<double> noise_m;        // per probe
   double noise_relative_error = 0.0;
   const rub_fit* start = nullptr;     // a previous rub fit: start there alone (a fold's refit)
+  // Rub fits of fewer parts (their missing parts off): starts ranked with the grid's.
+  std::vector<const rub_fit*> also_from;
 };
 
 // input_error when a probe's angle was not declared (the stator's direction is then unknown

@@ -33,17 +33,17 @@ constexpr int kBandCount = 50;
 // 110 µm bow against 110 µm of runout and as much unbalance, to read a few µm).
 constexpr double kMaxCancellation = 10.0;
 
-// chi^2 of the rows `rows` of a fit's residual (every probe), with the fit's noise.
-double chi2_of(const response_fit& f, const std::vector<std::size_t>& rows) {
+// chi^2 of the rows `rows` of a fit's residual (per probe and row), with its noise per probe.
+double chi2_of(const std::vector<std::vector<std::complex<double>>>& residual, const std::vector<double>& noise, const std::vector<std::size_t>& rows) {
   double s = 0.0;
-  for (std::size_t p = 0; p < f.residual.size(); ++p)
-    for (const std::size_t i : rows) s += std::norm(f.residual[p][i]) / (f.noise_m[p] * f.noise_m[p]);
+  for (std::size_t p = 0; p < residual.size(); ++p)
+    for (const std::size_t i : rows) s += std::norm(residual[p][i]) / (noise[p] * noise[p]);
   return s;
 }
 
-double bic(const response_fit& f, std::size_t observations) {
-  const std::size_t k = f.theta.size() + 2 * f.amplitudes.size();
-  return f.chi2 + static_cast<double>(k) * std::log(static_cast<double>(observations));
+// BIC with the real coordinates a fit spent (its free nonlinear ones and 2 per amplitude).
+double bic(double chi2, std::size_t parameters, std::size_t observations) {
+  return chi2 + static_cast<double>(parameters) * std::log(static_cast<double>(observations));
 }
 
 std::vector<residual_band> bands_of(const order_table& t, const std::vector<std::vector<std::complex<double>>>& residual, const std::vector<double>& noise,
@@ -109,15 +109,36 @@ std::string estimates_of(const std::string& name, const response_fit& f) {
   return "k_xy/m " + interval_text(f.k_xy_over_m, 1.0, " 1/s^2") + ", k_yx/m " + interval_text(f.k_yx_over_m, 1.0, " 1/s^2");
 }
 
+// A rub fit's plausibility, as a contact-free fit's: its clearance determined (some speed's orbit
+// touches, its 95 % interval within 4x), its modes determined, a bow's interval away from 0, a
+// cross-coupling term away from 0.
+std::string undetermined_rub(const rub_fit& f) {
+  if (f.rows_in_contact == 0) return "no speed's orbit touches";
+  if (!f.clearance_m.determined) return "the clearance's 95 % interval spans more than 4x";
+  for (const auto& m : f.modes)
+    if (!(m.critical_speed_rpm.determined && m.damping_ratio.determined))
+      return "mode " + m.axis + (m.at_edge ? " sits at an edge of the table's speeds" : " is not determined (its 95 % interval spans more than 4x)");
+  if (f.parts.shaft_bow && !f.bow_m.determined) return "the bow's 95 % interval reaches 0";
+  if (f.parts.cross_coupling && !f.k_xy_over_m.determined && !f.k_yx_over_m.determined) return "both cross-coupling terms' 95 % intervals reach 0";
+  return {};
+}
+
+std::string rub_estimates(const rub_fit& f) {
+  return "rub: clearance " + interval_text(f.clearance_m, 1e6, " µm") + ", k1/m " + interval_text(f.contact_stiffness_over_m, 1.0, " 1/s^2") + ", mu " +
+         interval_text(f.friction, 1.0, "") + ", " + std::to_string(f.rows_in_contact) + " rows touch" +
+         (f.rows_in_contact ? " (" + format_fixed(f.contact_from_rpm, 0) + "–" + format_fixed(f.contact_to_rpm, 0) + " rpm)" : "") + ", " +
+         std::to_string(f.shots) + " orbits shot";
+}
+
 // The 2X: each probe's runout alone, then with a misalignment's forced response through the
 // chosen modes, the noise as for the 1X (the smaller of the rows' scatter and a plausible fit's
 // residual scatter), and the misalignment named on the 1X's rules: plausible (its force's
 // interval away from 0, its parts not cancelling), BIC rise above 10, and out of sample on the
 // same folds a gain above 10 and a third of its gain on every row.
-two_x_result judge_two_x(const order_table& table, const response_fit& modes, const std::vector<std::size_t> (&fold)[2],
-                         const std::function<void(const std::string&)>& say) {
+two_x_result judge_two_x(const order_table& table, const response_fit& modes, const std::vector<std::vector<std::complex<double>>>* known,
+                         const std::vector<std::size_t> (&fold)[2], const std::function<void(const std::string&)>& say) {
   two_x_result t;
-  say("2X: runout alone, and with a misalignment's forced response through the chosen modes ...");
+  say("2X: runout" + std::string(known ? " and the rub's own 2X" : "") + " alone, and with a misalignment's forced response through the chosen modes ...");
   std::vector<double> noise = two_x_scatter_noise(table, modes);
   t.noise_scatter_m = noise;
   std::vector<double> error(noise.size(), 1.166 * std::sqrt(1.94 / std::max(1.0, 2.0 * (static_cast<double>(table.rows()) - 2.0))));
@@ -125,6 +146,7 @@ two_x_result judge_two_x(const order_table& table, const response_fit& modes, co
   const auto options = [&](std::vector<std::size_t> rows = {}) {
     two_x_options o;
     o.rows = std::move(rows), o.noise_m = noise, o.noise_relative_error = *std::max_element(error.begin(), error.end());
+    o.known = known;
     return o;
   };
   const auto lower_noise = [&](const two_x_fit& f) {
@@ -225,7 +247,6 @@ tracking_result run_tracking_loop(const order_table& table, const std::function<
 
   // Every combination of the effects (bit k: kEffects[k]), fewer effects first, each from the
   // grid and from the fit of every combination with one effect fewer (the better one kept).
-  constexpr std::array<const char*, 3> kEffects{"anisotropy", "shaft_bow", "cross_coupling"};
   const auto parts_of = [](unsigned mask) {
     response_parts p;
     p.anisotropy = mask & 1u, p.shaft_bow = mask & 2u, p.cross_coupling = mask & 4u;
@@ -279,36 +300,84 @@ tracking_result run_tracking_loop(const order_table& table, const std::function<
   const auto held_out = [&](unsigned mask) {
     if (!held[mask]) {
       std::vector<double> out;
-      for (int k = 0; k < 2 && fold[0].size() >= 8 && fold[1].size() >= 8; ++k)
-        out.push_back(chi2_of(fit_response(table, parts_of(mask), options(&fits[mask], fold[k], fit_starts::given_only)), fold[1 - k]));
+      for (int k = 0; k < 2 && fold[0].size() >= 8 && fold[1].size() >= 8; ++k) {
+        const response_fit part = fit_response(table, parts_of(mask), options(&fits[mask], fold[k], fit_starts::given_only));
+        out.push_back(chi2_of(part.residual, part.noise_m, fold[1 - k]));
+      }
       held[mask] = out;
     }
     return *held[mask];
   };
 
+  // The rub (bit 3), where the best-fitting plausible contact-free model leaves more than noise and
+  // the stator's direction against the probes is known: every combination again with the
+  // paper's contact at the top, each rub fit started from the contact-free fit of its parts.
+  const bool declared = std::all_of(table.orders.begin(), table.orders.end(), [](const tracked_order& o) { return o.order != 1 || o.probe_angle.has_value(); });
+  bool any_noise = false;
+  for (const unsigned mask : masks) any_noise = any_noise || (undetermined_part(fits[mask]).empty() && fits[mask].consistent_with_noise);
+  std::vector<std::optional<rub_fit>> rubs(16);
+  const auto rub_options = [&](std::vector<std::size_t> rows = {}, const rub_fit* start = nullptr) {
+    rub_fit_options o;
+    o.rows = std::move(rows), o.noise_m = noise, o.start = start;
+    o.noise_relative_error = *std::max_element(noise_error.begin(), noise_error.end());
+    return o;
+  };
+  if (declared && !any_noise) {
+    say("rub: every combination with the paper's contact at the top, its orbits shot at every speed ...");
+    for (const unsigned mask : {0u, 1u, 2u, 4u, 3u, 5u, 6u, 7u}) {
+      rub_fit_options o = rub_options();
+      for (unsigned k = 0; k < 3; ++k)
+        if (mask & (1u << k)) o.also_from.push_back(&*rubs[(mask & ~(1u << k)) | 8u]);
+      rubs[mask | 8u] = fit_rub(table, fits[mask], o);
+      masks.push_back(mask | 8u);
+    }
+  }
+  const auto chi2_all = [&](unsigned mask) { return mask & 8u ? rubs[mask]->chi2 : fits[mask].chi2; };
+  const auto parameters_of = [&](unsigned mask) { return mask & 8u ? rubs[mask]->parameters : fits[mask].parameters; };
+  const auto bic_of = [&](unsigned mask) { return bic(chi2_all(mask), parameters_of(mask), observations); };
+  // Held out: each combination refitted on one fold from its fit on every row, judged on the other.
+  std::vector<std::optional<std::vector<double>>> held_rub(16);
+  const auto held_out_any = [&](unsigned mask) {
+    if (!(mask & 8u)) return held_out(mask);
+    if (!held_rub[mask]) {
+      std::vector<double> out;
+      for (int k = 0; k < 2 && fold[0].size() >= 8 && fold[1].size() >= 8; ++k) {
+        const rub_fit part = fit_rub(table, fits[mask & 7u], rub_options(fold[k], &*rubs[mask]));
+        out.push_back(chi2_of(part.residual, part.noise_m, fold[1 - k]));
+      }
+      held_rub[mask] = out;
+    }
+    return *held_rub[mask];
+  };
+
   // Each combination judged: plausible (every part determined), and every effect in it needed
   // against the combination without it: BIC rises by more than 10 without it, and out of sample
   // it gains more than 10 and a third of its gain on every row.
+  constexpr std::array<const char*, 4> kNames{"anisotropy", "shaft_bow", "cross_coupling", "rub"};
   std::size_t chosen = 0;
   for (const unsigned mask : masks) {
     tracked_model m;
-    const response_fit& f = fits[mask];
-    for (unsigned k = 0; k < 3; ++k)
-      if (mask & (1u << k)) m.effects.push_back(kEffects[k]);
-    m.chi2 = f.chi2, m.bic = bic(f, observations);
-    m.undetermined = undetermined_part(f);
-    for (const auto& e : m.effects) m.estimates += (m.estimates.empty() ? "" : "; ") + estimates_of(e, f);
+    for (unsigned k = 0; k < 4; ++k)
+      if (mask & (1u << k)) m.effects.push_back(kNames[k]);
+    m.chi2 = chi2_all(mask), m.bic = bic_of(mask);
+    if (mask & 8u) {
+      m.undetermined = undetermined_rub(*rubs[mask]);
+      m.estimates = rub_estimates(*rubs[mask]);
+    } else {
+      m.undetermined = undetermined_part(fits[mask]);
+      for (const auto& e : m.effects) m.estimates += (m.estimates.empty() ? "" : "; ") + estimates_of(e, fits[mask]);
+    }
     bool all_needed = true;
-    for (unsigned k = 0; k < 3; ++k) {
+    for (unsigned k = 0; k < 4; ++k) {
       if (!(mask & (1u << k))) continue;
       tracked_model::need n;
-      n.effect = kEffects[k];
+      n.effect = kNames[k];
       const unsigned without = mask & ~(1u << k);
-      n.bic_rise = bic(fits[without], observations) - m.bic;
+      n.bic_rise = bic_of(without) - m.bic;
       if (n.bic_rise > kBicDrop && m.undetermined.empty()) {
-        n.held_out_without = held_out(without), n.held_out_with = held_out(mask);
+        n.held_out_without = held_out_any(without), n.held_out_with = held_out_any(mask);
         for (std::size_t i = 0; i < n.held_out_with.size() && i < n.held_out_without.size(); ++i) n.held_out_gain += n.held_out_without[i] - n.held_out_with[i];
-        const double full_gain = fits[without].chi2 - f.chi2;
+        const double full_gain = chi2_all(without) - m.chi2;
         n.needed = n.held_out_with.size() == 2 && n.held_out_gain > kHoldoutGain && n.held_out_gain > kHoldoutShare * full_gain;
       }
       all_needed = all_needed && n.needed;
@@ -318,7 +387,7 @@ tracking_result run_tracking_loop(const order_table& table, const std::function<
     if (!m.undetermined.empty()) {
       m.verdict = "not plausible: " + m.undetermined;
     } else {
-      m.verdict = "BIC " + format_digits(m.bic - bic(fits[0], observations), 4) + " against the base";
+      m.verdict = "BIC " + format_digits(m.bic - bic_of(0u), 4) + " against the base";
       for (const auto& n : m.needs)
         m.verdict += "; " + n.effect + (n.needed ? " needed" : " not needed") + " (without it BIC rises by " + format_digits(n.bic_rise, 3) +
                      (n.held_out_with.empty() ? "" : ", out of sample it gains " + format_digits(n.held_out_gain, 3)) + ")";
@@ -330,17 +399,47 @@ tracking_result run_tracking_loop(const order_table& table, const std::function<
   const unsigned chosen_mask = masks[chosen];
   r.models[chosen].verdict = "chosen: " + r.models[chosen].verdict;
   r.effects = r.models[chosen].effects;
-  r.after = fits[chosen_mask];
-  r.error_before = r.before.rms_residual_m, r.error_after = r.after.rms_residual_m;
-  const double excess_before = r.before.chi2 - static_cast<double>(r.before.dof), excess_after = r.after.chi2 - static_cast<double>(r.after.dof);
+  r.after = fits[chosen_mask & 7u];
+  // The rub's result: the chosen rub model, or (tried, not chosen) the one on the chosen
+  // contact-free model's parts. Chosen, its residual gives the noise again where that is lower
+  // (as a plausible contact-free model's does), and it is refitted with it.
+  if (rubs[chosen_mask | 8u]) {
+    rub_result t;
+    const std::size_t at = static_cast<std::size_t>(std::find(masks.begin(), masks.end(), chosen_mask | 8u) - masks.begin());
+    t.fit = *rubs[chosen_mask | 8u];
+    t.undetermined = r.models[at].undetermined;
+    for (const auto& n : r.models[at].needs)
+      if (n.effect == "rub") t.need = n;
+    t.named = (chosen_mask & 8u) != 0;
+    t.verdict = r.models[at].estimates + "; " + r.models[at].verdict;
+    if (t.named) {
+      const std::vector<double> now = residual_noise(t.fit.residual, t.fit.rows, t.fit.parameters);
+      bool lower = false;
+      for (std::size_t p = 0; p < noise.size(); ++p)
+        if (now[p] < noise[p]) noise[p] = now[p], noise_error[p] = residual_error, lower = true;
+      if (lower) {
+        const rub_fit same = t.fit;
+        t.fit = fit_rub(table, r.after, rub_options({}, &same));
+      }
+    }
+    r.rub = std::move(t);
+  }
+  const bool rub_named = r.rub && r.rub->named;
+  const double chi2_after = rub_named ? r.rub->fit.chi2 : r.after.chi2;
+  const double dof_after = static_cast<double>(rub_named ? r.rub->fit.dof : r.after.dof);
+  const bool noise_after = rub_named ? r.rub->fit.consistent_with_noise : r.after.consistent_with_noise;
+  r.error_before = r.before.rms_residual_m, r.error_after = rub_named ? r.rub->fit.rms_residual_m : r.after.rms_residual_m;
+  const double excess_before = r.before.chi2 - static_cast<double>(r.before.dof), excess_after = chi2_after - dof_after;
   r.remaining_share = excess_before > 0.0 ? std::clamp(excess_after / excess_before, 0.0, 1.0) : 0.0;
-  if (r.after.consistent_with_noise) r.claim = r.effects.empty() ? "none" : "full";
+  if (noise_after) r.claim = r.effects.empty() ? "none" : "full";
   else if (!r.effects.empty()) r.claim = 1.0 - r.remaining_share >= kClaimShare ? "partial" : "tentative";
-  r.unexplained = !r.after.consistent_with_noise && r.claim != "partial";
+  r.unexplained = !noise_after && r.claim != "partial";
   if (r.claim == "tentative") std::swap(r.effects, r.tentative);  // chosen by the rules, not claimed
-  r.bands = bands_of(table, r.after.residual, r.after.noise_m, r.after.probes, 1);
+  if (rub_named) r.bands = bands_of(table, r.rub->fit.residual, r.rub->fit.noise_m, r.rub->fit.probes, 1);
+  else r.bands = bands_of(table, r.after.residual, r.after.noise_m, r.after.probes, 1);
   if (!two_x_columns(table, r.after).empty()) {
-    r.two_x = judge_two_x(table, r.after, fold, say);
+    const response_fit modes = rub_named ? linear_part(r.after, r.rub->fit) : r.after;
+    r.two_x = judge_two_x(table, modes, rub_named ? &r.rub->fit.model_2x : nullptr, fold, say);
     const two_x_result& t2 = *r.two_x;
     if (t2.named) (t2.claim == "tentative" ? r.tentative : r.effects).push_back("misalignment_2x");
     r.unexplained = r.unexplained || t2.unexplained;

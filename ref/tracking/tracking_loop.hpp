@@ -13,6 +13,7 @@
 
 #include "ref/format/order_table.hpp"
 #include "ref/tracking/response_fit.hpp"
+#include "ref/tracking/rub_fit.hpp"
 #include "ref/tracking/two_x_fit.hpp"
 
 namespace rubref {
@@ -61,11 +62,22 @@ struct two_x_result {
   const two_x_fit& after() const { return named ? with : before; }
 };
 
+// The rub (tried when the chosen contact-free model leaves a residual that is not noise and every
+// probe's angle is declared): that model with the paper's contact at the top, fitted whole
+// (ref/tracking/rub_fit.hpp) and judged against it by the same rules.
+struct rub_result {
+  rub_fit fit;
+  std::string undetermined;              // "" when its clearance and modes are determined
+  tracked_model::need need;              // the rub against the chosen contact-free model
+  bool named = false;
+  std::string verdict;                   // one line
+};
+
 struct tracking_result {
   order_table table;
   response_fit before;                   // the base fit
-  response_fit after;                    // with the effects added
-  std::vector<std::string> effects;      // claimed, in the library's order
+  response_fit after;                    // with the contact-free effects added (the rub's fit, when named, is in `rub`)
+  std::vector<std::string> effects;      // claimed: the contact-free ones in the library's order, then rub, then misalignment_2x
   std::vector<std::string> tentative;    // chosen but not claimed (the residual stays far from the noise)
   std::vector<tracked_model> models;     // every combination, the base first
   double error_before = 0.0, error_after = 0.0;  // m, RMS residual per component
@@ -75,6 +87,7 @@ struct tracking_result {
   std::string claim = "none";
   double remaining_share = 0.0;          // of the base fit's chi^2 excess over its dof, left after
   bool unexplained = false;              // the 1X's or the 2X's residual is not noise and no claim covers it
+  std::optional<rub_result> rub;         // when tried
   std::optional<two_x_result> two_x;     // when the table has a 2X column for every probe
   std::vector<residual_band> bands;      // 1X and 2X
   std::vector<double> noise_scatter_m, noise_residual_m;  // per probe: the two noise estimates; the fits use the smaller

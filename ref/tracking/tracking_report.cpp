@@ -15,17 +15,22 @@ json interval(const estimate& e) { return json::array({e.lo, e.hi}); }
 
 json quantity(const estimate& e) { return {{"value", e.value}, {"interval_95", interval(e)}, {"determined", e.determined}}; }
 
-json fit_json(const response_fit& f) {
-  json j;
-  j["modes"] = json::array();
-  for (const auto& m : f.modes)
-    j["modes"].push_back({{"axis", m.axis},
+json modes_json(const std::vector<response_mode>& modes) {
+  json out = json::array();
+  for (const auto& m : modes)
+    out.push_back({{"axis", m.axis},
                           {"critical_speed_rpm", m.critical_speed_rpm.value},
                           {"critical_speed_rpm_interval_95", interval(m.critical_speed_rpm)},
                           {"damping_ratio", m.damping_ratio.value},
                           {"damping_ratio_interval_95", interval(m.damping_ratio)},
                           {"at_edge_of_speeds", m.at_edge},
                           {"determined", m.critical_speed_rpm.determined && m.damping_ratio.determined}});
+  return out;
+}
+
+json fit_json(const response_fit& f) {
+  json j;
+  j["modes"] = modes_json(f.modes);
   j["unbalance"] = {{"e_m", quantity(f.unbalance_m)}, {"phase_deg", quantity(f.unbalance_phase_deg)}};
   j["probes"] = json::array();
   for (std::size_t p = 0; p < f.probes.size(); ++p)
@@ -44,6 +49,41 @@ json fit_json(const response_fit& f) {
   j["rms_residual_m"] = f.rms_residual_m;
   j["consistent_with_noise"] = f.consistent_with_noise;
   j["evaluations"] = f.evaluations;
+  return j;
+}
+
+json rub_json(const rub_result& t) {
+  const rub_fit& f = t.fit;
+  json j;
+  j["named"] = t.named;
+  j["law"] = "piecewise-linear k1 z at the top (+y of the declared probe angles), Coulomb friction, per unit mass";
+  j["clearance_m"] = quantity(f.clearance_m);
+  j["contact_stiffness_over_m_1_s2"] = quantity(f.contact_stiffness_over_m);
+  j["friction"] = quantity(f.friction);
+  j["modes"] = modes_json(f.modes);
+  j["unbalance"] = {{"e_m", quantity(f.unbalance_m)}, {"phase_deg", quantity(f.unbalance_phase_deg)}};
+  if (f.parts.shaft_bow) j["shaft_bow"] = {{"bow_m", quantity(f.bow_m)}, {"phase_deg", quantity(f.bow_phase_deg)}};
+  if (f.parts.cross_coupling) j["cross_coupling"] = {{"k_xy_over_m_1_s2", quantity(f.k_xy_over_m)}, {"k_yx_over_m_1_s2", quantity(f.k_yx_over_m)}};
+  j["probes"] = json::array();
+  for (std::size_t p = 0; p < f.probes.size(); ++p)
+    j["probes"].push_back({{"name", f.probes[p]}, {"runout_m", quantity(f.runout_m[p])}, {"runout_phase_deg", quantity(f.runout_phase_deg[p])}, {"noise_m", f.noise_m[p]}});
+  j["rows_in_contact"] = f.rows_in_contact;
+  j["contact_speed_range_rpm"] = json::array({f.contact_from_rpm, f.contact_to_rpm});
+  j["rows_not_periodic"] = f.rows_not_periodic;
+  j["chi2"] = f.chi2;
+  j["dof"] = f.dof;
+  j["chi2_per_dof"] = f.chi2 / static_cast<double>(f.dof);
+  j["rms_residual_m"] = f.rms_residual_m;
+  j["consistent_with_noise"] = f.consistent_with_noise;
+  j["undetermined"] = t.undetermined;
+  j["need"] = {{"bic_rise_without", t.need.bic_rise},
+               {"held_out_chi2_without", t.need.held_out_without},
+               {"held_out_chi2_with", t.need.held_out_with},
+               {"held_out_gain", t.need.held_out_gain},
+               {"needed", t.need.needed}};
+  j["evaluations"] = f.evaluations;
+  j["orbits_shot"] = f.shots;
+  j["verdict"] = t.verdict;
   return j;
 }
 
@@ -80,8 +120,10 @@ json to_json(const tracking_result& r) {
   j["speed_range_rpm"] = json::array({r.table.rpm.front(), r.table.rpm.back()});
   j["intake"] = {{"conventions", r.table.conventions}, {"notes", r.notes}};
   const json after = fit_json(r.after);
-  j["modes"] = after["modes"];
-  j["unbalance"] = after["unbalance"];
+  const bool rub_named = r.rub && r.rub->named;
+  j["modes"] = rub_named ? modes_json(r.rub->fit.modes) : after["modes"];
+  j["modes_from"] = rub_named ? "the rub fit" : "the contact-free fit";
+  j["unbalance"] = rub_named ? rub_json(*r.rub)["unbalance"] : after["unbalance"];
   j["probes"] = after["probes"];
   j["noise"] = {{"from_row_scatter_m", r.noise_scatter_m},
                 {"from_base_residual_m", r.noise_residual_m},
@@ -95,6 +137,7 @@ json to_json(const tracking_result& r) {
   j["error_before"] = r.error_before;
   j["error_after"] = r.error_after;
   j["error_unit"] = "m, RMS of the 1X residual per real and imaginary part";
+  if (r.rub) j["rub"] = rub_json(*r.rub);
   if (r.two_x) {
     const two_x_result& t = *r.two_x;
     j["two_x"] = {{"error_before", t.before.rms_residual_m},
@@ -150,11 +193,13 @@ std::string to_markdown(const tracking_result& r) {
        format_fixed(r.table.rpm.back(), 0) + " rpm. Read as: " + r.table.conventions + ".\n\n";
   for (const auto& n : r.notes) s += "- " + n + "\n";
   const response_fit& f = r.after;
-  s += "\n## Modes\n\n| mode | critical speed (rpm) [95 %] | damping ratio [95 %] | determined |\n|---|---|---|---|\n";
-  for (const auto& m : f.modes)
+  const bool rub_named = r.rub && r.rub->named;
+  s += "\n## Modes" + std::string(rub_named ? " (of the rub fit)" : "") +
+       "\n\n| mode | critical speed (rpm) [95 %] | damping ratio [95 %] | determined |\n|---|---|---|---|\n";
+  for (const auto& m : rub_named ? r.rub->fit.modes : f.modes)
     s += "| " + m.axis + " | " + range(m.critical_speed_rpm, 1.0, 4) + " | " + range(m.damping_ratio) + " | " +
          yes_no(m.critical_speed_rpm.determined && m.damping_ratio.determined) + (m.at_edge ? " (at the edge of the table's speeds)" : "") + " |\n";
-  s += "\n## Unbalance, probes, runout\n\n";
+  s += "\n## Unbalance, probes, runout" + std::string(rub_named ? " (of the contact-free fit; the rub fit's are below)" : "") + "\n\n";
   s += "- unbalance e: " + range(f.unbalance_m, 1e6) + " µm at " + range(f.unbalance_phase_deg) + "° from the keyphasor\n";
   for (std::size_t p = 0; p < f.probes.size(); ++p) {
     const std::string name = f.probes[p].empty() ? "the probe" : "probe " + f.probes[p];
@@ -169,8 +214,10 @@ std::string to_markdown(const tracking_result& r) {
          um(r.noise_residual_m[p]) + " from the base fit's residual; used " + um(f.noise_m[p]) +
          " (the smallest of those and the best-fitting plausible model's residual scatter)\n";
   s += "\n## Verdict\n\n";
+  const double chi2_after = rub_named ? r.rub->fit.chi2 / static_cast<double>(r.rub->fit.dof) : f.chi2 / static_cast<double>(f.dof);
+  const bool noise_after = rub_named ? r.rub->fit.consistent_with_noise : f.consistent_with_noise;
   s += "- error before (base fit): " + um(r.error_before) + " RMS; after: " + um(r.error_after) + " (χ²/dof " +
-       format_digits(r.before.chi2 / static_cast<double>(r.before.dof), 3) + " → " + format_digits(f.chi2 / static_cast<double>(f.dof), 3) + ")\n";
+       format_digits(r.before.chi2 / static_cast<double>(r.before.dof), 3) + " → " + format_digits(chi2_after, 3) + ")\n";
   s += "- effects: " + (r.effects.empty() ? std::string("none") : "");
   for (std::size_t i = 0; i < r.effects.size(); ++i) s += (i ? ", " : "") + r.effects[i];
   if (!r.tentative.empty()) {
@@ -179,7 +226,17 @@ std::string to_markdown(const tracking_result& r) {
     s += ")";
   }
   s += "\n- claim: " + r.claim + (r.claim == "partial" || r.claim == "tentative" ? " (" + format_fixed(100.0 * r.remaining_share, 1) + " % of the excess remains)" : "") +
-       (r.unexplained ? "; the residual is unexplained" : f.consistent_with_noise ? "; the residual is noise" : "") + "\n";
+       (r.unexplained ? "; the residual is unexplained" : noise_after ? "; the residual is noise" : "") + "\n";
+  if (r.rub) {
+    const rub_fit& g = r.rub->fit;
+    s += "- rub (the chosen model with the paper's contact at the top, piecewise-linear law, shot at every speed): " + r.rub->verdict + "\n";
+    if (r.rub->named) {
+      s += "  - its modes: ";
+      for (std::size_t m = 0; m < g.modes.size(); ++m)
+        s += (m ? "; " : "") + g.modes[m].axis + " " + range(g.modes[m].critical_speed_rpm, 1.0, 4) + " rpm, damping ratio " + range(g.modes[m].damping_ratio);
+      s += "; unbalance " + range(g.unbalance_m, 1e6) + " µm at " + range(g.unbalance_phase_deg) + "°\n";
+    }
+  }
   if (r.two_x) {
     const two_x_result& t = *r.two_x;
     s += "- 2X: error before (runout alone): " + um(t.before.rms_residual_m) + " RMS; after: " + um(t.after().rms_residual_m) + "; " + t.verdict +
@@ -223,7 +280,8 @@ json plot_data(const tracking_result& r) {
     for (std::size_t i = 0; i < r.table.rows(); ++i) {
       dre.push_back(r.table.orders[order].vector[i].real()), dim.push_back(r.table.orders[order].vector[i].imag());
       bre.push_back(r.before.model[p][i].real()), bim.push_back(r.before.model[p][i].imag());
-      are.push_back(r.after.model[p][i].real()), aim.push_back(r.after.model[p][i].imag());
+      const auto a = r.rub && r.rub->named ? r.rub->fit.model[p][i] : r.after.model[p][i];
+      are.push_back(a.real()), aim.push_back(a.imag());
     }
     probe["data_re"] = dre, probe["data_im"] = dim;
     probe["before_re"] = bre, probe["before_im"] = bim;
@@ -243,8 +301,9 @@ json plot_data(const tracking_result& r) {
     }
     j["probes"].push_back(probe);
   }
-  j["effects"] = r.after.parts.anisotropy || r.after.parts.shaft_bow || r.after.parts.cross_coupling ? (r.effects.empty() ? r.tentative : r.effects)
-                                                                                                   : std::vector<std::string>{};
+  j["effects"] = r.after.parts.anisotropy || r.after.parts.shaft_bow || r.after.parts.cross_coupling || (r.rub && r.rub->named)
+                     ? (r.effects.empty() ? r.tentative : r.effects)
+                     : std::vector<std::string>{};
   return j;
 }
 

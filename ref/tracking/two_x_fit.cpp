@@ -51,7 +51,10 @@ two_x_fit fit_two_x(const order_table& table, const response_fit& modes, bool mi
     f.noise_m.push_back(std::max(options.noise_m.empty() ? row_scatter_of(table.orders[columns[p]].vector) : options.noise_m[p], 1e-12 * largest));
     if (!(f.noise_m.back() > 0.0)) throw input_error(table.source + ": every 2X amplitude of " + table.orders[columns[p]].amplitude_column + " is 0: nothing to fit");
   }
-  // The weighted real design: per probe and row, (Re, Im) of R2_p + a H_p(2w).
+  if (options.known && (options.known->size() != probes || std::any_of(options.known->begin(), options.known->end(), [&](const auto& v) { return v.size() != table.rows(); })))
+    throw input_error("fit_two_x: the known 2X needs one value per probe and row");
+  const auto known = [&](std::size_t p, std::size_t row) { return options.known ? (*options.known)[p][row] : cplx(0.0); };
+  // The weighted real design: per probe and row, (Re, Im) of R2_p + a H_p(2w) (after the known 2X).
   const auto forced = [&](std::size_t p, std::size_t row) { return forward_force_response(modes, p, 2.0 * table.rpm[row] * kRpmToRadS); };
   const std::size_t m = 2 * probes * f.rows.size();
   Eigen::MatrixXd a = Eigen::MatrixXd::Zero(static_cast<Eigen::Index>(m), static_cast<Eigen::Index>(unknowns));
@@ -60,7 +63,7 @@ two_x_fit fit_two_x(const order_table& table, const response_fit& modes, bool mi
     for (std::size_t i = 0; i < f.rows.size(); ++i) {
       const auto re = static_cast<Eigen::Index>(2 * (p * f.rows.size() + i)), im = re + 1;
       const double w = 1.0 / f.noise_m[p];
-      const cplx d = table.orders[columns[p]].vector[f.rows[i]];
+      const cplx d = table.orders[columns[p]].vector[f.rows[i]] - known(p, f.rows[i]);
       b(re) = w * d.real(), b(im) = w * d.imag();
       a(re, static_cast<Eigen::Index>(2 * p)) = w, a(im, static_cast<Eigen::Index>(2 * p + 1)) = w;
       if (misalignment) {
@@ -100,12 +103,12 @@ two_x_fit fit_two_x(const order_table& table, const response_fit& modes, bool mi
   for (std::size_t p = 0; p < probes; ++p)
     for (std::size_t i = 0; i < table.rows(); ++i) {
       const cplx runout = amplitude(p), response = misalignment ? amplitude(probes) * forced(p, i) : cplx(0.0);
-      f.model[p].push_back(runout + response);
+      f.model[p].push_back(runout + response + known(p, i));
       f.residual[p].push_back(table.orders[columns[p]].vector[i] - f.model[p].back());
     }
   for (std::size_t p = 0; p < probes; ++p)
     for (const std::size_t i : f.rows) {
-      const double size = std::abs(amplitude(p)) + (misalignment ? std::abs(amplitude(probes) * forced(p, i)) : 0.0);
+      const double size = std::abs(amplitude(p)) + (misalignment ? std::abs(amplitude(probes) * forced(p, i)) : 0.0) + std::abs(known(p, i));
       parts_sq += size * size, sum_sq += std::norm(f.model[p][i]), sum2 += std::norm(f.residual[p][i]);
     }
   f.cancellation = sum_sq > 0.0 ? std::sqrt(parts_sq / sum_sq) : 1.0;
@@ -113,15 +116,6 @@ two_x_fit fit_two_x(const order_table& table, const response_fit& modes, bool mi
   return f;
 }
 
-std::vector<double> two_x_residual_noise(const two_x_fit& fit) {
-  std::vector<double> out;
-  for (const auto& r : fit.residual) {
-    std::vector<double> parts;
-    for (const std::size_t i : fit.rows) parts.push_back(std::abs(r[i].real())), parts.push_back(std::abs(r[i].imag()));
-    const double n = static_cast<double>(parts.size()), per_probe = static_cast<double>(fit.parameters) / static_cast<double>(fit.residual.size());
-    out.push_back(parts.empty() ? 0.0 : robust_scale(std::move(parts)) * std::sqrt(n / std::max(1.0, n - per_probe)));
-  }
-  return out;
-}
+std::vector<double> two_x_residual_noise(const two_x_fit& fit) { return residual_noise(fit.residual, fit.rows, fit.parameters); }
 
 }  // namespace rubref

@@ -1,6 +1,7 @@
 #pragma once
 // The 2X columns of an order-tracked table (docs/real-data.md): each probe reads its shaft's 2X
-// runout R2 (the surface's own 2X, the same at every speed) plus, with a misalignment (the
+// runout R2 (the surface's own 2X, the same at every speed), the 1X model's own 2X where it has
+// one (a rubbing orbit's), plus, with a misalignment (the
 // effect library's misalignment_2x: a forward force F2 (cos(2wt + phi2), sin(2wt + phi2))), the
 // rotor's response to that force at twice the shaft's speed through the modes the 1X fit found:
 //
@@ -40,6 +41,8 @@ struct two_x_options {
   std::vector<std::size_t> rows;       // the rows fitted (empty: all)
   std::vector<double> noise_m;         // per probe (empty: each column's row scatter)
   double noise_relative_error = 0.0;   // widens the chi^2 test as the 1X fit's does
+  // The model's own 2X per probe and row, added to the fit's (a rub's orbit has one); none: 0.
+  const std::vector<std::vector<std::complex<double>>>* known = nullptr;
 };
 
 // The index into table.orders of each probe's 2X column, in the order of `modes.probes`; empty
