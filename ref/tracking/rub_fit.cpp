@@ -46,6 +46,9 @@ constexpr int kMaxIterations = 40;
 // units of the lower critical speed squared (a stator 5.5 and 17 times stiffer than the
 // supports), the friction in the middle of metals' range; the best two by their residual fitted.
 constexpr double kClearanceShares[] = {0.5, 0.7, 0.9};
+// and the contact-free fit's damping ratios as they are and lowered: a contact-free fit widens its
+// peak to follow the rub's flattening, and from its damping the model may not reach the stator.
+constexpr double kDampingShares[] = {1.0, 0.5, 0.25};
 constexpr double kStiffnessRatios[] = {30.0, 300.0};
 constexpr double kFrictionStart = 0.1;
 constexpr std::size_t kFittedStarts = 2;
@@ -299,13 +302,17 @@ rub_fit fit_rub(const order_table& table, const response_fit& linear, const rub_
   } else {
     std::vector<std::pair<double, std::vector<double>>> starts;
     for (const double share : kClearanceShares)
-      for (const double ratio : kStiffnessRatios) {
-        std::vector<double> f = f0;
-        f[ln_delta] = std::log(share * peak), f[ln_kappa] = std::log(ratio) + 2.0 * f0[ln_wx], f[friction_mu] = kFrictionStart;
-        const std::vector<double> q = pr.clamp(pr.reduce(f));
-        starts.emplace_back(cost_of(q), q);
-      }
-    // A fit of fewer parts, with this fit's extra parts off (equal modes, no bow, no cross-coupling),
+      for (const double ratio : kStiffnessRatios)
+        for (const double damping : kDampingShares) {
+          if (!options.grid) break;
+          std::vector<double> f = f0;
+          f[ln_delta] = std::log(share * peak), f[ln_kappa] = std::log(ratio) + 2.0 * f0[ln_wx], f[friction_mu] = kFrictionStart;
+          f[ln_zx] += std::log(damping), f[ln_zy] += std::log(damping);
+          const std::vector<double> q = pr.clamp(pr.reduce(f));
+          starts.emplace_back(cost_of(q), q);
+        }
+    // A fit of other parts: of fewer, with this fit's extra parts off (equal modes, no bow, no
+    // cross-coupling); of more, with its extra parts dropped (an isotropic fit keeps x's mode);
     // its unbalance and bow rescaled to this fit's reference size.
     for (const rub_fit* smaller : options.also_from) {
       std::vector<double> f = smaller->q;
@@ -315,7 +322,8 @@ rub_fit fit_rub(const order_table& table, const response_fit& linear, const rub_
       starts.emplace_back(cost_of(q), q);
     }
     std::stable_sort(starts.begin(), starts.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
-    for (std::size_t i = 0; i < std::min(kFittedStarts, starts.size()); ++i) from.push_back(starts[i].second);
+    for (std::size_t i = 0; i < std::min(kFittedStarts, starts.size()); ++i)
+      if (std::isfinite(starts[i].first)) from.push_back(starts[i].second);
   }
 
   // Levenberg-Marquardt; each Jacobian's finite differences start every row from the orbits of

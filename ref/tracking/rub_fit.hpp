@@ -61,8 +61,10 @@ struct rub_fit_options {
   std::vector<double> noise_m;        // per probe
   double noise_relative_error = 0.0;
   const rub_fit* start = nullptr;     // a previous rub fit: start there alone (a fold's refit)
-  // Rub fits of fewer parts (their missing parts off): starts ranked with the grid's.
+  // Rub fits of other parts (fewer: this fit's extra parts off; more: theirs dropped, x's mode
+  // kept): starts ranked with the grid's.
   std::vector<const rub_fit*> also_from;
+  bool grid = true;                   // the grid of starts from the contact-free fit (else also_from alone)
 };
 
 // input_error when a probe's angle was not declared (the stator's direction is then unknown

@@ -8,6 +8,7 @@
 
 #include <boost/math/distributions/chi_squared.hpp>
 
+#include "ref/base/errors.hpp"
 #include "ref/base/number_text.hpp"
 
 namespace rubref {
@@ -309,6 +310,7 @@ tracking_result run_tracking_loop(const order_table& table, const std::function<
     return *held[mask];
   };
 
+  constexpr std::array<const char*, 4> kNames{"anisotropy", "shaft_bow", "cross_coupling", "rub"};
   // The rub (bit 3), where the best-fitting plausible contact-free model leaves more than noise and
   // the stator's direction against the probes is known: every combination again with the
   // paper's contact at the top, each rub fit started from the contact-free fit of its parts.
@@ -327,11 +329,38 @@ tracking_result run_tracking_loop(const order_table& table, const std::function<
     for (const unsigned mask : {0u, 1u, 2u, 4u, 3u, 5u, 6u, 7u}) {
       rub_fit_options o = rub_options();
       for (unsigned k = 0; k < 3; ++k)
-        if (mask & (1u << k)) o.also_from.push_back(&*rubs[(mask & ~(1u << k)) | 8u]);
-      rubs[mask | 8u] = fit_rub(table, fits[mask], o);
-      masks.push_back(mask | 8u);
+        if ((mask & (1u << k)) && rubs[(mask & ~(1u << k)) | 8u]) o.also_from.push_back(&*rubs[(mask & ~(1u << k)) | 8u]);
+      // A combination whose orbits cannot be computed from any start is left out, and said so
+      // (its parts are then judged without contact only).
+      try {
+        rubs[mask | 8u] = fit_rub(table, fits[mask], o);
+        masks.push_back(mask | 8u);
+      } catch (const numerical_error& e) {
+        rubs[mask | 8u].reset();
+        std::string parts;
+        for (unsigned k = 0; k < 3; ++k)
+          if (mask & (1u << k)) parts += (parts.empty() ? "" : ", ") + std::string(kNames[k]);
+        r.notes.push_back("the rub fit with " + (parts.empty() ? std::string("the base") : parts) + " found no point whose orbits could all be computed: " + e.what());
+      }
     }
   }
+  // Then each again from the rub fits of one effect more (their extra part dropped), kept where
+  // that fits better: a fit of fewer parts can miss the contact that one of more found.
+  if (declared && !any_noise)
+    for (const unsigned mask : {7u, 6u, 5u, 3u, 4u, 2u, 1u, 0u}) {
+      rub_fit_options o = rub_options();
+      o.grid = false;
+      for (unsigned k = 0; k < 3; ++k)
+        if (!(mask & (1u << k)) && rubs[mask | (1u << k) | 8u]) o.also_from.push_back(&*rubs[mask | (1u << k) | 8u]);
+      if (o.also_from.empty()) continue;
+      try {
+        rub_fit again = fit_rub(table, fits[mask], o);
+        if (!rubs[mask | 8u]) masks.push_back(mask | 8u);
+        if (!rubs[mask | 8u] || again.chi2 < rubs[mask | 8u]->chi2) rubs[mask | 8u] = std::move(again);
+      } catch (const numerical_error&) {
+        // no better start: the fit from the grid stands (or the combination stays left out)
+      }
+    }
   const auto chi2_all = [&](unsigned mask) { return mask & 8u ? rubs[mask]->chi2 : fits[mask].chi2; };
   const auto parameters_of = [&](unsigned mask) { return mask & 8u ? rubs[mask]->parameters : fits[mask].parameters; };
   const auto bic_of = [&](unsigned mask) { return bic(chi2_all(mask), parameters_of(mask), observations); };
@@ -341,9 +370,13 @@ tracking_result run_tracking_loop(const order_table& table, const std::function<
     if (!(mask & 8u)) return held_out(mask);
     if (!held_rub[mask]) {
       std::vector<double> out;
-      for (int k = 0; k < 2 && fold[0].size() >= 8 && fold[1].size() >= 8; ++k) {
-        const rub_fit part = fit_rub(table, fits[mask & 7u], rub_options(fold[k], &*rubs[mask]));
-        out.push_back(chi2_of(part.residual, part.noise_m, fold[1 - k]));
+      try {
+        for (int k = 0; k < 2 && fold[0].size() >= 8 && fold[1].size() >= 8; ++k) {
+          const rub_fit part = fit_rub(table, fits[mask & 7u], rub_options(fold[k], &*rubs[mask]));
+          out.push_back(chi2_of(part.residual, part.noise_m, fold[1 - k]));
+        }
+      } catch (const numerical_error&) {
+        out.clear();  // a fold whose orbits cannot be computed: no out-of-sample evidence, so not needed
       }
       held_rub[mask] = out;
     }
@@ -353,7 +386,6 @@ tracking_result run_tracking_loop(const order_table& table, const std::function<
   // Each combination judged: plausible (every part determined), and every effect in it needed
   // against the combination without it: BIC rises by more than 10 without it, and out of sample
   // it gains more than 10 and a third of its gain on every row.
-  constexpr std::array<const char*, 4> kNames{"anisotropy", "shaft_bow", "cross_coupling", "rub"};
   std::size_t chosen = 0;
   for (const unsigned mask : masks) {
     tracked_model m;
@@ -434,6 +466,19 @@ tracking_result run_tracking_loop(const order_table& table, const std::function<
   if (noise_after) r.claim = r.effects.empty() ? "none" : "full";
   else if (!r.effects.empty()) r.claim = 1.0 - r.remaining_share >= kClaimShare ? "partial" : "tentative";
   r.unexplained = !noise_after && r.claim != "partial";
+  // A choice is decisive only when no eligible combination of other effects comes within the
+  // same 10 of its BIC: two such explain the table alike, and neither is claimed.
+  for (std::size_t i = 0; i < r.models.size(); ++i)
+    if (i != chosen && r.models[i].eligible && r.models[i].effects != r.models[chosen].effects && r.models[i].bic - r.models[chosen].bic <= kBicDrop &&
+        !r.effects.empty()) {
+      std::string names;
+      for (const auto& e : r.models[i].effects) names += (names.empty() ? "" : ", ") + e;
+      r.rival = names.empty() ? "base" : names;
+      r.claim = "tentative";
+      r.unexplained = !noise_after;  // the residual is what it is; which effects explain it is not decided
+      r.models[chosen].verdict += "; not decisive: " + r.rival + " comes within " + format_digits(r.models[i].bic - r.models[chosen].bic, 3) + " of its BIC";
+      break;
+    }
   if (r.claim == "tentative") std::swap(r.effects, r.tentative);  // chosen by the rules, not claimed
   if (rub_named) r.bands = bands_of(table, r.rub->fit.residual, r.rub->fit.noise_m, r.rub->fit.probes, 1);
   else r.bands = bands_of(table, r.after.residual, r.after.noise_m, r.after.probes, 1);
@@ -450,7 +495,9 @@ tracking_result run_tracking_loop(const order_table& table, const std::function<
       "a static offset such as a preload's deflection: an order-tracked table holds no DC, and AC-coupled probes lose it anyway",
       "the rotor's mass: every force scales with it, so stiffness, damping and cross-coupling are per unit mass",
       "where the keyphasor's notch sits on the shaft: the unbalance phase is measured from it",
-      "contact, friction and anything else that shows only in other orders, sub-harmonics or the waveform: this fit reads the 1X",
+      "the contact law's form: the rub fit takes the piecewise-linear law k1 z, whose clearance, stiffness and friction a 1X table can show; a cubic "
+      "or velocity-squared term shows, if at all, as a residual the rub fit leaves",
+      "anything that shows only in orders above the 2X, sub-harmonics or the waveform (a rub's half-order whirl, chatter): the fits read the 1X and 2X",
       "slow-roll runout against a shaft bow away from the critical speeds: both are 1X and turn with the shaft; a bow is amplified near a critical speed and "
       "runout is not",
       "a seal's follower cross-coupling (k_xy = -k_yx) on a rotor whose supports are alike: its unbalance response is a forward whirl, on which the "
@@ -458,6 +505,8 @@ tracking_result run_tracking_loop(const order_table& table, const std::function<
       "a run-up's transients: the model is the steady response at each speed; a sweep through a lightly damped critical speed leaves ringing just above it, "
       "which shows in the residual bands",
   };
+  if (!declared)
+    r.cannot_see.push_back("a rub, with a probe whose angle is not declared: the stator's direction against the probe is unknown, so the rub fit is not tried");
   if (r.before.probe_angle_fitted.front() && r.before.probes.size() == 1)
     r.cannot_see.push_back("with one probe, the support axes' directions only through how the two modes mix in its reading: a probe along one axis sees one "
                            "mode, and the other mode's interval says so");

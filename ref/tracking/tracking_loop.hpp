@@ -83,9 +83,11 @@ struct tracking_result {
   double error_before = 0.0, error_after = 0.0;  // m, RMS residual per component
   // The 1X's claim: "full" (the residual is noise), "partial" (effects named, the residual is not noise but they
   // removed 96 % of the base fit's excess: the remaining share is said), "tentative" (added, not
-  // claimed), "none" (nothing added; unexplained unless the base fit is noise).
+  // claimed, or another combination explains the table alike: `rival`), "none" (nothing added;
+  // unexplained unless the base fit is noise).
   std::string claim = "none";
   double remaining_share = 0.0;          // of the base fit's chi^2 excess over its dof, left after
+  std::string rival;                     // an eligible combination of other effects within 10 of the chosen one's BIC (then "tentative")
   bool unexplained = false;              // the 1X's or the 2X's residual is not noise and no claim covers it
   std::optional<rub_result> rub;         // when tried
   std::optional<two_x_result> two_x;     // when the table has a 2X column for every probe

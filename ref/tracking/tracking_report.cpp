@@ -134,6 +134,7 @@ json to_json(const tracking_result& r) {
   j["claim"] = r.claim;
   j["unexplained"] = r.unexplained;
   j["remaining_share"] = r.remaining_share;
+  j["rival"] = r.rival;
   j["error_before"] = r.error_before;
   j["error_after"] = r.error_after;
   j["error_unit"] = "m, RMS of the 1X residual per real and imaginary part";
@@ -225,6 +226,7 @@ std::string to_markdown(const tracking_result& r) {
     for (std::size_t i = 0; i < r.tentative.size(); ++i) s += (i ? ", " : "") + r.tentative[i];
     s += ")";
   }
+  if (!r.rival.empty()) s += "\n- not decisive: " + r.rival + " explains the table alike (BIC within 10), so neither is claimed";
   s += "\n- claim: " + r.claim + (r.claim == "partial" || r.claim == "tentative" ? " (" + format_fixed(100.0 * r.remaining_share, 1) + " % of the excess remains)" : "") +
        (r.unexplained ? "; the residual is unexplained" : noise_after ? "; the residual is noise" : "") + "\n";
   if (r.rub) {
