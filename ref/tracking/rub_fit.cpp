@@ -60,7 +60,7 @@ constexpr double kStiffnessHi = 1e4;
 struct row_orbit {
   cplx x1{}, y1{}, x2{}, y2{};
   bool contact = false, periodic = true;
-  std::optional<state6> state;  // the orbit's state at t = 0 (shot rows): the next speed's start
+  std::optional<state6> state;  // the orbit's state at t = 0 (shot rows; a transient's last state where none): the next speed's start
 };
 
 struct sample_recorder {
@@ -193,12 +193,12 @@ struct rub_problem {
         on = shoot(start);
       }
       o.periodic = on.has_value();
-      if (on) o.state = *on;
       std::vector<state6> samples;
       sample_recorder rec{&samples};
       const auto end = integrate_hybrid(sys, start_state(sys, on ? *on : start, 0.0), period, opt,
                                         sample_grid(0.0, period / static_cast<double>(kReadSamples), kReadSamples), rec);
-      (void)end;
+      // The next speed starts from this one's orbit, or from where its transient got to.
+      o.state = on ? *on : end.s;
       if (samples.size() != kReadSamples) throw numerical_error("rub fit: a period read " + std::to_string(samples.size()) + " samples");
       double top = -std::numeric_limits<double>::infinity();
       for (std::size_t k = 0; k < kReadSamples; ++k) {

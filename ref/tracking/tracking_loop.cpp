@@ -4,6 +4,7 @@
 #include <array>
 #include <cmath>
 #include <complex>
+#include <limits>
 #include <optional>
 
 #include <boost/math/distributions/chi_squared.hpp>
@@ -246,7 +247,7 @@ tracking_result run_tracking_loop(const order_table& table, const std::function<
   r.noise_residual_m = residual_noise(first);
   lower_noise(first);
 
-  // Every combination of the effects (bit k: kEffects[k]), fewer effects first, each from the
+  // Every combination of the contact-free effects (bit k: kNames[k], below), fewer effects first, each from the
   // grid and from the fit of every combination with one effect fewer (the better one kept).
   const auto parts_of = [](unsigned mask) {
     response_parts p;
@@ -311,9 +312,10 @@ tracking_result run_tracking_loop(const order_table& table, const std::function<
   };
 
   constexpr std::array<const char*, 4> kNames{"anisotropy", "shaft_bow", "cross_coupling", "rub"};
-  // The rub (bit 3), where the best-fitting plausible contact-free model leaves more than noise and
-  // the stator's direction against the probes is known: every combination again with the
-  // paper's contact at the top, each rub fit started from the contact-free fit of its parts.
+  // The rub (bit 3), where no plausible contact-free combination leaves a residual within the
+  // noise and the stator's direction against the probes is known: every combination again with
+  // the paper's contact at the top, each rub fit started from the contact-free fit of its parts
+  // and from the rub fits of one effect fewer.
   const bool declared = std::all_of(table.orders.begin(), table.orders.end(), [](const tracked_order& o) { return o.order != 1 || o.probe_angle.has_value(); });
   bool any_noise = false;
   for (const unsigned mask : masks) any_noise = any_noise || (undetermined_part(fits[mask]).empty() && fits[mask].consistent_with_noise);
@@ -405,6 +407,14 @@ tracking_result run_tracking_loop(const order_table& table, const std::function<
       tracked_model::need n;
       n.effect = kNames[k];
       const unsigned without = mask & ~(1u << k);
+      // (A rub combination whose fit could not be computed gives its supersets no comparison:
+      // their extra effect is then not shown needed.)
+      if ((without & 8u) && !rubs[without]) {
+        n.bic_rise = std::numeric_limits<double>::quiet_NaN();
+        all_needed = false;
+        m.needs.push_back(n);
+        continue;
+      }
       n.bic_rise = bic_of(without) - m.bic;
       if (n.bic_rise > kBicDrop && m.undetermined.empty()) {
         n.held_out_without = held_out_any(without), n.held_out_with = held_out_any(mask);
@@ -421,8 +431,10 @@ tracking_result run_tracking_loop(const order_table& table, const std::function<
     } else {
       m.verdict = "BIC " + format_digits(m.bic - bic_of(0u), 4) + " against the base";
       for (const auto& n : m.needs)
-        m.verdict += "; " + n.effect + (n.needed ? " needed" : " not needed") + " (without it BIC rises by " + format_digits(n.bic_rise, 3) +
-                     (n.held_out_with.empty() ? "" : ", out of sample it gains " + format_digits(n.held_out_gain, 3)) + ")";
+        m.verdict += "; " + n.effect +
+                     (std::isnan(n.bic_rise) ? " not shown needed (the rub fit without it could not be computed)"
+                                             : (n.needed ? " needed" : " not needed") + std::string(" (without it BIC rises by ") + format_digits(n.bic_rise, 3) +
+                                                   (n.held_out_with.empty() ? "" : ", out of sample it gains " + format_digits(n.held_out_gain, 3)) + ")");
     }
     say("    " + (m.effects.empty() ? std::string("base") : m.estimates) + ": " + m.verdict);
     r.models.push_back(m);
