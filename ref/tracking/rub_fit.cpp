@@ -41,8 +41,8 @@ constexpr std::size_t kReadSamples = 256;
 constexpr int kSettleRevs = 60;
 constexpr int kShootIterations = 16;
 constexpr int kMaxIterations = 40;
-// The starts: the clearance as a share of the contact-free fit's largest vertical amplitude (the
-// rub flattens the peak, which the linear fit followed), the contact stiffness per unit mass in
+// The starts: the clearance as a share of the clearance's scale (below: the rub flattens the
+// peak, which the linear fit followed), the contact stiffness per unit mass in
 // units of the lower critical speed squared (a stator 5.5 and 17 times stiffer than the
 // supports), the friction in the middle of metals' range; the best two by their residual fitted.
 constexpr double kClearanceShares[] = {0.5, 0.7, 0.9};
@@ -52,7 +52,7 @@ constexpr double kDampingShares[] = {1.0, 0.5, 0.25};
 constexpr double kStiffnessRatios[] = {30.0, 300.0};
 constexpr double kFrictionStart = 0.1;
 constexpr std::size_t kFittedStarts = 2;
-// Bounds: the clearance within 5 % and twice the contact-free peak (beyond it nothing touches), the
+// Bounds: the clearance within 5 % and twice that scale (beyond it nothing touches), the
 // stiffness from the supports' to 1e4 times them (stiffer only costs steps and reads alike), mu in [0, 1].
 constexpr double kClearanceLo = 0.05, kClearanceHi = 2.0;
 constexpr double kStiffnessHi = 1e4;
@@ -60,7 +60,7 @@ constexpr double kStiffnessHi = 1e4;
 struct row_orbit {
   cplx x1{}, y1{}, x2{}, y2{};
   bool contact = false, periodic = true;
-  std::optional<state6> state;  // the orbit's state at t = 0 (shot rows; a transient's last state where none): the next speed's start
+  std::optional<state6> state;  // the orbit's state at t = 0 (rows shot to a stable orbit): the next speed's start
 };
 
 struct sample_recorder {
@@ -195,10 +195,12 @@ struct rub_problem {
       o.periodic = on.has_value();
       std::vector<state6> samples;
       sample_recorder rec{&samples};
-      const auto end = integrate_hybrid(sys, start_state(sys, on ? *on : start, 0.0), period, opt,
-                                        sample_grid(0.0, period / static_cast<double>(kReadSamples), kReadSamples), rec);
-      // The next speed starts from this one's orbit, or from where its transient got to.
-      o.state = on ? *on : end.s;
+      integrate_hybrid(sys, start_state(sys, on ? *on : start, 0.0), period, opt, sample_grid(0.0, period / static_cast<double>(kReadSamples), kReadSamples),
+                       rec);
+      // The next speed starts from this one's orbit; after a row without one, from the
+      // contact-free response (a transient's state as a start, tried, led the fits astray:
+      // campaign seed 1, scenario 33).
+      if (on) o.state = *on;
       if (samples.size() != kReadSamples) throw numerical_error("rub fit: a period read " + std::to_string(samples.size()) + " samples");
       double top = -std::numeric_limits<double>::infinity();
       for (std::size_t k = 0; k < kReadSamples; ++k) {
@@ -276,16 +278,22 @@ rub_fit fit_rub(const order_table& table, const response_fit& linear, const rub_
   pr.w_lo = lo * kRpmToRadS, pr.w_hi = hi * kRpmToRadS;
   pr.lay_out();
 
-  // The start: the linear fit's coordinates and amplitudes; its largest vertical amplitude over
-  // the table's speeds sets the clearance's scale.
+  // The start: the linear fit's coordinates and amplitudes. The clearance's scales: the linear
+  // fit's largest vertical amplitude over the table's speeds and the table's largest 1X reading
+  // (a hardening branch carried past the critical speed reads larger than any contact-free fit);
+  // the clearance's bounds from the larger.
   std::vector<double> f0(kRubSlots, 0.0);
   for (std::size_t k = 0; k < kSlots; ++k) f0[k] = linear.theta[k];
   pr.ref_m = std::max(std::abs(linear.amplitudes[0]), 1e-12);
   f0[re_a] = linear.amplitudes[0].real() / pr.ref_m, f0[im_a] = linear.amplitudes[0].imag() / pr.ref_m;
   if (linear.parts.shaft_bow) f0[re_b] = linear.amplitudes.back().real() / pr.ref_m, f0[im_b] = linear.amplitudes.back().imag() / pr.ref_m;
   pr.base = f0;
-  double peak = 0.0;
-  for (std::size_t i = 0; i < table.rows(); ++i) peak = std::max(peak, std::abs(pr.linear_xy(f0, table.rpm[i] * kRpmToRadS).second));
+  double linear_peak = 0.0, data_peak = 0.0;
+  for (std::size_t i = 0; i < table.rows(); ++i) {
+    linear_peak = std::max(linear_peak, std::abs(pr.linear_xy(f0, table.rpm[i] * kRpmToRadS).second));
+    for (const std::size_t o : pr.orders) data_peak = std::max(data_peak, std::abs(table.orders[o].vector[i]));
+  }
+  const double peak = std::max(linear_peak, data_peak);
   pr.peak_m = peak;
   if (!(peak > 0.0)) throw numerical_error(table.source + ": the 1X fit it starts from has no vertical response");
 
@@ -301,12 +309,13 @@ rub_fit fit_rub(const order_table& table, const response_fit& linear, const rub_
     from.push_back(pr.clamp(pr.reduce(options.start->q)));
   } else {
     std::vector<std::pair<double, std::vector<double>>> starts;
+    for (const double scale : {linear_peak, data_peak})
     for (const double share : kClearanceShares)
       for (const double ratio : kStiffnessRatios)
         for (const double damping : kDampingShares) {
-          if (!options.grid) break;
+          if (!options.grid || !(scale > 0.0)) break;
           std::vector<double> f = f0;
-          f[ln_delta] = std::log(share * peak), f[ln_kappa] = std::log(ratio) + 2.0 * f0[ln_wx], f[friction_mu] = kFrictionStart;
+          f[ln_delta] = std::log(share * scale), f[ln_kappa] = std::log(ratio) + 2.0 * f0[ln_wx], f[friction_mu] = kFrictionStart;
           f[ln_zx] += std::log(damping), f[ln_zy] += std::log(damping);
           const std::vector<double> q = pr.clamp(pr.reduce(f));
           starts.emplace_back(cost_of(q), q);
