@@ -28,6 +28,7 @@
 #include "ref/format/order_table.hpp"
 #include "ref/format/record.hpp"
 #include "ref/identification/identify.hpp"
+#include "ref/identification/identify_io.hpp"
 #include "ref/loop/loop.hpp"
 #include "ref/loop/report.hpp"
 #include "ref/model/parameter_io.hpp"

@@ -14,6 +14,7 @@
 #include "ref/base/version.hpp"
 #include "ref/format/record.hpp"
 #include "ref/identification/identify.hpp"
+#include "ref/identification/identify_io.hpp"
 #include "ref/loop/loop.hpp"
 #include "ref/model/closed_form.hpp"
 #include "ref/model/parameter_io.hpp"

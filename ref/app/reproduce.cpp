@@ -19,6 +19,7 @@
 #include "ref/base/version.hpp"
 #include "ref/format/atomic_output.hpp"
 #include "ref/identification/identify.hpp"
+#include "ref/identification/identify_io.hpp"
 #include "ref/model/closed_form.hpp"
 #include "ref/orbits/continuation.hpp"
 #include "ref/orbits/continuation_io.hpp"

@@ -7,6 +7,7 @@
 #include "ref/format/atomic_output.hpp"
 #include "ref/format/record.hpp"
 #include "ref/identification/identify.hpp"
+#include "ref/identification/identify_io.hpp"
 #include "ref/model/parameter_io.hpp"
 
 namespace rubref::cli {

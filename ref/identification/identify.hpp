@@ -136,7 +136,4 @@ identification identify(const std::vector<std::pair<record, std::string>>& recor
 // The same on dwells already split (each with its clearance), e.g. re-timed by a keyphasor.
 identification identify(const std::vector<dwell>& dwells, const identify_settings& s);
 
-nlohmann::ordered_json to_json(const identification& id, const identify_settings& s);
-std::string to_markdown(const identification& id);
-
 }  // namespace rubref

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <boost/math/distributions/chi_squared.hpp>
 #include <unsupported/Eigen/LevenbergMarquardt>
 
 #include "ref/base/errors.hpp"
@@ -291,6 +292,11 @@ orbit_fit_result fit_periodic_orbits(const std::vector<orbit_fit_cycle>& cycles,
     out.parameters.push_back({names[j], start_values[jj] * model.scale(j), u[jj] * model.scale(j), se});
   }
   return out;
+}
+
+double orbit_fit_chi2_limit(const orbit_fit_result& o) {
+  const double dof = std::max(1.0, static_cast<double>(o.residuals) - static_cast<double>(o.unknowns));
+  return boost::math::quantile(boost::math::chi_squared(dof), 0.999) / dof;
 }
 
 }  // namespace rubref

@@ -65,4 +65,7 @@ struct orbit_fit_result {
 orbit_fit_result fit_periodic_orbits(const std::vector<orbit_fit_cycle>& cycles, const parameters& start,
                                      const std::vector<std::string>& terms, const orbit_fit_settings& s = {});
 
+// The chi^2 per degree of freedom of a fit's residual that noise alone exceeds with probability 0.1 %.
+double orbit_fit_chi2_limit(const orbit_fit_result& o);
+
 }  // namespace rubref
