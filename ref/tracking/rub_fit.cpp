@@ -42,9 +42,10 @@ constexpr int kSettleRevs = 60;
 constexpr int kShootIterations = 16;
 constexpr int kMaxIterations = 40;
 // The starts: the clearance as a share of the clearance's scale (below: the rub flattens the
-// peak, which the linear fit followed), the contact stiffness per unit mass in
-// units of the lower critical speed squared (a stator 5.5 and 17 times stiffer than the
-// supports), the friction in the middle of metals' range; the best two by their residual fitted.
+// peak, which the linear fit followed), the contact stiffness per unit mass in units of the lower
+// critical speed squared (a stator 30 and 300 times stiffer than the supports: contact frequencies
+// 5.5 and 17 times the critical speed), friction 0.1 (the fit moves it within [0, 1]); the best
+// two by their residual fitted.
 constexpr double kClearanceShares[] = {0.5, 0.7, 0.9};
 // and the contact-free fit's damping ratios as they are and lowered: a contact-free fit widens its
 // peak to follow the rub's flattening, and from its damping the model may not reach the stator.
