@@ -79,10 +79,11 @@ response_parts with_anisotropy() {
 }
 
 // A virtual-rig run-up as a table: shaft-synchronous records (no keyphasor), so that each row's
-// phase is exact. With a keyphasor sampled at a whole number of samples per revolution (1500 and
-// 1600 rpm at 10 kHz) every pulse falls at the same place between two samples, the notch's time is
-// known only to a sample, and those rows' 1X phase is off by up to half a sample: 0.5-3 µm near
-// the critical speeds, 20-30 times the tracked noise, which a table fit cannot tell from a misfit.
+// phase is exact. A keyphasor times each dwell only to within a sample, so every row's 1X phase
+// carries a share of a sample's error; at a whole number of samples per revolution (1500 and 1600
+// rpm at 10 kHz) every pulse falls at the same place and the error stays up to half a sample. On
+// the paper's rotor that raised the tracked noise estimate from 7.5 nm to 82 nm and left those two
+// rows 2-3 µm (20-30 times that estimate) off near the critical speeds: a misfit to a table fit.
 rig_request rig_run_up() {
   rig_request req;
   req.probes.keyphasor = false;
