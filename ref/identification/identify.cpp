@@ -191,12 +191,69 @@ identification identify(const std::vector<dwell>& dwells, const identify_setting
 }
 
 namespace {
-identification identify_law(const std::vector<dwell>& dwells, const identify_settings& s) {
-  if (dwells.empty()) throw input_error("identify needs at least one dwell");
-  const std::vector<candidate_term> library = parse_library(s.library);
-  const auto touches = [](const dwell& d) { return std::any_of(d.y.begin(), d.y.end(), [&](double y) { return y > d.clearance; }); };
+// What identify_law's steps (below, in order) share: the dwells that touch, their synchronous
+// averages, the route, the contact forces, the pooled contact samples, the regression and the
+// terms kept.
+struct law_context {
+  law_context(identification& result, const identify_settings& settings) : id(result), s(settings), library(parse_library(settings.library)) {}
 
-  identification id;
+  identification& id;
+  const identify_settings& s;
+  std::vector<candidate_term> library;
+  std::vector<const dwell*> touching;
+  double sigma = 0.0;  // m, the probe noise
+  std::vector<std::optional<averaged_dwell>> averages;
+  bool weak = false;   // the weak form's route
+  std::vector<bool> averaged;
+  derivative_settings velocity;
+  std::vector<dwell_forces> forces;
+  std::vector<contact_sample> pooled;
+  std::vector<std::vector<contact_sample>> per_dwell;
+  double fxfn = 0.0, fnfn = 0.0;
+  std::vector<double> mu_means;
+  Eigen::MatrixXd P;
+  Eigen::VectorXd y;
+  weak_form_system sys;
+  std::vector<candidate_term> kept_terms;
+  std::vector<double> kept_coef;
+
+  // Noise of a sample: the probe's, or an average's, measured by its revolutions' spread around
+  // their mean (spread^2 = s^2 (R - 1) / R for R revolutions of noise s, the average's variance
+  // is s^2 / R). Measured rather than sigma / sqrt(R): resampling off-grid revolutions by cubic
+  // interpolation lowers the noise by up to 20 % (Catmull-Rom half-way between samples weighs
+  // them -1/16, 9/16, 9/16, -1/16), and the weak form's z_dot^2 correction needs the true level.
+  double sample_noise(std::size_t k, bool is_averaged) const {
+    if (!is_averaged) return sigma;
+    const auto& a = *averages[k];
+    return a.revolutions >= 2 ? a.spread / std::sqrt(static_cast<double>(a.revolutions - 1)) : sigma;
+  }
+  // The identified law's f_N.
+  double law(double z, double zd) const {
+    double f = 0.0;
+    for (std::size_t j = 0; j < kept_terms.size(); ++j) f += kept_coef[j] * kept_terms[j](z, zd);
+    return f;
+  }
+  // The start of either output-error stage: the identified linear part and the first dwell's
+  // clearance on the reference law's other parameters.
+  parameters output_error_start() const {
+    parameters p = s.reference;
+    p.m = id.linear.m;
+    p.c_x = id.linear.c_x;
+    p.c_y = id.linear.c_y;
+    p.k_x = id.linear.k_x;
+    p.k_y = id.linear.k_y;
+    p.e = id.linear.e;
+    p.delta = forces.front().source->clearance;
+    return p;
+  }
+};
+
+// The probe noise and the linear part (given, or fitted to the contact-free dwells); the dwells
+// that touch and their synchronous averages (dwells with at least one whole revolution).
+void linear_part_and_touching(law_context& ctx, const std::vector<dwell>& dwells) {
+  identification& id = ctx.id;
+  const identify_settings& s = ctx.s;
+  const auto touches = [](const dwell& d) { return std::any_of(d.y.begin(), d.y.end(), [&](double y) { return y > d.clearance; }); };
   {
     std::vector<const dwell*> all;
     for (const auto& d : dwells) all.push_back(&d);
@@ -214,118 +271,122 @@ identification identify_law(const std::vector<dwell>& dwells, const identify_set
     id.linear = id.linear_fitted->value;
     id.linear_source = "fitted";
   }
-
-  std::vector<const dwell*> touching;
   for (const auto& d : dwells)
-    if (touches(d)) touching.push_back(&d);
-  if (touching.empty()) throw input_error("no dwell reaches its clearance: there is no contact to identify");
-  const double sigma = id.probe_noise;
-
-  // Synchronous averages (dwells with at least one whole revolution).
-  std::vector<std::optional<averaged_dwell>> averages(touching.size());
-  for (std::size_t k = 0; k < touching.size(); ++k) {
+    if (touches(d)) ctx.touching.push_back(&d);
+  if (ctx.touching.empty()) throw input_error("no dwell reaches its clearance: there is no contact to identify");
+  ctx.sigma = id.probe_noise;
+  ctx.averages.resize(ctx.touching.size());
+  for (std::size_t k = 0; k < ctx.touching.size(); ++k) {
     try {
-      averages[k] = synchronous_average(*touching[k]);
+      ctx.averages[k] = synchronous_average(*ctx.touching[k]);
     } catch (const input_error&) {
     }
   }
-  // Noise of a sample: the probe's, or an average's, measured by its revolutions' spread around
-  // their mean (spread^2 = s^2 (R - 1) / R for R revolutions of noise s, the average's variance
-  // is s^2 / R). Measured rather than sigma / sqrt(R): resampling off-grid revolutions by cubic
-  // interpolation lowers the noise by up to 20 % (Catmull-Rom half-way between samples weighs
-  // them -1/16, 9/16, 9/16, -1/16), and the weak form's z_dot^2 correction needs the true level.
-  const auto sample_noise = [&](std::size_t k, bool averaged) {
-    if (!averaged) return sigma;
-    const auto& a = *averages[k];
-    return a.revolutions >= 2 ? a.spread / std::sqrt(static_cast<double>(a.revolutions - 1)) : sigma;
-  };
+}
 
-  // The route (law_method::automatic): the samples route's f_N carries m sigma g2 / dt^2 of noise
-  // per sample (g2: the second-derivative filter's gain); it serves while that is a negligible
-  // share of f_N's variance.
+// The route (law_method::automatic): the samples route's f_N carries m sigma g2 / dt^2 of noise
+// per sample (g2: the second-derivative filter's gain); it serves while that is a negligible
+// share of f_N's variance.
+void choose_route(law_context& ctx) {
+  identification& id = ctx.id;
+  const identify_settings& s = ctx.s;
   id.law_route = s.law_route;
   if (id.law_route == law_method::automatic) {
     const double g2 = second_derivative_gain(s.derivative);
     double noise_sq = 0.0, force_sq = 0.0;
-    for (std::size_t k = 0; k < touching.size(); ++k) {
-      const bool avg = s.average_revolutions && averages[k];
-      const dwell& d = avg ? averages[k]->cycle : *touching[k];
+    for (std::size_t k = 0; k < ctx.touching.size(); ++k) {
+      const bool avg = s.average_revolutions && ctx.averages[k];
+      const dwell& d = avg ? ctx.averages[k]->cycle : *ctx.touching[k];
       const dwell_forces f = contact_forces(d, id.linear, d.clearance, s.derivative);
-      const double fn_noise = id.linear.m * sample_noise(k, avg) * g2 / (d.dt * d.dt);
+      const double fn_noise = id.linear.m * ctx.sample_noise(k, avg) * g2 / (d.dt * d.dt);
       for (std::size_t i = 0; i < f.fn.size(); ++i)
         if (f.contact[i]) noise_sq += fn_noise * fn_noise, force_sq += f.fn[i] * f.fn[i];
     }
     const double share = force_sq > 0.0 ? noise_sq / force_sq : 1.0;
     id.law_route = share > kNoiseShareLimit ? law_method::weak_form : law_method::samples;
-    id.law_route_reason = "probe noise " + format_digits(sigma) + " m is " + format_digits(100.0 * share) +
+    id.law_route_reason = "probe noise " + format_digits(ctx.sigma) + " m is " + format_digits(100.0 * share) +
                           " % of f_N's variance on the samples route (limit " + format_digits(100.0 * kNoiseShareLimit) + " %)";
   } else {
     id.law_route_reason = "chosen (law_method)";
   }
-  const bool weak = id.law_route == law_method::weak_form;
+  ctx.weak = id.law_route == law_method::weak_form;
+}
 
-  // Which dwells are averaged: all on request; for the weak form, every steady one.
-  std::vector<bool> averaged(touching.size(), false);
-  for (std::size_t k = 0; k < touching.size(); ++k)
-    averaged[k] = averages[k] && (s.average_revolutions || (weak && averages[k]->revolutions >= 2 &&
-                                                           averages[k]->spread <= kSteadySpread * sigma + kSteadyFloor));
-  derivative_settings velocity = s.derivative;  // the weak form takes only z_dot: a wider window
-  if (weak) velocity.half_width = std::max(velocity.half_width, s.weak.velocity_half_width);
-  std::vector<dwell_forces> forces;
-  for (std::size_t k = 0; k < touching.size(); ++k) {
-    const dwell& d = averaged[k] ? averages[k]->cycle : *touching[k];
-    forces.push_back(contact_forces(d, id.linear, d.clearance, velocity));
+// Which dwells are averaged (all on request; for the weak form, every steady one), and every
+// touching dwell's contact forces.
+void contact_forces_of(law_context& ctx) {
+  const identify_settings& s = ctx.s;
+  ctx.averaged.assign(ctx.touching.size(), false);
+  for (std::size_t k = 0; k < ctx.touching.size(); ++k)
+    ctx.averaged[k] = ctx.averages[k] && (s.average_revolutions || (ctx.weak && ctx.averages[k]->revolutions >= 2 &&
+                                                                   ctx.averages[k]->spread <= kSteadySpread * ctx.sigma + kSteadyFloor));
+  ctx.velocity = s.derivative;  // the weak form takes only z_dot: a wider window
+  if (ctx.weak) ctx.velocity.half_width = std::max(ctx.velocity.half_width, s.weak.velocity_half_width);
+  for (std::size_t k = 0; k < ctx.touching.size(); ++k) {
+    const dwell& d = ctx.averaged[k] ? ctx.averages[k]->cycle : *ctx.touching[k];
+    ctx.forces.push_back(contact_forces(d, ctx.id.linear, d.clearance, ctx.velocity));
   }
+}
 
-  // Friction per speed (Fig. 5) and the pooled contact samples.
-  std::vector<contact_sample> pooled;
-  std::vector<std::vector<contact_sample>> per_dwell(forces.size());
-  double fxfn = 0.0, fnfn = 0.0;
-  std::vector<double> mu_means;
-  for (std::size_t k = 0; k < forces.size(); ++k) {
-    const auto& f = forces[k];
+// Friction per speed (Fig. 5) and the pooled contact samples.
+void pool_contacts(law_context& ctx) {
+  identification& id = ctx.id;
+  ctx.per_dwell.assign(ctx.forces.size(), {});
+  for (std::size_t k = 0; k < ctx.forces.size(); ++k) {
+    const auto& f = ctx.forces[k];
     dwell_report rep{f.source->rpm, f.source->clearance, 0, 0.0, f.source->size(), 0, 0, 0.0, std::nullopt, {}, {}};
-    if (averaged[k]) {
-      rep.averaged_revolutions = averages[k]->revolutions;
-      rep.average_spread = averages[k]->spread;
+    if (ctx.averaged[k]) {
+      rep.averaged_revolutions = ctx.averages[k]->revolutions;
+      rep.average_spread = ctx.averages[k]->spread;
     }
-    if (!weak) {
+    if (!ctx.weak) {
       const friction_estimate fe = estimate_friction(f);
       if (fe.samples > 0) {
         rep.friction = fe;
-        mu_means.push_back(fe.mean);
+        ctx.mu_means.push_back(fe.mean);
       }
     }
     for (std::size_t i = 0; i < f.fn.size(); ++i) {
       if (!f.contact[i]) continue;
       // A new episode starts where contact starts (a periodic cycle may wrap one around its end).
       if (i == 0 || !f.contact[i - 1]) ++id.episodes, ++rep.episodes;
-      per_dwell[k].push_back({f.z[i], f.vy[i], f.fn[i], id.episodes - 1});
+      ctx.per_dwell[k].push_back({f.z[i], f.vy[i], f.fn[i], id.episodes - 1});
       rep.max_penetration = std::max(rep.max_penetration, f.z[i]);
-      fxfn += f.fx[i] * f.fn[i];
-      fnfn += f.fn[i] * f.fn[i];
+      ctx.fxfn += f.fx[i] * f.fn[i];
+      ctx.fnfn += f.fn[i] * f.fn[i];
     }
-    rep.contact_samples = per_dwell[k].size();
-    pooled.insert(pooled.end(), per_dwell[k].begin(), per_dwell[k].end());
+    rep.contact_samples = ctx.per_dwell[k].size();
+    ctx.pooled.insert(ctx.pooled.end(), ctx.per_dwell[k].begin(), ctx.per_dwell[k].end());
     id.dwells.push_back(std::move(rep));
   }
-  if (!weak) {
+  if (!ctx.weak) {
+    const auto& mu_means = ctx.mu_means;
     for (double m : mu_means) id.mu_mean += m / mu_means.size();
     for (double m : mu_means) id.mu_spread += (m - id.mu_mean) * (m - id.mu_mean);
     id.mu_spread = mu_means.size() > 1 ? std::sqrt(id.mu_spread / (mu_means.size() - 1)) : 0.0;
-    id.mu_slope = fnfn > 0.0 ? fxfn / fnfn : 0.0;
+    id.mu_slope = ctx.fnfn > 0.0 ? ctx.fxfn / ctx.fnfn : 0.0;
     id.mu = id.mu_mean;
     if (mu_means.size() > 1) id.mu_standard_error = id.mu_spread / std::sqrt(static_cast<double>(mu_means.size()));
   }
+}
 
-  // The regression: contact samples (the paper's) or the weak form's integrals.
+
+// The regression: contact samples (the paper's) or the weak form's integrals.
+void regression_rows(law_context& ctx) {
+  identification& id = ctx.id;
+  const identify_settings& s = ctx.s;
+  const auto& library = ctx.library;
+  const bool weak = ctx.weak;
+  const auto& averaged = ctx.averaged;
+  const auto& forces = ctx.forces;
+  auto& pooled = ctx.pooled;
   const Eigen::Index m = static_cast<Eigen::Index>(library.size());
-  Eigen::MatrixXd P;
-  Eigen::VectorXd y;
-  weak_form_system sys;
+  Eigen::MatrixXd& P = ctx.P;
+  Eigen::VectorXd& y = ctx.y;
+  weak_form_system& sys = ctx.sys;
   if (weak) {
     std::vector<weak_form_input> in;
-    for (std::size_t k = 0; k < forces.size(); ++k) in.push_back({&forces[k], sample_noise(k, averaged[k])});
+    for (std::size_t k = 0; k < forces.size(); ++k) in.push_back({&forces[k], ctx.sample_noise(k, averaged[k])});
     sys = weak_form(in, id.linear, library, s.weak);
     if (sys.A.rows() <= static_cast<Eigen::Index>(library.size()))
       throw input_error("weak form: " + std::to_string(sys.A.rows()) + " rows from " + std::to_string(sys.episodes) +
@@ -341,8 +402,21 @@ identification identify_law(const std::vector<dwell>& dwells, const identify_set
       y[i] = pooled[i].fn;
     }
   }
-  const Eigen::Index n = P.rows();
   id.contact_samples = pooled.size();
+}
+
+// The terms by FROLS (Eq. 3-4), their ERR at the first step and in the paper's order, and what
+// the law leaves of each contact sample's f_N.
+void select_terms(law_context& ctx) {
+  identification& id = ctx.id;
+  const identify_settings& s = ctx.s;
+  const auto& library = ctx.library;
+  const bool weak = ctx.weak;
+  auto& pooled = ctx.pooled;
+  const Eigen::MatrixXd& P = ctx.P;
+  const Eigen::VectorXd& y = ctx.y;
+  const weak_form_system& sys = ctx.sys;
+  const Eigen::Index m = static_cast<Eigen::Index>(library.size());
   // The weak form's rows carry a known noise: its terms are selected by significance (the
   // paper's rho and 1 % threshold are shares of per-sample variance, not of the integrals').
   frols_settings fs = s.frols;
@@ -374,108 +448,133 @@ identification identify_law(const std::vector<dwell>& dwells, const identify_set
     }
   }
   const auto& kept = id.frols.kept;
-  std::vector<candidate_term> kept_terms;
-  std::vector<double> kept_coef;
+  auto& kept_terms = ctx.kept_terms;
+  auto& kept_coef = ctx.kept_coef;
   for (std::size_t j = 0; j < kept.size(); ++j) {
     kept_terms.push_back(library[kept[j]]);
     kept_coef.push_back(id.frols.coefficients[j]);
   }
-  const auto law = [&](double z, double zd) {
-    double f = 0.0;
-    for (std::size_t j = 0; j < kept_terms.size(); ++j) f += kept_coef[j] * kept_terms[j](z, zd);
-    return f;
-  };
   {
     // Per contact sample: what the law leaves of the measured f_N (on the weak route that f_N is
     // noise-dominated; the fit's own residual is weak_form_report's).
     double sq = 0.0, fsq = 0.0;
-    for (const auto& c : pooled) sq += std::pow(c.fn - law(c.z, c.zd), 2), fsq += c.fn * c.fn;
+    for (const auto& c : pooled) sq += std::pow(c.fn - ctx.law(c.z, c.zd), 2), fsq += c.fn * c.fn;
     id.residual_rms = std::sqrt(sq / std::max<std::size_t>(1, pooled.size()));
     id.force_rms = std::sqrt(fsq / std::max<std::size_t>(1, pooled.size()));
   }
 
-  if (weak) {
-    // Intervals on the whitened rows: the residual variance, but never below the noise's (few
-    // rows can fit the noise by chance), with Student's t for the rows left.
-    const Eigen::Index p = static_cast<Eigen::Index>(kept.size());
-    const Eigen::Index dof = std::max<Eigen::Index>(1, n - p);
-    const double s2 = id.frols.residual.squaredNorm() / static_cast<double>(dof), noise2 = sys.noise * sys.noise;
-    const double var = std::max(s2, noise2);
-    const double tq = boost::math::quantile(boost::math::students_t(static_cast<double>(dof)), 0.975);
-    Eigen::MatrixXd Ak(n, p);
-    for (Eigen::Index j = 0; j < p; ++j) Ak.col(j) = P.col(static_cast<Eigen::Index>(kept[j]));
-    const Eigen::MatrixXd cov = p > 0 ? Eigen::MatrixXd(var * (Ak.transpose() * Ak).completeOrthogonalDecomposition().pseudoInverse())
-                                      : Eigen::MatrixXd();
-    perturbation_spread spread{Eigen::MatrixXd::Zero(p, p), 0.0, 0};
-    if (p > 0 && sys.noise > 0.0) {
-      std::vector<std::pair<const dwell*, double>> used;
-      for (std::size_t k = 0; k < forces.size(); ++k) used.push_back({forces[k].source, sample_noise(k, averaged[k])});
-      spread = perturbation_covariance(used, id.linear, kept_terms, velocity, s.weak, s2, s.seed);
-      // Perturbations that left no usable episode: the data sit at the edge of what the weak
-      // form can use, and the intervals below count only the rows' noise.
-      if (2 * spread.done < kSpreadRepeats)
-        id.warnings.push_back("weak form: only " + std::to_string(spread.done) + " of " + std::to_string(kSpreadRepeats) +
-                              " noise perturbations of the data could be fitted; the intervals omit the regressors' noise");
-    }
-    for (std::size_t j = 0; j < kept.size(); ++j) {
-      const auto jj = static_cast<Eigen::Index>(j);
-      // The larger of the rows' covariance and the perturbations' spread (which also holds the
-      // regressors' noise).
-      const double se = std::sqrt(std::max(cov(jj, jj), spread.cov(jj, jj)));
-      id.estimates.push_back({library[kept[j]].name(), library[kept[j]].pretty(), kept_coef[j], se, kept_coef[j] - tq * se,
-                              kept_coef[j] + tq * se});
-    }
-    weak_form_report wr;
-    wr.rows = static_cast<std::size_t>(n);
-    wr.episodes = sys.episodes;
-    wr.noise = sys.noise;
-    wr.residual_rms = std::sqrt(id.frols.residual.squaredNorm() / static_cast<double>(std::max<Eigen::Index>(1, n)));
-    // Against what the noise leaves in the residual: the rows' noise, or (larger, when the
-    // regressors' noise counts) what one more dose of it adds.
-    const double expected = std::max(noise2, spread.residual_variance);
-    wr.chi2_per_dof = expected > 0.0 ? s2 / expected : std::numeric_limits<double>::infinity();
-    wr.chi2_limit = boost::math::quantile(boost::math::chi_squared(static_cast<double>(dof)), 0.999) / static_cast<double>(dof);
-    id.weak = wr;
+}
 
-    // Friction: int f_x psi = mu int f_N psi on every row (Eq. 2), both sides from the data. The
-    // noise in the regressor's sum of squares (rows x noise^2) is taken out, else it biases mu
-    // towards 0.
-    const auto friction = [&](const std::vector<Eigen::Index>& rows, double& se) {
-      double bb = 0.0, bxb = 0.0;
-      for (const auto r : rows) bb += sys.b[r] * sys.b[r], bxb += sys.bx[r] * sys.b[r];
-      double den = bb - static_cast<double>(rows.size()) * noise2;
-      if (!(den > 0.5 * bb)) den = bb;  // noise-dominated: no correction (the warnings say so)
-      const double mu = den > 0.0 ? bxb / den : kNaN;
-      double rr = 0.0;
-      for (const auto r : rows) rr += std::pow(sys.bx[r] - mu * sys.b[r], 2);
-      const double sx2 = rows.size() > 1 ? rr / static_cast<double>(rows.size() - 1) : kNaN;
-      se = std::sqrt(std::max(sx2, noise2 * (1.0 + mu * mu)) / den);
-      return mu;
-    };
-    std::vector<Eigen::Index> all_rows;
-    std::vector<std::vector<Eigen::Index>> rows_of(forces.size());
-    for (Eigen::Index r = 0; r < n; ++r) {
-      all_rows.push_back(r);
-      rows_of[sys.dwell_of_row[static_cast<std::size_t>(r)]].push_back(r);
-    }
-    id.mu = id.mu_slope = friction(all_rows, id.mu_standard_error);
-    for (std::size_t k = 0; k < forces.size(); ++k) {
-      if (rows_of[k].empty()) continue;
-      double se = 0.0;
-      const double mu = friction(rows_of[k], se);
-      id.dwells[k].friction = friction_estimate{forces[k].source->rpm, rows_of[k].size(), mu, se, mu, mu};
-      mu_means.push_back(mu);
-    }
-    for (double v : mu_means) id.mu_mean += v / mu_means.size();
-    for (double v : mu_means) id.mu_spread += (v - id.mu_mean) * (v - id.mu_mean);
-    id.mu_spread = mu_means.size() > 1 ? std::sqrt(id.mu_spread / (mu_means.size() - 1)) : 0.0;
-    // The shares below compare with the law's own f_N: the measured one is noise here.
-    for (auto* v : {&pooled})
-      for (auto& c : *v) c.fn = law(c.z, c.zd);
-    for (auto& d : per_dwell)
-      for (auto& c : d) c.fn = law(c.z, c.zd);
+// The weak form's intervals, its report and its friction (Eq. 2 on every row).
+void weak_form_estimates(law_context& ctx) {
+  identification& id = ctx.id;
+  const identify_settings& s = ctx.s;
+  const auto& library = ctx.library;
+  const auto& averaged = ctx.averaged;
+  const auto& velocity = ctx.velocity;
+  const auto& forces = ctx.forces;
+  auto& pooled = ctx.pooled;
+  auto& per_dwell = ctx.per_dwell;
+  auto& mu_means = ctx.mu_means;
+  const Eigen::MatrixXd& P = ctx.P;
+  const weak_form_system& sys = ctx.sys;
+  const auto& kept_terms = ctx.kept_terms;
+  const auto& kept_coef = ctx.kept_coef;
+  const auto& kept = id.frols.kept;
+  const Eigen::Index n = P.rows();
+  // Intervals on the whitened rows: the residual variance, but never below the noise's (few
+  // rows can fit the noise by chance), with Student's t for the rows left.
+  const Eigen::Index p = static_cast<Eigen::Index>(kept.size());
+  const Eigen::Index dof = std::max<Eigen::Index>(1, n - p);
+  const double s2 = id.frols.residual.squaredNorm() / static_cast<double>(dof), noise2 = sys.noise * sys.noise;
+  const double var = std::max(s2, noise2);
+  const double tq = boost::math::quantile(boost::math::students_t(static_cast<double>(dof)), 0.975);
+  Eigen::MatrixXd Ak(n, p);
+  for (Eigen::Index j = 0; j < p; ++j) Ak.col(j) = P.col(static_cast<Eigen::Index>(kept[j]));
+  const Eigen::MatrixXd cov = p > 0 ? Eigen::MatrixXd(var * (Ak.transpose() * Ak).completeOrthogonalDecomposition().pseudoInverse())
+                                    : Eigen::MatrixXd();
+  perturbation_spread spread{Eigen::MatrixXd::Zero(p, p), 0.0, 0};
+  if (p > 0 && sys.noise > 0.0) {
+    std::vector<std::pair<const dwell*, double>> used;
+    for (std::size_t k = 0; k < forces.size(); ++k) used.push_back({forces[k].source, ctx.sample_noise(k, averaged[k])});
+    spread = perturbation_covariance(used, id.linear, kept_terms, velocity, s.weak, s2, s.seed);
+    // Perturbations that left no usable episode: the data sit at the edge of what the weak
+    // form can use, and the intervals below count only the rows' noise.
+    if (2 * spread.done < kSpreadRepeats)
+      id.warnings.push_back("weak form: only " + std::to_string(spread.done) + " of " + std::to_string(kSpreadRepeats) +
+                            " noise perturbations of the data could be fitted; the intervals omit the regressors' noise");
   }
+  for (std::size_t j = 0; j < kept.size(); ++j) {
+    const auto jj = static_cast<Eigen::Index>(j);
+    // The larger of the rows' covariance and the perturbations' spread (which also holds the
+    // regressors' noise).
+    const double se = std::sqrt(std::max(cov(jj, jj), spread.cov(jj, jj)));
+    id.estimates.push_back({library[kept[j]].name(), library[kept[j]].pretty(), kept_coef[j], se, kept_coef[j] - tq * se,
+                            kept_coef[j] + tq * se});
+  }
+  weak_form_report wr;
+  wr.rows = static_cast<std::size_t>(n);
+  wr.episodes = sys.episodes;
+  wr.noise = sys.noise;
+  wr.residual_rms = std::sqrt(id.frols.residual.squaredNorm() / static_cast<double>(std::max<Eigen::Index>(1, n)));
+  // Against what the noise leaves in the residual: the rows' noise, or (larger, when the
+  // regressors' noise counts) what one more dose of it adds.
+  const double expected = std::max(noise2, spread.residual_variance);
+  wr.chi2_per_dof = expected > 0.0 ? s2 / expected : std::numeric_limits<double>::infinity();
+  wr.chi2_limit = boost::math::quantile(boost::math::chi_squared(static_cast<double>(dof)), 0.999) / static_cast<double>(dof);
+  id.weak = wr;
 
+  // Friction: int f_x psi = mu int f_N psi on every row (Eq. 2), both sides from the data. The
+  // noise in the regressor's sum of squares (rows x noise^2) is taken out, else it biases mu
+  // towards 0.
+  const auto friction = [&](const std::vector<Eigen::Index>& rows, double& se) {
+    double bb = 0.0, bxb = 0.0;
+    for (const auto r : rows) bb += sys.b[r] * sys.b[r], bxb += sys.bx[r] * sys.b[r];
+    double den = bb - static_cast<double>(rows.size()) * noise2;
+    if (!(den > 0.5 * bb)) den = bb;  // noise-dominated: no correction (the warnings say so)
+    const double mu = den > 0.0 ? bxb / den : kNaN;
+    double rr = 0.0;
+    for (const auto r : rows) rr += std::pow(sys.bx[r] - mu * sys.b[r], 2);
+    const double sx2 = rows.size() > 1 ? rr / static_cast<double>(rows.size() - 1) : kNaN;
+    se = std::sqrt(std::max(sx2, noise2 * (1.0 + mu * mu)) / den);
+    return mu;
+  };
+  std::vector<Eigen::Index> all_rows;
+  std::vector<std::vector<Eigen::Index>> rows_of(forces.size());
+  for (Eigen::Index r = 0; r < n; ++r) {
+    all_rows.push_back(r);
+    rows_of[sys.dwell_of_row[static_cast<std::size_t>(r)]].push_back(r);
+  }
+  id.mu = id.mu_slope = friction(all_rows, id.mu_standard_error);
+  for (std::size_t k = 0; k < forces.size(); ++k) {
+    if (rows_of[k].empty()) continue;
+    double se = 0.0;
+    const double mu = friction(rows_of[k], se);
+    id.dwells[k].friction = friction_estimate{forces[k].source->rpm, rows_of[k].size(), mu, se, mu, mu};
+    mu_means.push_back(mu);
+  }
+  for (double v : mu_means) id.mu_mean += v / mu_means.size();
+  for (double v : mu_means) id.mu_spread += (v - id.mu_mean) * (v - id.mu_mean);
+  id.mu_spread = mu_means.size() > 1 ? std::sqrt(id.mu_spread / (mu_means.size() - 1)) : 0.0;
+  // The shares below compare with the law's own f_N: the measured one is noise here.
+  for (auto* v : {&pooled})
+    for (auto& c : *v) c.fn = ctx.law(c.z, c.zd);
+  for (auto& d : per_dwell)
+    for (auto& c : d) c.fn = ctx.law(c.z, c.zd);
+}
+
+// The samples route's intervals (an episode bootstrap) and its residual tests; the weak form's were set above.
+void samples_estimates(law_context& ctx) {
+  identification& id = ctx.id;
+  const identify_settings& s = ctx.s;
+  const auto& library = ctx.library;
+  const bool weak = ctx.weak;
+  auto& pooled = ctx.pooled;
+  const Eigen::MatrixXd& P = ctx.P;
+  const Eigen::VectorXd& y = ctx.y;
+  const auto& kept = id.frols.kept;
+  const Eigen::Index m = static_cast<Eigen::Index>(library.size());
+  const Eigen::Index n = P.rows();
   // Episode bootstrap: contact samples within an episode are correlated, whole episodes are not.
   std::vector<std::vector<double>> boot(kept.size());
   if (!weak && s.bootstrap > 0 && id.episodes > 1 && !kept.empty()) {
@@ -514,7 +613,17 @@ identification identify_law(const std::vector<dwell>& dwells, const identify_set
     }
     id.validity = residual_tests(e, z, zd, s.correlation_lags);
   }
+}
 
+// Term shares per speed, and whether the law pulls the rotor into the stator.
+void shares_and_pull(law_context& ctx) {
+  identification& id = ctx.id;
+  const identify_settings& s = ctx.s;
+  const auto& forces = ctx.forces;
+  auto& pooled = ctx.pooled;
+  auto& per_dwell = ctx.per_dwell;
+  const auto& kept_terms = ctx.kept_terms;
+  const auto& kept_coef = ctx.kept_coef;
   // Term shares per speed: the reference law (Table 2) and the identified one.
   const std::vector<candidate_term> reference_terms = parse_library("z1,z3,zd2");
   for (std::size_t k = 0; k < forces.size(); ++k) {
@@ -525,28 +634,22 @@ identification identify_law(const std::vector<dwell>& dwells, const identify_set
   {
     double peak = 0.0, least = 0.0;
     for (const auto& c : pooled) {
-      const double f = law(c.z, c.zd);
+      const double f = ctx.law(c.z, c.zd);
       peak = std::max(peak, f), least = std::min(least, f);
     }
     if (!kept_terms.empty() && least < -kPullShare * peak)
       id.warnings.push_back("the identified law pulls the rotor into the stator: its f_N falls to " + format_digits(least) +
                             " N over the contact samples (peak " + format_digits(peak) + " N); a contact force cannot pull");
   }
+}
 
-  // The start of either output-error stage: the identified linear part and the first dwell's
-  // clearance on the reference law's other parameters.
-  const auto output_error_start = [&] {
-    parameters p = s.reference;
-    p.m = id.linear.m;
-    p.c_x = id.linear.c_x;
-    p.c_y = id.linear.c_y;
-    p.k_x = id.linear.k_x;
-    p.k_y = id.linear.k_y;
-    p.e = id.linear.e;
-    p.delta = forces.front().source->clearance;
-    return p;
-  };
-
+// The weak form's estimates refined by the averaged cycles' periodic orbits.
+void refine_by_orbits(law_context& ctx) {
+  identification& id = ctx.id;
+  const identify_settings& s = ctx.s;
+  const bool weak = ctx.weak;
+  const auto& averaged = ctx.averaged;
+  const auto& forces = ctx.forces;
   // The weak form's estimates refined by the averaged cycles' periodic orbits (orbit_fit.hpp):
   // the law within Eq. 5's family, every averaged dwell, from the weak form's start.
   const auto law_member = [](const std::string& term) -> std::string {
@@ -558,13 +661,13 @@ identification identify_law(const std::vector<dwell>& dwells, const identify_set
   if (weak && s.orbit_fit && in_family) {
     std::vector<orbit_fit_cycle> cycles;
     for (std::size_t k = 0; k < forces.size(); ++k)
-      if (averaged[k]) cycles.push_back({&forces[k], sample_noise(k, true)});
+      if (averaged[k]) cycles.push_back({&forces[k], ctx.sample_noise(k, true)});
     if (cycles.empty()) {
       id.notes.push_back("orbit fit: no dwell was steady enough to average; the weak form's estimates stand");
     } else {
       if (cycles.size() < forces.size())
         id.notes.push_back("orbit fit: " + std::to_string(forces.size() - cycles.size()) + " unsteady dwell(s) left out");
-      parameters start = output_error_start();
+      parameters start = ctx.output_error_start();
       start.unbalance_phase = id.linear.phase;
       start.mu = std::isfinite(id.mu) && id.mu > 0.0 ? id.mu : 0.0;
       std::vector<std::string> terms;
@@ -592,25 +695,50 @@ identification identify_law(const std::vector<dwell>& dwells, const identify_set
       }
     }
   }
+}
 
-  if (s.reidentify) {
-    parameters start = output_error_start();
-    start.mu = id.mu;
-    start.k1 = start.k3 = start.c2 = 0.0;
-    for (const auto& est : id.estimates) {
-      if (est.name == "z1") start.k1 = est.value;
-      if (est.name == "z3") start.k3 = est.value;
-      if (est.name == "zd2") start.c2 = est.value;
-    }
-    // Only Eq. 5's family can be simulated; fit what FROLS found of it (positive starts).
-    reid_settings rs = s.reid;
-    rs.derivative_half_width = s.derivative.half_width;
-    std::erase_if(rs.fit, [&](const std::string& name) {
-      return (name == "k1" && !(start.k1 > 0)) || (name == "k3" && !(start.k3 > 0)) || (name == "c2" && !(start.c2 > 0)) ||
-             (name == "mu" && !(start.mu > 0));
-    });
-    id.reid = reidentify(forces, start, id.linear.phase, rs);
+// The output-error re-identification of Eq. 5's family (reidentify).
+void reidentify_law(law_context& ctx) {
+  identification& id = ctx.id;
+  const identify_settings& s = ctx.s;
+  const auto& forces = ctx.forces;
+  parameters start = ctx.output_error_start();
+  start.mu = id.mu;
+  start.k1 = start.k3 = start.c2 = 0.0;
+  for (const auto& est : id.estimates) {
+    if (est.name == "z1") start.k1 = est.value;
+    if (est.name == "z3") start.k3 = est.value;
+    if (est.name == "zd2") start.c2 = est.value;
   }
+  // Only Eq. 5's family can be simulated; fit what FROLS found of it (positive starts).
+  reid_settings rs = s.reid;
+  rs.derivative_half_width = s.derivative.half_width;
+  std::erase_if(rs.fit, [&](const std::string& name) {
+    return (name == "k1" && !(start.k1 > 0)) || (name == "k3" && !(start.k3 > 0)) || (name == "c2" && !(start.c2 > 0)) ||
+           (name == "mu" && !(start.mu > 0));
+  });
+  id.reid = reidentify(forces, start, id.linear.phase, rs);
+}
+
+
+// The law (docs/identification.md): the linear part, the route, the contact forces, the
+// regression, FROLS's terms, their intervals by the route's own means, and the orbit fit and the
+// re-identification where asked for. Each step is one function above.
+identification identify_law(const std::vector<dwell>& dwells, const identify_settings& s) {
+  if (dwells.empty()) throw input_error("identify needs at least one dwell");
+  identification id;
+  law_context ctx(id, s);
+  linear_part_and_touching(ctx, dwells);
+  choose_route(ctx);
+  contact_forces_of(ctx);
+  pool_contacts(ctx);
+  regression_rows(ctx);
+  select_terms(ctx);
+  if (ctx.weak) weak_form_estimates(ctx);
+  else samples_estimates(ctx);
+  shares_and_pull(ctx);
+  refine_by_orbits(ctx);
+  if (s.reidentify) reidentify_law(ctx);
   return id;
 }
 
