@@ -9,6 +9,8 @@
 
 #include <gtest/gtest.h>
 
+#include "tests/sanitized.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -26,17 +28,6 @@ namespace {
 
 // The sanitizers make the loop ~12x slower (docs/robustness.md): there only the rows marked
 // `sanitized` run, the others are skipped.
-#if defined(__SANITIZE_ADDRESS__)
-constexpr bool kSanitized = true;
-#elif defined(__has_feature)
-#if __has_feature(address_sanitizer)
-constexpr bool kSanitized = true;
-#else
-constexpr bool kSanitized = false;
-#endif
-#else
-constexpr bool kSanitized = false;
-#endif
 
 // What the independent records looked like: 0.3 mm, rub dwells 1500-1700 rpm and a
 // separate contact-free record at 1200-1800 rpm (10 kHz, so 1200, 1500 and 1800 rpm have a whole

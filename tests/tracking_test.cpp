@@ -4,6 +4,8 @@
 
 #include <gtest/gtest.h>
 
+#include "tests/sanitized.hpp"
+
 #include <cmath>
 #include <numbers>
 #include <random>
@@ -285,17 +287,6 @@ TEST(TrackingLoop, AMisalignmentIsNamedFromTheTwoXColumnsOfARigRunUp) {
 
 // The sanitizers make the rub's shooting ~50x slower (docs/robustness.md): there the loop's rub
 // run-up is skipped, and the rub fit itself runs on a shorter table.
-#if defined(__SANITIZE_ADDRESS__)
-constexpr bool kSanitized = true;
-#elif defined(__has_feature)
-#if __has_feature(address_sanitizer)
-constexpr bool kSanitized = true;
-#else
-constexpr bool kSanitized = false;
-#endif
-#else
-constexpr bool kSanitized = false;
-#endif
 
 // A rig rub run-up (below), the piecewise-linear law at a stator 50 µm above the centre.
 rig_request rub_run_up(double step_rpm) {

@@ -563,12 +563,12 @@ void weak_form_estimates(law_context& ctx) {
     for (auto& c : d) c.fn = ctx.law(c.z, c.zd);
 }
 
-// The samples route's intervals (an episode bootstrap) and its residual tests; the weak form's were set above.
+// The samples route's intervals (an episode bootstrap) and its residual tests (the weak form's
+// intervals are weak_form_estimates').
 void samples_estimates(law_context& ctx) {
   identification& id = ctx.id;
   const identify_settings& s = ctx.s;
   const auto& library = ctx.library;
-  const bool weak = ctx.weak;
   auto& pooled = ctx.pooled;
   const Eigen::MatrixXd& P = ctx.P;
   const Eigen::VectorXd& y = ctx.y;
@@ -577,7 +577,7 @@ void samples_estimates(law_context& ctx) {
   const Eigen::Index n = P.rows();
   // Episode bootstrap: contact samples within an episode are correlated, whole episodes are not.
   std::vector<std::vector<double>> boot(kept.size());
-  if (!weak && s.bootstrap > 0 && id.episodes > 1 && !kept.empty()) {
+  if (s.bootstrap > 0 && id.episodes > 1 && !kept.empty()) {
     std::vector<std::vector<Eigen::Index>> rows_of(id.episodes);
     for (Eigen::Index i = 0; i < n; ++i) rows_of[pooled[i].episode].push_back(i);
     std::mt19937_64 rng(s.seed);  // its output sequence is fixed by the standard: same intervals everywhere
@@ -598,21 +598,18 @@ void samples_estimates(law_context& ctx) {
       for (std::size_t j = 0; j < kept.size(); ++j) boot[j].push_back(fb.coefficients[j]);
     }
   }
-  if (!weak)
-    for (std::size_t j = 0; j < kept.size(); ++j)
-      id.estimates.push_back({library[kept[j]].name(), library[kept[j]].pretty(), id.frols.coefficients[j],
-                              id.frols.standard_errors[j], percentile(boot[j], 0.025), percentile(boot[j], 0.975)});
+  for (std::size_t j = 0; j < kept.size(); ++j)
+    id.estimates.push_back({library[kept[j]].name(), library[kept[j]].pretty(), id.frols.coefficients[j], id.frols.standard_errors[j],
+                            percentile(boot[j], 0.025), percentile(boot[j], 0.975)});
 
   // Residual correlation tests, episode by episode (samples route: the residual is per sample).
-  if (!weak) {
-    std::vector<std::vector<double>> e(id.episodes), z(id.episodes), zd(id.episodes);
-    for (Eigen::Index i = 0; i < n; ++i) {
-      e[pooled[i].episode].push_back(id.frols.residual[i]);
-      z[pooled[i].episode].push_back(pooled[i].z);
-      zd[pooled[i].episode].push_back(pooled[i].zd);
-    }
-    id.validity = residual_tests(e, z, zd, s.correlation_lags);
+  std::vector<std::vector<double>> e(id.episodes), z(id.episodes), zd(id.episodes);
+  for (Eigen::Index i = 0; i < n; ++i) {
+    e[pooled[i].episode].push_back(id.frols.residual[i]);
+    z[pooled[i].episode].push_back(pooled[i].z);
+    zd[pooled[i].episode].push_back(pooled[i].zd);
   }
+  id.validity = residual_tests(e, z, zd, s.correlation_lags);
 }
 
 // Term shares per speed, and whether the law pulls the rotor into the stator.

@@ -15,6 +15,18 @@ json interval(const estimate& e) { return json::array({e.lo, e.hi}); }
 
 json quantity(const estimate& e) { return {{"value", e.value}, {"interval_95", interval(e)}, {"determined", e.determined}}; }
 
+// An effect's evidence against the model without it.
+json need_json(const tracked_model::need& n, bool with_name) {
+  json j;
+  if (with_name) j["effect"] = n.effect;
+  j["bic_rise_without"] = n.bic_rise;
+  j["held_out_chi2_without"] = n.held_out_without;
+  j["held_out_chi2_with"] = n.held_out_with;
+  j["held_out_gain"] = n.held_out_gain;
+  j["needed"] = n.needed;
+  return j;
+}
+
 json modes_json(const std::vector<response_mode>& modes) {
   json out = json::array();
   for (const auto& m : modes)
@@ -76,11 +88,7 @@ json rub_json(const rub_result& t) {
   j["rms_residual_m"] = f.rms_residual_m;
   j["consistent_with_noise"] = f.consistent_with_noise;
   j["undetermined"] = t.undetermined;
-  j["need"] = {{"bic_rise_without", t.need.bic_rise},
-               {"held_out_chi2_without", t.need.held_out_without},
-               {"held_out_chi2_with", t.need.held_out_with},
-               {"held_out_gain", t.need.held_out_gain},
-               {"needed", t.need.needed}};
+  j["need"] = need_json(t.need, false);
   j["evaluations"] = f.evaluations;
   j["orbits_shot"] = f.shots;
   j["verdict"] = t.verdict;
@@ -148,12 +156,7 @@ json to_json(const tracking_result& r) {
                   {"remaining_share", t.remaining_share},
                   {"unexplained", t.unexplained},
                   {"undetermined", t.undetermined},
-                  {"need",
-                   {{"bic_rise_without", t.need.bic_rise},
-                    {"held_out_chi2_without", t.need.held_out_without},
-                    {"held_out_chi2_with", t.need.held_out_with},
-                    {"held_out_gain", t.need.held_out_gain},
-                    {"needed", t.need.needed}}},
+                  {"need", need_json(t.need, false)},
                   {"noise", {{"from_row_scatter_m", t.noise_scatter_m}, {"from_runout_residual_m", t.noise_residual_m}, {"used_m", t.after().noise_m}}},
                   {"verdict", t.verdict},
                   {"before_fit", two_x_fit_json(t.before)},
@@ -164,13 +167,7 @@ json to_json(const tracking_result& r) {
   j["models"] = json::array();
   for (const auto& m : r.models) {
     json needs = json::array();
-    for (const auto& n : m.needs)
-      needs.push_back({{"effect", n.effect},
-                       {"bic_rise_without", n.bic_rise},
-                       {"held_out_chi2_without", n.held_out_without},
-                       {"held_out_chi2_with", n.held_out_with},
-                       {"held_out_gain", n.held_out_gain},
-                       {"needed", n.needed}});
+    for (const auto& n : m.needs) needs.push_back(need_json(n, true));
     j["models"].push_back({{"effects", m.effects},
                            {"chi2", m.chi2},
                            {"bic", m.bic},
