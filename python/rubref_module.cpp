@@ -330,12 +330,12 @@ PYBIND11_MODULE(_rubref, m) {
 
   m.def(
       "identify",
-      [](const std::vector<std::string>& paths, std::optional<double> clearance, std::optional<py::dict> linear, bool average_revolutions,
+      [](const std::vector<std::string>& paths, std::optional<double> clearance, std::optional<py::dict> linear, const std::string& averaging,
          const std::string& law_method, const std::string& library, double rho, bool orbit_fit, bool reidentify, int bootstrap) {
         identify_settings s;
         if (linear) s.linear = parameters_from(std::nullopt, *linear);  // the linear part known: the parameter file's keys
         if (clearance) s.clearance = *clearance;
-        s.average_revolutions = average_revolutions;
+        s.average = parse_averaging(averaging);
         s.law_route = parse_law_method(law_method);
         s.library = library;
         if (!(rho >= 0.0 && rho < 1.0)) throw input_error("rho must be in [0, 1)");
@@ -353,7 +353,7 @@ PYBIND11_MODULE(_rubref, m) {
         for (const auto& w : id.warnings) py::module_::import("warnings").attr("warn")(w);
         return to_python(to_json(id, s));
       },
-      py::arg("paths"), py::arg("clearance") = py::none(), py::arg("linear") = py::none(), py::arg("average_revolutions") = false, py::arg("law_method") = "auto",
+      py::arg("paths"), py::arg("clearance") = py::none(), py::arg("linear") = py::none(), py::arg("averaging") = "auto", py::arg("law_method") = "auto",
       py::arg("library") = identify_settings{}.library, py::arg("rho") = identify_settings{}.frols.rho, py::arg("orbit_fit") = true,
       py::arg("reidentify") = false, py::arg("bootstrap") = identify_settings{}.bootstrap);
 

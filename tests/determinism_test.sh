@@ -29,7 +29,7 @@ for n in 1 2; do
   RUBREF_THREADS=$n "$rubref" loop "$work/rig_1/rig.csv" --no-figures --out "$work/loop_$n" >/dev/null 2>&1 || fail "loop on $n threads"
 done
 same "loop (1 vs 2 threads)" "$work/loop_1" "$work/loop_2"
-idf=(identify "$work/rig_1/rig.csv" --average-revolutions --library z1,z3,zd2 --reidentify)
+idf=(identify "$work/rig_1/rig.csv" --averaging on --library z1,z3,zd2 --reidentify)
 for n in 1 2; do
   RUBREF_THREADS=$n "$rubref" "${idf[@]}" --out "$work/identify_$n" >/dev/null 2>&1 || fail "identify on $n threads"
 done

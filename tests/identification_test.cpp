@@ -429,7 +429,7 @@ TEST(identification, one_permille_noise_averaged_within_measured_bounds) {
   record r = simulated("identified", paper, 512, 1500, 1700, 50, 96);
   add_noise(r, 0.001, 5);
   identify_settings s = knowing(paper);
-  s.average_revolutions = true;
+  s.average = averaging::always;
   s.derivative.half_width = 8;
   const identification id = identify({{r, "noisy.csv"}}, s);
   ASSERT_NE(estimate_of(id, "z1"), nullptr);
@@ -603,12 +603,23 @@ TEST(identification, weak_form_piecewise_linear_gives_z_alone) {
 }
 
 // Noise-free records of `rubref simulate` keep the paper's route (Table 1's ERRs are per sample).
-TEST(identification, automatic_route_keeps_the_samples_on_clean_records) {
+// Automatic: the weak form wherever its rows rank the library (even on a noise-free record,
+// where the orbits then choose {z, z_dot^2} among Eq. 5's family), the samples where they cannot
+// (one revolution of one dwell: one contact episode, 6 rows for 8 terms), each with its reason.
+TEST(identification, automatic_route_is_the_weak_form_where_its_rows_rank_the_library) {
   const parameters paper;
-  identify_settings s = knowing(paper);
-  const identification id = identify({{simulated("identified", paper, 1024), "identified.csv"}}, s);
-  EXPECT_EQ(id.law_route, law_method::samples) << id.law_route_reason;
-  EXPECT_FALSE(id.weak);
+  const identification clean = identify({{simulated("identified", paper, 1024), "identified.csv"}}, knowing(paper));
+  EXPECT_EQ(clean.law_route, law_method::weak_form) << clean.law_route_reason;
+  EXPECT_NE(clean.law_route_reason.find("rank the library"), std::string::npos) << clean.law_route_reason;
+  EXPECT_EQ(kept_names(clean), (std::vector<std::string>{"z1", "zd2"})) << clean.structure_reason;
+  ASSERT_FALSE(clean.structures.empty());
+  EXPECT_TRUE(clean.structure_decisive) << clean.structure_reason;
+  record short_record = simulated("identified", paper, 1024, 1600, 1600, 50, 6);
+  for (auto& column : short_record.data) column.resize(1024);  // one revolution
+  const identification one = identify({{short_record, "one.csv"}}, knowing(paper));
+  EXPECT_EQ(one.law_route, law_method::samples) << one.law_route_reason;
+  EXPECT_NE(one.law_route_reason.find("cannot rank"), std::string::npos) << one.law_route_reason;
+  EXPECT_FALSE(one.weak);
 }
 
 }  // namespace

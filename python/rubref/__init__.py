@@ -44,7 +44,7 @@ def _paths(paths):
 def identify(paths, **settings):
     """Identification of paper section 4 on record files (one path or a list): the same dict as
     ``rubref identify``'s identification.json. Settings: clearance, linear (a dict of the linear
-    part's parameters, as a parameter file has them, when it is known), average_revolutions,
+    part's parameters, as a parameter file has them, when it is known), averaging ('auto', 'on', 'off'),
     law_method ('auto', 'samples', 'weak-form'), library, rho, orbit_fit, reidentify, bootstrap."""
     return _rubref.identify(_paths(paths), **settings)
 

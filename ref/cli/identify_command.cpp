@@ -16,7 +16,7 @@ namespace {
 struct identify_state {
   identify_settings settings;
   std::vector<std::string> files;
-  std::string linear_file, linear_method = "harmonic", law_method = "auto", stop = "err", reid_fit = "k1,k3,c2,mu", out;
+  std::string linear_file, linear_method = "harmonic", law_method = "auto", averaging = "auto", stop = "err", reid_fit = "k1,k3,c2,mu", out;
 };
 
 std::vector<std::string> split_commas(const std::string& s) {
@@ -52,7 +52,9 @@ void add_identify(CLI::App& app) {
   sub->add_option("--stop", st->stop, "stopping rule: err (rho), aic or bic")->check(CLI::IsMember({"err", "aic", "bic"}))->capture_default_str();
   sub->add_option("--sg-half-width", s.derivative.half_width, "Savitzky-Golay half-width [samples]")->capture_default_str();
   sub->add_option("--sg-degree", s.derivative.degree, "Savitzky-Golay polynomial degree")->capture_default_str();
-  sub->add_flag("--average-revolutions", s.average_revolutions, "average each dwell's revolutions synchronously first (noisy, periodic data)");
+  sub->add_option("--averaging", st->averaging, "synchronous averaging of the dwells that touch: auto (each steady dwell, decided and reported per dwell), on (every dwell) or off")
+      ->check(CLI::IsMember({"auto", "on", "off"}))
+      ->capture_default_str();
   sub->add_flag("!--no-orbit-fit", s.orbit_fit, "report the weak form's estimates without refining them by the averaged cycles' periodic orbits");
   sub->add_option("--bootstrap", s.bootstrap, "episode-bootstrap resamples for the 95 % intervals (0: none)")->capture_default_str();
   sub->add_flag("--reidentify", s.reidentify, "refine by output error with NLopt (BOBYQA)");
@@ -75,6 +77,7 @@ void add_identify(CLI::App& app) {
     s.reid.fit = split_commas(st->reid_fit);
     s.linear_route = parse_linear_method(st->linear_method);
     s.law_route = parse_law_method(st->law_method);
+    s.average = parse_averaging(st->averaging);
     staged_directory dir(st->out);
     std::vector<std::pair<record, std::string>> records;
     for (const auto& f : st->files) records.emplace_back(read_record(f), f);

@@ -158,4 +158,28 @@ double estimate_probe_noise(const std::vector<const dwell*>& dwells) {
   return 1.4826 * a[a.size() / 2] / std::sqrt(70.0);
 }
 
+double quantisation_step(const std::vector<double>& v) {
+  std::vector<double> u(v);
+  std::sort(u.begin(), u.end());
+  u.erase(std::unique(u.begin(), u.end()), u.end());
+  if (u.size() < 2) return 0.0;
+  double q = std::numeric_limits<double>::infinity();
+  for (std::size_t i = 1; i < u.size(); ++i) q = std::min(q, u[i] - u[i - 1]);
+  // On the grid: every value a whole number of steps from the smallest, to a thousandth of a step
+  // (values read back from decimal text carry ~1e-16 relative rounding, far below that).
+  for (const double x : u) {
+    const double steps = (x - u.front()) / q;
+    if (std::abs(steps - std::round(steps)) > 1e-3) return 0.0;
+  }
+  return q;
+}
+
+dwell_noise estimate_dwell_noise(const dwell& d) {
+  dwell_noise n;
+  n.white = estimate_probe_noise({&d});
+  n.quantisation = std::max(quantisation_step(d.x), quantisation_step(d.y));
+  n.sigma = std::max(n.white, n.quantisation / std::sqrt(12.0));
+  return n;
+}
+
 }  // namespace rubref

@@ -39,6 +39,21 @@ averaged_dwell synchronous_average(const dwell& d);
 // over x and y of every dwell, scaled for Gaussian noise, ignores impacts. 0 without samples.
 double estimate_probe_noise(const std::vector<const dwell*>& dwells);
 
+// The resolution of a probe's samples (m): the smallest step between distinct values when every
+// value lies on that grid (an ADC's step, a file's last digit); 0 when they do not (or when fewer
+// than two distinct values leave no step to see).
+double quantisation_step(const std::vector<double>& v);
+
+// One dwell's noise (m). Rounding to a step q is noise of q / sqrt(12) that no filter and no
+// average removes (revolutions that repeat round alike), and where the white noise is below it the
+// 4th differences of a quantised orbit read ~0: the dwell's noise is the larger of the two.
+struct dwell_noise {
+  double sigma = 0.0;         // m, max(white, quantisation / sqrt(12))
+  double white = 0.0;         // m, the 4th-difference estimate on this dwell alone
+  double quantisation = 0.0;  // m, the larger of x's and y's steps (0: not on a grid)
+};
+dwell_noise estimate_dwell_noise(const dwell& d);
+
 // Re-bases a dwell's times on its keyphasor (t = 0 at a notch passage), so that w t is the shaft
 // angle from the notch in every dwell, whatever clock the record was taken on; returns the timing
 // uncertainty (s; infinity without a keyphasor column or pulse, times then as recorded) and notes

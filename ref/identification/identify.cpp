@@ -62,9 +62,6 @@ constexpr double kBeyond1xFloor = 1e-9;  // m
 constexpr double kPullShare = 0.1;
 
 
-// law_method::automatic: the samples route serves while its f_N's noise is below this share of
-// f_N's variance: a tenth of the paper's rho (1 %), so that noise can never pass for a term.
-constexpr double kNoiseShareLimit = 1e-3;
 // A dwell is steady (its revolutions repeat) when they differ from their mean by at most twice
 // the probe noise (noise alone gives ~1x; the loop's rule, docs/loop.md); the floor keeps
 // noise-free records, whose noise estimate is their rounding, from being judged unsteady by it.
@@ -134,18 +131,6 @@ perturbation_spread perturbation_covariance(const std::vector<std::pair<const dw
   return {(second / done - mean * mean.transpose()) * (static_cast<double>(done) / (done - 1)), added / done, done};
 }
 
-// Noise gain of the centred second-derivative filter (per unit sample noise, dt = 1): its
-// response at the centred windows to a unit impulse.
-double second_derivative_gain(const derivative_settings& ds) {
-  const int h = ds.half_width;
-  std::vector<double> v(static_cast<std::size_t>(4 * h + 1), 0.0);
-  v[static_cast<std::size_t>(2 * h)] = 1.0;
-  const derivatives d = differentiate(v, 1.0, ds);
-  double sq = 0.0;
-  for (int i = h; i <= 3 * h; ++i) sq += d.d2[static_cast<std::size_t>(i)] * d.d2[static_cast<std::size_t>(i)];
-  return std::sqrt(sq);
-}
-
 void add_warnings(identification& id, const identify_settings& s);
 identification identify_law(const std::vector<dwell>& dwells, const identify_settings& s);
 
@@ -164,6 +149,21 @@ law_method parse_law_method(const std::string& name) {
   for (const auto m : {law_method::automatic, law_method::samples, law_method::weak_form})
     if (name == to_string(m)) return m;
   throw input_error("unknown law method '" + name + "' (auto, samples, weak-form)");
+}
+
+std::string_view to_string(averaging a) {
+  switch (a) {
+    case averaging::automatic: return "auto";
+    case averaging::always: return "on";
+    case averaging::never: return "off";
+  }
+  return "?";
+}
+
+averaging parse_averaging(const std::string& name) {
+  for (const auto a : {averaging::automatic, averaging::always, averaging::never})
+    if (name == to_string(a)) return a;
+  throw input_error("unknown averaging '" + name + "' (auto, on, off)");
 }
 
 identification identify(const std::vector<std::pair<record, std::string>>& records, const identify_settings& s) {
@@ -191,6 +191,13 @@ identification identify(const std::vector<dwell>& dwells, const identify_setting
 }
 
 namespace {
+// The weak form's rows cannot rank the library (too few contact episodes).
+struct weak_form_rank_error : input_error {
+  explicit weak_form_rank_error(const std::string& why)
+      : input_error("weak form: " + why + " (record more dwells or revolutions, or set " + setting("law_method") + " to samples)"), detail(why) {}
+  std::string detail;
+};
+
 // What identify_law's steps (below, in order) share: the dwells that touch, their synchronous
 // averages, the route, the contact forces, the pooled contact samples, the regression and the
 // terms kept.
@@ -201,10 +208,11 @@ struct law_context {
   const identify_settings& s;
   std::vector<candidate_term> library;
   std::vector<const dwell*> touching;
-  double sigma = 0.0;  // m, the probe noise
+  std::vector<dwell_noise> noise;  // each touching dwell's own
   std::vector<std::optional<averaged_dwell>> averages;
-  bool weak = false;   // the weak form's route
   std::vector<bool> averaged;
+  std::vector<std::string> averaging_reason;
+  bool weak = false;   // the weak form's route
   derivative_settings velocity;
   std::vector<dwell_forces> forces;
   std::vector<contact_sample> pooled;
@@ -217,15 +225,18 @@ struct law_context {
   std::vector<candidate_term> kept_terms;
   std::vector<double> kept_coef;
 
-  // Noise of a sample: the probe's, or an average's, measured by its revolutions' spread around
-  // their mean (spread^2 = s^2 (R - 1) / R for R revolutions of noise s, the average's variance
-  // is s^2 / R). Measured rather than sigma / sqrt(R): resampling off-grid revolutions by cubic
-  // interpolation lowers the noise by up to 20 % (Catmull-Rom half-way between samples weighs
-  // them -1/16, 9/16, 9/16, -1/16), and the weak form's z_dot^2 correction needs the true level.
+  // Noise of a sample: the dwell's own, or an average's, measured by its revolutions' spread
+  // around their mean (spread^2 = s^2 (R - 1) / R for R revolutions of noise s, the average's
+  // variance is s^2 / R). Measured rather than sigma / sqrt(R): resampling off-grid revolutions by
+  // cubic interpolation lowers the noise by up to 20 % (Catmull-Rom half-way between samples
+  // weighs them -1/16, 9/16, 9/16, -1/16), and the weak form's z_dot^2 correction needs the true
+  // level. Never below the rounding's q / sqrt(12): revolutions that repeat round alike.
   double sample_noise(std::size_t k, bool is_averaged) const {
-    if (!is_averaged) return sigma;
+    const dwell_noise& n = noise[k];
+    if (!is_averaged) return n.sigma;
     const auto& a = *averages[k];
-    return a.revolutions >= 2 ? a.spread / std::sqrt(static_cast<double>(a.revolutions - 1)) : sigma;
+    const double white = a.revolutions >= 2 ? a.spread / std::sqrt(static_cast<double>(a.revolutions - 1)) : n.sigma;
+    return std::max(white, n.quantisation / std::sqrt(12.0));
   }
   // The identified law's f_N.
   double law(double z, double zd) const {
@@ -248,17 +259,12 @@ struct law_context {
   }
 };
 
-// The probe noise and the linear part (given, or fitted to the contact-free dwells); the dwells
-// that touch and their synchronous averages (dwells with at least one whole revolution).
+// The linear part (given, or fitted to the contact-free dwells); the dwells that touch, each
+// with its own noise, and their synchronous averages (dwells with at least one whole revolution).
 void linear_part_and_touching(law_context& ctx, const std::vector<dwell>& dwells) {
   identification& id = ctx.id;
   const identify_settings& s = ctx.s;
   const auto touches = [](const dwell& d) { return std::any_of(d.y.begin(), d.y.end(), [&](double y) { return y > d.clearance; }); };
-  {
-    std::vector<const dwell*> all;
-    for (const auto& d : dwells) all.push_back(&d);
-    id.probe_noise = estimate_probe_noise(all);
-  }
   if (s.linear) {
     const parameters& p = *s.linear;
     id.linear = {p.m, p.c_x, p.c_y, p.k_x, p.k_y, p.e, p.unbalance_phase};
@@ -267,6 +273,7 @@ void linear_part_and_touching(law_context& ctx, const std::vector<dwell>& dwells
     std::vector<const dwell*> free;
     for (const auto& d : dwells)
       if (!touches(d)) free.push_back(&d);
+    for (const auto* d : free) id.free_noise.push_back(estimate_dwell_noise(*d));
     id.linear_fitted = fit_linear_part(free, s.mass, s.derivative, s.linear_route);
     id.linear = id.linear_fitted->value;
     id.linear_source = "fitted";
@@ -274,7 +281,12 @@ void linear_part_and_touching(law_context& ctx, const std::vector<dwell>& dwells
   for (const auto& d : dwells)
     if (touches(d)) ctx.touching.push_back(&d);
   if (ctx.touching.empty()) throw input_error("no dwell reaches its clearance: there is no contact to identify");
-  ctx.sigma = id.probe_noise;
+  double sq = 0.0;
+  for (const auto* d : ctx.touching) {
+    ctx.noise.push_back(estimate_dwell_noise(*d));
+    sq += ctx.noise.back().sigma * ctx.noise.back().sigma;
+  }
+  id.probe_noise = std::sqrt(sq / static_cast<double>(ctx.touching.size()));
   ctx.averages.resize(ctx.touching.size());
   for (std::size_t k = 0; k < ctx.touching.size(); ++k) {
     try {
@@ -284,42 +296,48 @@ void linear_part_and_touching(law_context& ctx, const std::vector<dwell>& dwells
   }
 }
 
-// The route (law_method::automatic): the samples route's f_N carries m sigma g2 / dt^2 of noise
-// per sample (g2: the second-derivative filter's gain); it serves while that is a negligible
-// share of f_N's variance.
-void choose_route(law_context& ctx) {
-  identification& id = ctx.id;
-  const identify_settings& s = ctx.s;
-  id.law_route = s.law_route;
-  if (id.law_route == law_method::automatic) {
-    const double g2 = second_derivative_gain(s.derivative);
-    double noise_sq = 0.0, force_sq = 0.0;
-    for (std::size_t k = 0; k < ctx.touching.size(); ++k) {
-      const bool avg = s.average_revolutions && ctx.averages[k];
-      const dwell& d = avg ? ctx.averages[k]->cycle : *ctx.touching[k];
-      const dwell_forces f = contact_forces(d, id.linear, d.clearance, s.derivative);
-      const double fn_noise = id.linear.m * ctx.sample_noise(k, avg) * g2 / (d.dt * d.dt);
-      for (std::size_t i = 0; i < f.fn.size(); ++i)
-        if (f.contact[i]) noise_sq += fn_noise * fn_noise, force_sq += f.fn[i] * f.fn[i];
+// Which touching dwells are averaged, and why (identify_settings::average). Automatic: a dwell
+// whose whole revolutions repeat within its own noise holds a periodic orbit plus noise, and its
+// average keeps the orbit and divides the noise by sqrt(revolutions); one that does not repeat
+// (a transient, a subharmonic) would be smeared by it.
+void decide_averaging(law_context& ctx) {
+  const std::size_t n = ctx.touching.size();
+  ctx.averaged.assign(n, false);
+  ctx.averaging_reason.assign(n, {});
+  for (std::size_t k = 0; k < n; ++k) {
+    const auto& a = ctx.averages[k];
+    std::string& why = ctx.averaging_reason[k];
+    if (!a) {
+      why = "not averaged: no whole revolution of 8 or more samples";
+      continue;
     }
-    const double share = force_sq > 0.0 ? noise_sq / force_sq : 1.0;
-    id.law_route = share > kNoiseShareLimit ? law_method::weak_form : law_method::samples;
-    id.law_route_reason = "probe noise " + format_digits(ctx.sigma) + " m is " + format_digits(100.0 * share) +
-                          " % of f_N's variance on the samples route (limit " + format_digits(100.0 * kNoiseShareLimit) + " %)";
-  } else {
-    id.law_route_reason = "chosen (law_method)";
+    const std::string revs = std::to_string(a->revolutions) + " whole revolutions";
+    const double limit = kSteadySpread * ctx.noise[k].sigma + kSteadyFloor;
+    const std::string spread = "differ from their mean by " + format_digits(a->spread) + " m RMS, ";
+    const std::string noise = " twice the dwell's noise + " + format_digits(kSteadyFloor) + " m (" + format_digits(limit) + " m)";
+    switch (ctx.s.average) {
+      case averaging::never: why = "not averaged: averaging off (settings)"; break;
+      case averaging::always: ctx.averaged[k] = true, why = "averaged: averaging on (settings); its " + revs + " " + spread + "limit" + noise; break;
+      case averaging::automatic:
+        if (a->revolutions < 2) why = "not averaged: one whole revolution, nothing to average";
+        else if (a->spread > limit) why = "not averaged: its " + revs + " " + spread + "above" + noise + ": not periodic at 1X";
+        else ctx.averaged[k] = true, why = "averaged: its " + revs + " " + spread + "within" + noise;
+        break;
+    }
   }
-  ctx.weak = id.law_route == law_method::weak_form;
 }
 
-// Which dwells are averaged (all on request; for the weak form, every steady one), and every
-// touching dwell's contact forces.
+// The route: the one asked for; automatic is decided by identify_law (the weak form where its
+// rows can rank the library, else the samples).
+void choose_route(law_context& ctx) {
+  ctx.id.law_route = ctx.s.law_route;
+  ctx.id.law_route_reason = "chosen (law_method)";
+  ctx.weak = ctx.id.law_route == law_method::weak_form;
+}
+
+// Every touching dwell's contact forces, from its average where it is averaged.
 void contact_forces_of(law_context& ctx) {
   const identify_settings& s = ctx.s;
-  ctx.averaged.assign(ctx.touching.size(), false);
-  for (std::size_t k = 0; k < ctx.touching.size(); ++k)
-    ctx.averaged[k] = ctx.averages[k] && (s.average_revolutions || (ctx.weak && ctx.averages[k]->revolutions >= 2 &&
-                                                                   ctx.averages[k]->spread <= kSteadySpread * ctx.sigma + kSteadyFloor));
   ctx.velocity = s.derivative;  // the weak form takes only z_dot: a wider window
   if (ctx.weak) ctx.velocity.half_width = std::max(ctx.velocity.half_width, s.weak.velocity_half_width);
   for (std::size_t k = 0; k < ctx.touching.size(); ++k) {
@@ -334,11 +352,9 @@ void pool_contacts(law_context& ctx) {
   ctx.per_dwell.assign(ctx.forces.size(), {});
   for (std::size_t k = 0; k < ctx.forces.size(); ++k) {
     const auto& f = ctx.forces[k];
-    dwell_report rep{f.source->rpm, f.source->clearance, 0, 0.0, f.source->size(), 0, 0, 0.0, std::nullopt, {}, {}};
-    if (ctx.averaged[k]) {
-      rep.averaged_revolutions = ctx.averages[k]->revolutions;
-      rep.average_spread = ctx.averages[k]->spread;
-    }
+    dwell_report rep{f.source->rpm, f.source->clearance, ctx.noise[k], 0, 0.0, ctx.averaging_reason[k], f.source->size(), 0, 0, 0.0, std::nullopt, {}, {}};
+    if (ctx.averages[k]) rep.average_spread = ctx.averages[k]->spread;
+    if (ctx.averaged[k]) rep.averaged_revolutions = ctx.averages[k]->revolutions;
     if (!ctx.weak) {
       const friction_estimate fe = estimate_friction(f);
       if (fe.samples > 0) {
@@ -389,9 +405,8 @@ void regression_rows(law_context& ctx) {
     for (std::size_t k = 0; k < forces.size(); ++k) in.push_back({&forces[k], ctx.sample_noise(k, averaged[k])});
     sys = weak_form(in, id.linear, library, s.weak);
     if (sys.A.rows() <= static_cast<Eigen::Index>(library.size()))
-      throw input_error("weak form: " + std::to_string(sys.A.rows()) + " rows from " + std::to_string(sys.episodes) +
-                        " contact episodes cannot rank " + std::to_string(library.size()) +
-                        " candidate terms (record more dwells or revolutions, or set " + setting("law_method") + " to samples)");
+      throw weak_form_rank_error(std::to_string(sys.A.rows()) + " rows from " + std::to_string(sys.episodes) +
+                                 " contact episodes cannot rank " + std::to_string(library.size()) + " candidate terms");
     P = sys.A;
     y = sys.b;
   } else {
@@ -640,58 +655,202 @@ void shares_and_pull(law_context& ctx) {
   }
 }
 
-// The weak form's estimates refined by the averaged cycles' periodic orbits.
+// Eq. 5's family, the laws the orbit fit can simulate: library name and parameter.
+constexpr std::array<std::pair<std::string_view, std::string_view>, 3> kFamily{{{"z1", "k1"}, {"z3", "k3"}, {"zd2", "c2"}}};
+double parameters::*law_member(std::string_view term) {
+  return term == "z1" ? &parameters::k1 : term == "z3" ? &parameters::k3 : &parameters::c2;
+}
+std::string family_parameter(std::string_view term) {
+  for (const auto& [name, param] : kFamily)
+    if (name == term) return std::string(param);
+  return {};
+}
+// A structure another comes within this BIC of is not decided by the data: 10 is "very strong"
+// evidence on Kass and Raftery's scale (the tables' loop uses the same, docs/real-data.md).
+constexpr double kDecisiveBic = 10.0;
+// The orbit fit's start for a term the weak form puts at <= 0: this share of the peak force, a
+// term large enough to matter and small enough not to move the orbit far from the others' law.
+constexpr double kRestartShare = 0.1;
+
+std::string structure_text(const std::vector<std::string>& terms, const std::vector<candidate_term>& library) {
+  std::string out = "{";
+  for (const auto& t : terms) {
+    for (const auto& c : library)
+      if (c.name() == t) out += (out.size() > 1 ? ", " : "") + c.pretty();
+  }
+  return out + "}";
+}
+
+// The weak form's estimates refined by the averaged cycles' periodic orbits, and the law's
+// structure chosen by them: every structure of Eq. 5's family in the library that has a
+// stiffness (z or z^3), each started from the weak form's least squares on its own terms, is
+// fitted; the lowest BIC (chi^2 + unknowns ln residuals, chi^2 against each cycle's own noise)
+// is reported, the others as runners-up. The weak form's selection is one candidate among them:
+// at micrometre noise its significance test can drop a term the orbits resolve (z_dot^2 at 5 um)
+// or take one they do not (z_dot^4).
 void refine_by_orbits(law_context& ctx) {
   identification& id = ctx.id;
   const identify_settings& s = ctx.s;
-  const bool weak = ctx.weak;
-  const auto& averaged = ctx.averaged;
+  if (!ctx.weak || !s.orbit_fit || id.estimates.empty()) return;
   const auto& forces = ctx.forces;
-  // The weak form's estimates refined by the averaged cycles' periodic orbits (orbit_fit.hpp):
-  // the law within Eq. 5's family, every averaged dwell, from the weak form's start.
-  const auto law_member = [](const std::string& term) -> std::string {
-    return term == "z1" ? "k1" : term == "z3" ? "k3" : term == "zd2" ? "c2" : "";
-  };
-  const bool in_family = !id.estimates.empty() && std::all_of(id.estimates.begin(), id.estimates.end(), [&](const term_estimate& e) {
-    return !law_member(e.name).empty();
-  });
-  if (weak && s.orbit_fit && in_family) {
-    std::vector<orbit_fit_cycle> cycles;
-    for (std::size_t k = 0; k < forces.size(); ++k)
-      if (averaged[k]) cycles.push_back({&forces[k], ctx.sample_noise(k, true)});
-    if (cycles.empty()) {
-      id.notes.push_back("orbit fit: no dwell was steady enough to average; the weak form's estimates stand");
-    } else {
-      if (cycles.size() < forces.size())
-        id.notes.push_back("orbit fit: " + std::to_string(forces.size() - cycles.size()) + " unsteady dwell(s) left out");
-      parameters start = ctx.output_error_start();
-      start.unbalance_phase = id.linear.phase;
-      start.mu = std::isfinite(id.mu) && id.mu > 0.0 ? id.mu : 0.0;
-      std::vector<std::string> terms;
-      for (const auto& e : id.estimates) {
-        terms.push_back(law_member(e.name));
-        start.*(terms.back() == "k1" ? &parameters::k1 : terms.back() == "k3" ? &parameters::k3 : &parameters::c2) = e.value;
-      }
-      const orbit_fit_result fit = fit_periodic_orbits(cycles, start, terms, s.orbit);
-      id.orbit = fit;
-      id.weak_estimates = id.estimates;
-      id.weak_mu = id.mu;
-      id.weak_mu_standard_error = id.mu_standard_error;
-      if (fit.converged) {
-        for (std::size_t j = 0; j < id.estimates.size(); ++j) {
-          auto& e = id.estimates[j];
-          const auto& p = fit.parameters[j];
-          e.value = p.value;
-          e.standard_error = p.standard_error;
-          e.ci_low = p.value - kInterval95 * p.standard_error;
-          e.ci_high = p.value + kInterval95 * p.standard_error;
-        }
-        const auto& mu = fit.parameters[id.estimates.size()];
-        id.mu = mu.value;
-        id.mu_standard_error = mu.standard_error;
-      }
-    }
+  std::vector<orbit_fit_cycle> cycles;
+  for (std::size_t k = 0; k < forces.size(); ++k)
+    if (ctx.averaged[k]) cycles.push_back({&forces[k], ctx.sample_noise(k, true)});
+  if (cycles.empty()) {
+    id.notes.push_back("orbit fit: not run, no dwell is averaged (each dwell's averaging says why); the weak form's estimates stand");
+    return;
   }
+  if (cycles.size() < forces.size())
+    id.notes.push_back("orbit fit: " + std::to_string(forces.size() - cycles.size()) + " dwell(s) not averaged left out (each dwell's averaging says why)");
+
+  // The candidates: the family's terms present in the library, every subset with a stiffness
+  // (or, without the comparison, the weak form's selection when it lies in the family).
+  std::vector<std::size_t> column;  // library index of each family term present
+  std::vector<std::string> present;
+  for (const auto& [name, param] : kFamily)
+    for (std::size_t c = 0; c < ctx.library.size(); ++c)
+      if (ctx.library[c].name() == name) column.push_back(c), present.push_back(std::string(name));
+  std::vector<std::vector<std::size_t>> subsets;  // indices into present
+  for (unsigned mask = 1; mask < (1u << present.size()); ++mask) {
+    std::vector<std::size_t> sub;
+    bool stiffness = false, selected = true;
+    for (std::size_t b = 0; b < present.size(); ++b) {
+      const bool in = (mask & (1u << b)) != 0;
+      if (in) sub.push_back(b), stiffness = stiffness || present[b] != "zd2";
+      const bool kept = std::any_of(id.estimates.begin(), id.estimates.end(), [&](const term_estimate& e) { return e.name == present[b]; });
+      selected = selected && in == kept;
+    }
+    const bool in_family = std::all_of(id.estimates.begin(), id.estimates.end(), [](const term_estimate& e) { return !family_parameter(e.name).empty(); });
+    if (s.compare_structures ? stiffness : selected && in_family) subsets.push_back(sub);
+  }
+  if (subsets.empty()) {
+    id.notes.push_back(s.compare_structures ? "orbit fit: not run, the library holds no stiffness of Eq. 5's family (z, z^3), the only laws it simulates"
+                                            : "orbit fit: not run, the weak form's selection lies outside Eq. 5's family (z, z^3, z_dot^2), the only laws it simulates");
+    return;
+  }
+  std::vector<std::string> weak_terms;
+  for (const auto& e : id.estimates) weak_terms.push_back(e.name);
+
+  struct trial {
+    structure_candidate report;
+    std::vector<term_estimate> start;  // the weak form's least squares on these terms
+    std::optional<orbit_fit_result> fit;
+  };
+  std::vector<trial> trials;
+  const Eigen::Index dof_rows = ctx.sys.A.rows();
+  // The weak law's peak force over the contact samples (their f_N is the law's here).
+  double peak_force = 0.0;
+  for (const auto& c : ctx.pooled) peak_force = std::max(peak_force, std::abs(c.fn));
+  for (const auto& sub : subsets) {
+    trial t;
+    std::vector<std::size_t> cols;
+    for (const auto b : sub) t.report.terms.push_back(present[b]), cols.push_back(column[b]);
+    const least_squares_fit ls = least_squares(ctx.sys.A, ctx.sys.b, cols);
+    parameters start = ctx.output_error_start();
+    start.unbalance_phase = id.linear.phase;
+    start.mu = std::isfinite(id.mu) && id.mu > 0.0 ? id.mu : 0.0;
+    start.k1 = start.k3 = start.c2 = 0.0;
+    std::vector<std::string> members;
+    std::string restarted;
+    for (std::size_t j = 0; j < cols.size(); ++j) {
+      const auto& term = ctx.library[cols[j]];
+      double v = ls.coefficients[static_cast<Eigen::Index>(j)];
+      const double se = ls.standard_errors[static_cast<Eigen::Index>(j)];
+      if (!(v > 0.0)) {
+        // A contact law's terms are > 0: a term the weak form puts at <= 0 starts where it
+        // carries kRestartShare of the weak law's peak force over the contact samples.
+        double peak_term = 0.0;
+        for (const auto& c : ctx.pooled) peak_term = std::max(peak_term, std::abs(term(c.z, c.zd)));
+        restarted += (restarted.empty() ? "" : ", ") + term.pretty() + " from " + format_digits(v);
+        v = peak_term > 0.0 ? kRestartShare * peak_force / peak_term : 0.0;
+      }
+      t.start.push_back({term.name(), term.pretty(), v, se, kNaN, kNaN});
+      members.push_back(family_parameter(term.name()));
+      start.*law_member(term.name()) = v;
+    }
+    if (dof_rows <= static_cast<Eigen::Index>(cols.size()) || std::any_of(t.start.begin(), t.start.end(), [](const term_estimate& e) { return !(e.value > 0.0); })) {
+      t.report.status = "not fitted: no positive start from the weak form's rows";
+      trials.push_back(std::move(t));
+      continue;
+    }
+    const orbit_fit_result fit = fit_periodic_orbits(cycles, start, members, s.orbit);
+    t.report.fitted = true;
+    t.report.converged = fit.converged;
+    t.report.chi2_per_dof = fit.final_chi2;
+    t.report.status = fit.status + (restarted.empty() ? "" : "; started at " + format_digits(100.0 * kRestartShare) +
+                                                              " % of the peak force where the weak form's least squares gave <= 0: " + restarted);
+    if (fit.converged && std::isfinite(fit.final_chi2))
+      t.report.bic = fit.final_chi2 * static_cast<double>(fit.residuals - fit.unknowns) +
+                     static_cast<double>(fit.unknowns) * std::log(static_cast<double>(fit.residuals));
+    t.fit = fit;
+    trials.push_back(std::move(t));
+  }
+  // Lowest BIC first; structures without one (not fitted, not converged) after, in their order.
+  std::stable_sort(trials.begin(), trials.end(), [](const trial& a, const trial& b) {
+    const bool fa = std::isfinite(a.report.bic), fb = std::isfinite(b.report.bic);
+    return fa != fb ? fa : fa && a.report.bic < b.report.bic;
+  });
+  for (const auto& t : trials) id.structures.push_back(t.report);
+
+  // The weak form's own selection, when the orbit fit could not choose (or it is outside the family).
+  const auto same = [&](const std::vector<std::string>& terms) {
+    std::vector<std::string> a = terms, b = weak_terms;
+    std::sort(a.begin(), a.end()), std::sort(b.begin(), b.end());
+    return a == b;
+  };
+  const trial* best = std::isfinite(trials.front().report.bic) ? &trials.front() : nullptr;
+  id.weak_estimates = id.estimates;
+  id.weak_mu = id.mu;
+  id.weak_mu_standard_error = id.mu_standard_error;
+  if (!best) {
+    for (const auto& t : trials)
+      if (t.fit && same(t.report.terms)) id.orbit = *t.fit;  // for its warning
+    id.structure_reason = "no structure's orbit fit converged: the weak form's selection " + structure_text(weak_terms, ctx.library) + " and estimates stand";
+    return;
+  }
+  id.orbit = *best->fit;
+  // Decisive when no rival comes within kDecisiveBic; a superset of the chosen terms is no rival
+  // (it trails by ~ln(residuals) minus what its extra term explains: the term is not needed).
+  const auto superset = [&](const std::vector<std::string>& terms) {
+    return std::all_of(best->report.terms.begin(), best->report.terms.end(),
+                       [&](const std::string& t) { return std::find(terms.begin(), terms.end(), t) != terms.end(); });
+  };
+  const trial* rival = nullptr;
+  for (std::size_t k = 1; k < trials.size() && !rival; ++k)
+    if (std::isfinite(trials[k].report.bic) && !superset(trials[k].report.terms)) rival = &trials[k];
+  const double gap = rival ? rival->report.bic - best->report.bic : kNaN;
+  id.structure_decisive = !rival || gap >= kDecisiveBic;
+  id.structure_reason = "orbit fit: " + structure_text(best->report.terms, ctx.library) + " has the lowest BIC (chi^2/dof " +
+                        format_digits(best->report.chi2_per_dof) + ")" +
+                        (rival ? "; the nearest rival that is not a superset of it, " + structure_text(rival->report.terms, ctx.library) +
+                                     ", is " + format_digits(gap) + " above" +
+                                     (id.structure_decisive ? "" : " (within " + format_digits(kDecisiveBic) + ": not decisive)")
+                               : std::string("; no rival that is not a superset of it was fitted"));
+  if (!same(best->report.terms))
+    id.notes.push_back("structure: the orbit fit chose " + structure_text(best->report.terms, ctx.library) + " over the weak form's selection " +
+                       structure_text(weak_terms, ctx.library) + " (every structure's BIC: identification.json, structures)");
+  // The chosen structure's estimates: the orbit fit's values and normal 95 % intervals.
+  const orbit_fit_result& fit = *id.orbit;
+  id.estimates.clear();
+  ctx.kept_terms.clear();
+  ctx.kept_coef.clear();
+  for (std::size_t j = 0; j < best->start.size(); ++j) {
+    const auto& p = fit.parameters[j];
+    const auto& st = best->start[j];
+    id.estimates.push_back({st.name, st.pretty, p.value, p.standard_error, p.value - kInterval95 * p.standard_error,
+                            p.value + kInterval95 * p.standard_error});
+    for (const auto& c : ctx.library)
+      if (c.name() == st.name) ctx.kept_terms.push_back(c);
+    ctx.kept_coef.push_back(p.value);
+  }
+  id.weak_estimates = best->start;
+  const auto& mu = fit.parameters[best->start.size()];
+  id.mu = mu.value;
+  id.mu_standard_error = mu.standard_error;
+  // The shares and the pull check (shares_and_pull) see the chosen law's own f_N.
+  for (auto& c : ctx.pooled) c.fn = ctx.law(c.z, c.zd);
+  for (auto& d : ctx.per_dwell)
+    for (auto& c : d) c.fn = ctx.law(c.z, c.zd);
 }
 
 // The output-error re-identification of Eq. 5's family (reidentify).
@@ -721,11 +880,11 @@ void reidentify_law(law_context& ctx) {
 // The law (docs/identification.md): the linear part, the route, the contact forces, the
 // regression, FROLS's terms, their intervals by the route's own means, and the orbit fit and the
 // re-identification where asked for. Each step is one function above.
-identification identify_law(const std::vector<dwell>& dwells, const identify_settings& s) {
-  if (dwells.empty()) throw input_error("identify needs at least one dwell");
+identification identify_law_by(const std::vector<dwell>& dwells, const identify_settings& s) {
   identification id;
   law_context ctx(id, s);
   linear_part_and_touching(ctx, dwells);
+  decide_averaging(ctx);
   choose_route(ctx);
   contact_forces_of(ctx);
   pool_contacts(ctx);
@@ -733,10 +892,33 @@ identification identify_law(const std::vector<dwell>& dwells, const identify_set
   select_terms(ctx);
   if (ctx.weak) weak_form_estimates(ctx);
   else samples_estimates(ctx);
-  shares_and_pull(ctx);
   refine_by_orbits(ctx);
+  shares_and_pull(ctx);
   if (s.reidentify) reidentify_law(ctx);
   return id;
+}
+
+// law_method::automatic: the weak form wherever its rows can rank the library. Measured on
+// rubref rig records (docs/identification.md §5), it is at least as close as the samples route
+// from noise-free records up (the samples route's c2 is +1.7 % off there by its second
+// derivatives' truncation, and its mu 7 % off at 61 nm quantisation); the samples route serves
+// where the weak form cannot (too few contact episodes), and on request (the paper's Table 1).
+identification identify_law(const std::vector<dwell>& dwells, const identify_settings& s) {
+  if (dwells.empty()) throw input_error("identify needs at least one dwell");
+  if (s.law_route != law_method::automatic) return identify_law_by(dwells, s);
+  identify_settings route = s;
+  route.law_route = law_method::weak_form;
+  try {
+    identification id = identify_law_by(dwells, route);
+    id.law_route_reason = "automatic: the weak form, whose " + std::to_string(id.weak->rows) + " rows from " +
+                          std::to_string(id.weak->episodes) + " contact episodes rank the library";
+    return id;
+  } catch (const weak_form_rank_error& e) {
+    route.law_route = law_method::samples;
+    identification id = identify_law_by(dwells, route);
+    id.law_route_reason = "automatic: the samples route, as the weak form's " + e.detail;
+    return id;
+  }
 }
 
 void add_warnings(identification& id, const identify_settings& s) {
@@ -754,12 +936,13 @@ void add_warnings(identification& id, const identify_settings& s) {
                     " (standard error) is not determined by the contact-free dwells");
     }
     const auto& beyond = id.linear_fitted->beyond_1x_rms;
-    const double limit = std::max(kBeyond1xNoiseFactor * id.probe_noise, kBeyond1xFloor);
-    for (std::size_t k = 0; k < beyond.size(); ++k)
+    for (std::size_t k = 0; k < beyond.size() && k < id.free_noise.size(); ++k) {
+      const double limit = std::max(kBeyond1xNoiseFactor * id.free_noise[k].sigma, kBeyond1xFloor);
       if (beyond[k] > limit)
         w.push_back("linear part: contact-free dwell " + std::to_string(k + 1) + " has " + format_digits(beyond[k]) +
-                    " m RMS beyond its 1X response, above 3x the probe noise (" + format_digits(id.probe_noise) +
+                    " m RMS beyond its 1X response, above 3x its noise (" + format_digits(id.free_noise[k].sigma) +
                     " m): not a steady linear response (a transient, a nonlinearity or a second frequency)");
+    }
   }
   for (const auto& e : id.estimates) {
     if (e.name == "z1" && !(e.value > 0.0))

@@ -38,19 +38,30 @@ enum class law_method { automatic, samples, weak_form };
 std::string_view to_string(law_method m);
 law_method parse_law_method(const std::string& name);  // input_error if unknown
 
+// Synchronous averaging of the dwells that touch (docs/identification.md, "Averaging"):
+//  - automatic: every steady dwell (2 or more whole revolutions that differ from their mean by at
+//    most twice the dwell's own noise), each decision and its reason reported per dwell
+//  - always: every dwell with a whole revolution, steady or not
+//  - never: none
+enum class averaging { automatic, always, never };
+std::string_view to_string(averaging a);
+averaging parse_averaging(const std::string& name);  // input_error if unknown
+
 struct identify_settings {
   std::optional<parameters> linear;      // the linear part (m, c, k, e, unbalance phase) if known; else fitted
   double mass = parameters{}.m;          // kg, when the linear part is fitted (m is not identifiable)
   double clearance = 0.0;                // m, for records without clearance_m metadata (0: required there)
   linear_method linear_route = linear_method::harmonic;  // how a fitted linear part is found
   derivative_settings derivative;
-  bool average_revolutions = false;      // synchronous averaging of every dwell before differentiating
-                                         // (the weak form averages each steady dwell anyway)
+  averaging average = averaging::automatic;  // synchronous averaging of the dwells that touch
   law_method law_route = law_method::automatic;
   weak_form_settings weak;
   // The weak form's law refined by the averaged cycles' periodic orbits (orbit_fit.hpp), when it
   // lies in Eq. 5's family (k1 z, k3 z^3, c2 z_dot^2): on by default, off for the weak form alone.
   bool orbit_fit = true;
+  // The law's structure chosen by the orbit fit among Eq. 5's family (refine_by_orbits, §5
+  // "Structure"); off: the weak form's own selection is refined.
+  bool compare_structures = true;
   orbit_fit_settings orbit;
   std::string library = "z1..4,zd1..4";  // Eq. 4, L = 4
   frols_settings frols;
@@ -76,8 +87,10 @@ struct term_share {
 
 struct dwell_report {
   double rpm, clearance;
+  dwell_noise noise;                       // this dwell's own (estimate_dwell_noise)
   int averaged_revolutions = 0;            // 0: not averaged
-  double average_spread = 0.0;             // m, RMS deviation of the revolutions from their mean
+  double average_spread = 0.0;             // m, RMS deviation of the revolutions from their mean (also when not averaged)
+  std::string averaging;                   // the decision and the reason tested for it
   std::size_t samples, contact_samples, episodes;
   double max_penetration;                  // m
   std::optional<friction_estimate> friction;
@@ -95,6 +108,16 @@ struct weak_form_report {
   double chi2_limit = 0.0;      // its 99.9 % quantile under noise alone
 };
 
+// One law structure within Eq. 5's family, fitted to the averaged cycles' orbits (§5, "Structure").
+struct structure_candidate {
+  std::vector<std::string> terms;  // library names, e.g. {"z1", "zd2"}
+  bool fitted = false;             // the orbit fit ran (a start from the weak form > 0 for every term)
+  bool converged = false;
+  double chi2_per_dof = std::numeric_limits<double>::quiet_NaN();
+  double bic = std::numeric_limits<double>::quiet_NaN();  // chi^2 + unknowns ln(residuals)
+  std::string status;              // the fit's, or why it did not run
+};
+
 struct identification {
   linear_part linear;
   std::string linear_source;             // "given" or "fitted"
@@ -110,6 +133,10 @@ struct identification {
   // The orbit fit, when it ran; the estimates and mu above are its values when it converged, and
   // the weak form's (kept here as its start) otherwise.
   std::optional<orbit_fit_result> orbit;
+  // The structures the orbit fit compared, lowest BIC first, and what chose the one reported.
+  std::vector<structure_candidate> structures;
+  std::string structure_reason;
+  bool structure_decisive = false;  // no other structure within kDecisiveBic of the chosen one
   std::vector<term_estimate> weak_estimates;
   double weak_mu = std::numeric_limits<double>::quiet_NaN(), weak_mu_standard_error = std::numeric_limits<double>::quiet_NaN();
   std::vector<std::string> notes;         // what was done to the data (keyphasor timing, averaging)
@@ -125,7 +152,8 @@ struct identification {
   std::size_t contact_samples = 0, episodes = 0;
   std::vector<correlation_test> validity;
   std::optional<reid_result> reid;
-  double probe_noise = 0.0;               // m, from the data (estimate_probe_noise)
+  double probe_noise = 0.0;               // m, RMS over the touching dwells of their own noise (dwell_report::noise)
+  std::vector<dwell_noise> free_noise;    // the contact-free dwells' own noise, in linear_fitted's order
   // Every estimate that is unphysical, undetermined or failed a check, one line each; the CLI
   // prints them as `warning:` lines and identification.json lists them. Never silent.
   std::vector<std::string> warnings;

@@ -23,6 +23,7 @@ nlohmann::ordered_json to_json(const identification& id, const identify_settings
                    {"law_method_reason", id.law_route_reason},
                    {"weak_form", {{"test_functions", s.weak.test_functions}, {"bump_power", s.weak.bump_power},
                                   {"margin", s.weak.margin}, {"velocity_half_width", s.weak.velocity_half_width}}},
+                   {"averaging", std::string(to_string(s.average))},
                    {"orbit_fit", s.orbit_fit},
                    {"intervals", id.orbit && id.orbit->converged ? "normal, from the orbit fit's Jacobian"
                                  : id.weak                     ? "Student t on the whitened weak-form rows"
@@ -40,14 +41,17 @@ nlohmann::ordered_json to_json(const identification& id, const identify_settings
     j["linear"]["dwells"] = id.linear_fitted->dwells;
     j["linear"]["residual_rms_m_s2"] = id.linear_fitted->residual_rms;
     if (!id.linear_fitted->beyond_1x_rms.empty()) j["linear"]["beyond_1x_rms_m"] = id.linear_fitted->beyond_1x_rms;
+    for (const auto& n : id.free_noise) j["linear"]["noise_m"].push_back(n.sigma);
+    for (const auto& n : id.free_noise) j["linear"]["quantisation_m"].push_back(n.quantisation);
     j["linear"]["note"] = "m is not identifiable from displacements (Eq. 1 scales with it); it is taken as given";
   }
   j["friction"] = {{"mu", id.mu}, {"mu_standard_error", num(id.mu_standard_error)}, {"mu_mean", id.mu_mean},
                    {"mu_spread", id.mu_spread}, {"mu_slope", id.mu_slope}};
   for (const auto& d : id.dwells) {
     json jd = {{"speed_rpm", d.rpm}, {"clearance_m", d.clearance}, {"samples", d.samples}, {"contact_samples", d.contact_samples},
-               {"episodes", d.episodes}, {"max_penetration_m", d.max_penetration}, {"averaged_revolutions", d.averaged_revolutions},
-               {"average_spread_m", d.average_spread}};
+               {"episodes", d.episodes}, {"max_penetration_m", d.max_penetration},
+               {"noise_m", d.noise.sigma}, {"white_noise_m", d.noise.white}, {"quantisation_m", d.noise.quantisation},
+               {"averaged_revolutions", d.averaged_revolutions}, {"average_spread_m", d.average_spread}, {"averaging", d.averaging}};
     if (d.friction)
       jd["mu"] = {{"samples", d.friction->samples}, {"mean", d.friction->mean}, {"std", d.friction->std_dev},
                   {"median", d.friction->median}, {"slope", d.friction->slope}};
@@ -92,6 +96,12 @@ nlohmann::ordered_json to_json(const identification& id, const identify_settings
       j["orbit_fit"]["weak_form_start"].push_back({{"term", e.name}, {"value", e.value}, {"standard_error", e.standard_error}});
     j["orbit_fit"]["weak_form_mu"] = num(id.weak_mu);
   }
+  if (!id.structures.empty()) {
+    j["structure"] = {{"reason", id.structure_reason}, {"decisive", id.structure_decisive}};
+    for (const auto& c : id.structures)
+      j["structure"]["candidates"].push_back({{"terms", c.terms}, {"fitted", c.fitted}, {"converged", c.converged},
+                                              {"chi2_per_dof", num(c.chi2_per_dof)}, {"bic", num(c.bic)}, {"status", c.status}});
+  }
   if (id.reid) {
     j["reidentification"] = {{"algorithm", id.reid->algorithm}, {"evaluations", id.reid->evaluations},
                              {"failed_evaluations", id.reid->failed_evaluations}, {"final_failed", id.reid->final_failed},
@@ -116,13 +126,16 @@ std::string to_markdown(const identification& id) {
     for (const auto& w : id.warnings) md << "- " << w << "\n";
     md << "\n";
   }
-  md << "Probe noise (from the data): " << id.probe_noise << " m.\n\n";
+  md << "Probe noise (from the data, each dwell its own): RMS " << id.probe_noise << " m over the dwells that touch.\n\n";
   md << "Contact law by **" << to_string(id.law_route) << "** (" << id.law_route_reason << ").\n\n";
   if (!id.notes.empty()) {
     md << "## Notes\n\n";
     for (const auto& n : id.notes) md << "- " << n << "\n";
     md << "\n";
   }
+  md << "## Dwells\n\n| speed [rpm] | noise [m] | quantisation [m] | averaging |\n|---|---|---|---|\n";
+  for (const auto& d : id.dwells) md << "| " << d.rpm << " | " << d.noise.sigma << " | " << d.noise.quantisation << " | " << d.averaging << " |\n";
+  md << "\n";
   md << "Linear part (" << id.linear_source << "): m = " << id.linear.m << " kg, c_x = " << id.linear.c_x << " kg/s, c_y = "
      << id.linear.c_y << " kg/s, k_x = " << id.linear.k_x << " N/m, k_y = " << id.linear.k_y << " N/m, e = " << id.linear.e
      << " m, unbalance phase = " << id.linear.phase << " rad.\n\n";
@@ -163,6 +176,16 @@ std::string to_markdown(const identification& id) {
        << "), orbit RMS " << o.final_rms << " m.\n\n| parameter | weak form (start) | orbit fit | standard error |\n|---|---|---|---|\n";
     for (const auto& p : o.parameters)
       md << "| " << p.name << " | " << p.start << " | " << p.value << " | " << p.standard_error << " |\n";
+    md << "\n";
+  }
+  if (!id.structures.empty()) {
+    md << "## Structure (§5: every law of Eq. 5's family with a stiffness, by the orbit fit's BIC)\n\n" << id.structure_reason
+       << ".\n\n| terms | χ²/dof | BIC | status |\n|---|---|---|---|\n";
+    for (const auto& c : id.structures) {
+      md << "| ";
+      for (std::size_t k = 0; k < c.terms.size(); ++k) md << (k ? ", " : "") << c.terms[k];
+      md << " | " << c.chi2_per_dof << " | " << c.bic << " | " << c.status << " |\n";
+    }
     md << "\n";
   }
   md << "\nμ = " << id.mu << " ± " << id.mu_standard_error << " ("

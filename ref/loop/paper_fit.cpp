@@ -155,7 +155,10 @@ model_point staged_model(const std::vector<loop_dwell>& dwells, double mass, std
                     " speed(s) without contact, too few for the harmonic balance of the linear part: it starts from the paper's (scaled to the "
                     "mass), and the before-fit fits it on every dwell");
   }
-  is.average_revolutions = true;
+  is.average = averaging::always;  // every dwell here repeats each revolution (periods == 1)
+  // The staged start as validated by the loop's campaign: the weak form's own terms, refined by
+  // the orbit fit (the structure comparison is identify's default; not yet measured on the loop).
+  is.compare_structures = false;
   is.library = "z1,z3,zd2";  // Eq. 5's terms: the loop's base model is the identified law
   is.frols.rho = 0.0;
   is.frols.err_threshold = 0.0;
