@@ -62,8 +62,28 @@ struct linear_fit {
   std::size_t dwells = 0, samples = 0;
   double residual_rms = 0.0;             // m/s^2, of Eq. 1 / m (harmonic: of its 1X balance)
   std::vector<double> beyond_1x_rms;     // m, per dwell (harmonic): samples minus mean and 1X, RMS
+  // One forcing phase for every dwell, tested (harmonic, >= 2 dwells): the weighted residual of
+  // the fit above minus that of a fit with each dwell's own forcing (e cos, e sin per dwell), which
+  // under one phase is chi^2 with 2 (dwells - 1) degrees of freedom. Above phase_limit (its 99.9 %
+  // quantile) the dwells' 1X phases disagree with one unbalance on one shaft angle.
+  double phase_chi2 = 0.0, phase_limit = 0.0;
+  int phase_dof = 0;
 };
 linear_fit fit_linear_part(const std::vector<const dwell*>& no_contact, double m, const derivative_settings& ds,
                            linear_method method = linear_method::harmonic);
+
+// Each contact-free dwell's forcing phase, for dwells whose times are not on one shaft angle
+// (phase_chi2 above its limit): returns the time shift (s) that puts each on the angle of the
+// harmonic fit's one unbalance (add it to every t). Alternates the harmonic fit on the shifted
+// dwells with each dwell's best phase against it (closed form), from the phases of a fit with
+// every dwell's own forcing, until the shifts move by less than 1e-9 rad; the phase common to all
+// is left (the unbalance's). c and k then rest on the 1X amplitudes across speeds and the x-y
+// phase of each dwell, plus what the dwells' relative timing still holds.
+std::vector<double> shaft_angle_shifts(const std::vector<const dwell*>& no_contact, double m);
+
+// The time shift (s) that brings a dwell's 1X closest to the linear part's 1X response (the same
+// closed form): a start for the shaft angle of a dwell that touches, whose contact also moves its
+// 1X (the orbit fit's per-cycle forcing then refines it).
+double one_x_shift(const dwell& d, const linear_part& lin);
 
 }  // namespace rubref

@@ -144,7 +144,8 @@ double align_by_keyphasor(dwell& d, std::vector<std::string>& notes) {
     width = d.dt;
   }
   for (double& t : d.t) t -= t0;
-  return width / std::sqrt(12.0);  // uniform within the bracket
+  d.timing_sigma = width / std::sqrt(12.0);  // uniform within the bracket
+  return d.timing_sigma;
 }
 
 double estimate_probe_noise(const std::vector<const dwell*>& dwells) {

@@ -2,6 +2,7 @@
 // A measurement record as constant-speed dwells (docs/data-format.md): the speed column is
 // constant within a dwell and changes between dwells; samples are uniform within a dwell.
 
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -14,6 +15,9 @@ struct dwell {
   double dt = 0.0;                // s, uniform sample spacing
   std::vector<double> t, x, y;    // s, m, m
   std::vector<double> keyphasor;  // 1 at the first sample after the shaft's notch (empty: no such column)
+  // s, the uncertainty of t's shaft angle once re-based on the keyphasor (align_by_keyphasor);
+  // infinity: times as recorded (shaft-synchronous by docs/data-format.md, which identify tests)
+  double timing_sigma = std::numeric_limits<double>::infinity();
   double clearance = 0.0;         // m, from the record's clearance_m metadata (0: not stated)
   bool periodic = false;          // the samples are one revolution of a periodic orbit (averaged)
   std::string source;             // "file.csv, lines a-b" for messages
@@ -45,8 +49,10 @@ double estimate_probe_noise(const std::vector<const dwell*>& dwells);
 double quantisation_step(const std::vector<double>& v);
 
 // One dwell's noise (m). Rounding to a step q is noise of q / sqrt(12) that no filter and no
-// average removes (revolutions that repeat round alike), and where the white noise is below it the
-// 4th differences of a quantised orbit read ~0: the dwell's noise is the larger of the two.
+// average removes (revolutions that repeat round alike). Where the white noise is below it, the
+// 4th differences of an orbit that moves less than a step per sample read ~0 (of one that moves
+// many steps, ~1.2 q / sqrt(12), the uniform rounding read by a Gaussian-scaled median): the
+// dwell's noise is the larger of the two.
 struct dwell_noise {
   double sigma = 0.0;         // m, max(white, quantisation / sqrt(12))
   double white = 0.0;         // m, the 4th-difference estimate on this dwell alone

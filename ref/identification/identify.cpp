@@ -208,6 +208,8 @@ struct law_context {
   const identify_settings& s;
   std::vector<candidate_term> library;
   std::vector<const dwell*> touching;
+  std::vector<dwell> retimed_free;  // contact-free dwells put on one shaft angle (shaft_angle_shifts)
+  std::vector<dwell> retimed_touching;  // the dwells in contact likewise (one_x_shift), when the free ones were
   std::vector<dwell_noise> noise;  // each touching dwell's own
   std::vector<std::optional<averaged_dwell>> averages;
   std::vector<bool> averaged;
@@ -275,12 +277,50 @@ void linear_part_and_touching(law_context& ctx, const std::vector<dwell>& dwells
       if (!touches(d)) free.push_back(&d);
     for (const auto* d : free) id.free_noise.push_back(estimate_dwell_noise(*d));
     id.linear_fitted = fit_linear_part(free, s.mass, s.derivative, s.linear_route);
+    const linear_fit first = *id.linear_fitted;  // a copy: refitted below
+    if (first.phase_dof > 0 && first.phase_chi2 > first.phase_limit) {
+      // Times not on one shaft angle: each dwell put on the fit's unbalance by its own 1X phase.
+      const std::vector<double> shift = shaft_angle_shifts(free, s.mass);
+      for (std::size_t k = 0; k < free.size(); ++k) {
+        dwell c = *free[k];
+        for (double& t : c.t) t += shift[k];
+        ctx.retimed_free.push_back(std::move(c));
+      }
+      std::vector<const dwell*> retimed;
+      for (const auto& c : ctx.retimed_free) retimed.push_back(&c);
+      id.linear_fitted = fit_linear_part(retimed, s.mass, s.derivative, s.linear_route);
+      id.notes.push_back("linear part: the contact-free dwells' 1X phases disagreed with one unbalance phase (chi^2 " + format_digits(first.phase_chi2) +
+                         " for " + std::to_string(first.phase_dof) + " dof, 99.9 % limit " + format_digits(first.phase_limit) +
+                         "), so each dwell's times were shifted to one shaft angle by its own phase (after: chi^2 " +
+                         format_digits(id.linear_fitted->phase_chi2) + "); c and k then rest on the 1X amplitudes across speeds and each dwell's x-y phase");
+    }
     id.linear = id.linear_fitted->value;
     id.linear_source = "fitted";
   }
   for (const auto& d : dwells)
     if (touches(d)) ctx.touching.push_back(&d);
   if (ctx.touching.empty()) throw input_error("no dwell reaches its clearance: there is no contact to identify");
+  const bool free_untimed = std::any_of(ctx.retimed_free.begin(), ctx.retimed_free.end(), [](const dwell& d) { return !std::isfinite(d.timing_sigma); });
+  if (free_untimed) {
+    // Contact-free dwells without a keyphasor were not on one shaft angle, so neither are the
+    // touching ones without one (tested there, presumed here): each starts on the linear part's
+    // by its 1X, and the orbit fit searches and refines its forcing phase. (Keyphasor-timed
+    // dwells keep their angle: the free ones' shifts were small, their mean taken out.)
+    double largest = 0.0;
+    ctx.retimed_touching.reserve(ctx.touching.size());
+    for (auto*& d : ctx.touching) {
+      if (std::isfinite(d->timing_sigma)) continue;
+      dwell c = *d;
+      const double shift = one_x_shift(c, id.linear);
+      for (double& t : c.t) t += shift;
+      largest = std::max(largest, std::abs(std::remainder(shift * c.omega(), 2.0 * std::numbers::pi)));
+      ctx.retimed_touching.push_back(std::move(c));
+      d = &ctx.retimed_touching.back();
+    }
+    if (!ctx.retimed_touching.empty())
+      id.notes.push_back("dwells in contact without a keyphasor: re-timed like the contact-free ones, each by its 1X against the linear part's (up to " +
+                         format_digits(largest) + " rad), as a start the orbit fit searches and refines");
+  }
   double sq = 0.0;
   for (const auto* d : ctx.touching) {
     ctx.noise.push_back(estimate_dwell_noise(*d));
@@ -671,6 +711,9 @@ constexpr double kDecisiveBic = 10.0;
 // The orbit fit's start for a term the weak form puts at <= 0: this share of the peak force, a
 // term large enough to matter and small enough not to move the orbit far from the others' law.
 constexpr double kRestartShare = 0.1;
+// Phases tried per cycle when the shaft angle is not known: 30 degrees apart, well inside the
+// basin Levenberg-Marquardt converges from (measured: the orbit fit starting 1.8 rad off fails).
+constexpr int kPhaseSearch = 12;
 
 std::string structure_text(const std::vector<std::string>& terms, const std::vector<candidate_term>& library) {
   std::string out = "{";
@@ -736,11 +779,13 @@ void refine_by_orbits(law_context& ctx) {
     std::vector<term_estimate> start;  // the weak form's least squares on these terms
     std::optional<orbit_fit_result> fit;
   };
-  std::vector<trial> trials;
   const Eigen::Index dof_rows = ctx.sys.A.rows();
   // The weak law's peak force over the contact samples (their f_N is the law's here).
   double peak_force = 0.0;
   for (const auto& c : ctx.pooled) peak_force = std::max(peak_force, std::abs(c.fn));
+  // Every structure fitted, lowest BIC first (structures without one after, in their order).
+  const auto fit_structures = [&](int phase_search) {
+  std::vector<trial> trials;
   for (const auto& sub : subsets) {
     trial t;
     std::vector<std::size_t> cols;
@@ -773,7 +818,9 @@ void refine_by_orbits(law_context& ctx) {
       trials.push_back(std::move(t));
       continue;
     }
-    const orbit_fit_result fit = fit_periodic_orbits(cycles, start, members, s.orbit);
+    orbit_fit_settings os = s.orbit;
+    os.phase_search = std::max(os.phase_search, phase_search);
+    const orbit_fit_result fit = fit_periodic_orbits(cycles, start, members, os);
     t.report.fitted = true;
     t.report.converged = fit.converged;
     t.report.chi2_per_dof = fit.final_chi2;
@@ -785,11 +832,33 @@ void refine_by_orbits(law_context& ctx) {
     t.fit = fit;
     trials.push_back(std::move(t));
   }
-  // Lowest BIC first; structures without one (not fitted, not converged) after, in their order.
   std::stable_sort(trials.begin(), trials.end(), [](const trial& a, const trial& b) {
     const bool fa = std::isfinite(a.report.bic), fb = std::isfinite(b.report.bic);
     return fa != fb ? fa : fa && a.report.bic < b.report.bic;
   });
+  return trials;
+  };
+  // Times not on one shaft angle (the contact-free dwells' test): each cycle's phase searched from
+  // the start. Otherwise searched only when the cycles' given phases leave no fit within the noise
+  // (no convergence, or chi^2 above its limit): the dwells in contact may not be on the linear
+  // part's shaft angle (no keyphasor, t_s not shaft-synchronous), and the search changes only the
+  // start, so the same model's lower chi^2 decides.
+  const bool unknown_angle = !ctx.retimed_touching.empty();
+  id.phases_searched = unknown_angle;
+  std::vector<trial> trials = fit_structures(unknown_angle ? kPhaseSearch : 0);
+  const auto within_noise = [](const std::vector<trial>& ts) {
+    return std::isfinite(ts.front().report.bic) && ts.front().fit->final_chi2 <= orbit_fit_chi2_limit(*ts.front().fit);
+  };
+  if (!unknown_angle && !within_noise(trials)) {
+    std::vector<trial> searched = fit_structures(kPhaseSearch);
+    const bool better = std::isfinite(searched.front().report.bic) &&
+                        (!std::isfinite(trials.front().report.bic) || searched.front().report.bic < trials.front().report.bic);
+    id.notes.push_back(std::string("orbit fit: the cycles' forcing phases from the linear part left no fit within the noise; with each "
+                                   "cycle's phase searched (") + std::to_string(kPhaseSearch) + " starts) the fits " +
+                       (better ? "improved and are reported (the dwells in contact were not on the linear part's shaft angle)"
+                               : "did not improve, and the first are reported"));
+    if (better) trials = std::move(searched), id.phases_searched = true;
+  }
   for (const auto& t : trials) id.structures.push_back(t.report);
 
   // The weak form's own selection, when the orbit fit could not choose (or it is outside the family).
@@ -935,6 +1004,12 @@ void add_warnings(identification& id, const identify_settings& s) {
         w.push_back(std::string("linear part: ") + name + " = " + format_digits(v) + " ± " + format_digits(se[i]) +
                     " (standard error) is not determined by the contact-free dwells");
     }
+    const auto& lf = *id.linear_fitted;
+    if (lf.phase_dof > 0 && lf.phase_chi2 > lf.phase_limit)
+      w.push_back("linear part: the contact-free dwells' 1X phases disagree with one unbalance phase (chi^2 " + format_digits(lf.phase_chi2) + " for " +
+                  std::to_string(lf.phase_dof) + " dof, 99.9 % limit " + format_digits(lf.phase_limit) +
+                  "): their times are not on one shaft angle (without a keyphasor t_s must be shaft-synchronous, docs/data-format.md) or the "
+                  "forcing is not one unbalance; c, k and e from them are not reliable");
     const auto& beyond = id.linear_fitted->beyond_1x_rms;
     for (std::size_t k = 0; k < beyond.size() && k < id.free_noise.size(); ++k) {
       const double limit = std::max(kBeyond1xNoiseFactor * id.free_noise[k].sigma, kBeyond1xFloor);
@@ -964,11 +1039,25 @@ void add_warnings(identification& id, const identify_settings& s) {
     w.push_back("orbit fit: the averaged cycles leave " + format_digits(id.orbit->final_chi2) + "x the residual the probe noise leaves (limit " +
                 format_digits(orbit_fit_chi2_limit(*id.orbit)) + "; RMS " + format_digits(id.orbit->final_rms) +
                 " m): the model misses something (a term, an effect outside Eq. 1, a wrong linear part); intervals widened by its square root");
-  if (id.weak && id.weak->chi2_per_dof > id.weak->chi2_limit && 1.0 - id.frols.err_sum_kept > kWeakUnexplained)
-    w.push_back("weak form: the residual variance is " + format_digits(id.weak->chi2_per_dof) + "x what the probe noise leaves (limit " +
-                format_digits(id.weak->chi2_limit) + " under noise alone), " + format_digits(100.0 * (1.0 - id.frols.err_sum_kept)) +
-                " % of the integrals' variance: the law leaves what noise cannot explain (a missing term, an effect outside Eq. 1, "
-                "or a wrong linear part)");
+  if (id.weak && id.weak->chi2_per_dof > id.weak->chi2_limit && 1.0 - id.frols.err_sum_kept > kWeakUnexplained) {
+    const std::string excess = "weak form: the residual variance is " + format_digits(id.weak->chi2_per_dof) + "x what the probe noise leaves (limit " +
+                               format_digits(id.weak->chi2_limit) + " under noise alone), " + format_digits(100.0 * (1.0 - id.frols.err_sum_kept)) +
+                               " % of the integrals' variance";
+    // The orbit fit is the stronger test of the law (it reads no derivative of the data and sees
+    // the whole revolution): where it leaves only noise, the weak form's excess is the weak
+    // form's own (its rows' approximations at this noise, or a shaft angle the orbit fit found),
+    // not the law's, and is a note.
+    const bool orbits_fit = id.orbit && id.orbit->converged && id.orbit->final_chi2 <= orbit_fit_chi2_limit(*id.orbit);
+    if (orbits_fit)
+      id.notes.push_back(excess + "; the orbit fit leaves only noise (chi^2/dof " + format_digits(id.orbit->final_chi2) + ", limit " +
+                         format_digits(orbit_fit_chi2_limit(*id.orbit)) + "), so the reported law is not what the weak form misses" +
+                         (id.phases_searched ? " (its rows hold the unbalance at the linear part's shaft angle, which the dwells in contact are not on)" : ""));
+    else
+      w.push_back(excess + ": " +
+                  (id.phases_searched ? std::string("its rows hold the unbalance at the linear part's shaft angle, which the orbit fit found the dwells "
+                                                    "in contact are not on (notes)")
+                                      : std::string("the law leaves what noise cannot explain (a missing term, an effect outside Eq. 1, or a wrong linear part)")));
+  }
   if (!(id.mu >= 0.0 && id.mu <= 1.0))
     w.push_back("friction: mu = " + format_digits(id.mu) + " is outside [0, 1]: implausible for a rub");
   else if (id.dwells.size() > 1 && id.mu_spread > id.mu_mean)

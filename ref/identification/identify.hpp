@@ -137,6 +137,7 @@ struct identification {
   std::vector<structure_candidate> structures;
   std::string structure_reason;
   bool structure_decisive = false;  // no other structure within kDecisiveBic of the chosen one
+  bool phases_searched = false;     // the orbit fit found the touching dwells' forcing phases by search (not the linear part's)
   std::vector<term_estimate> weak_estimates;
   double weak_mu = std::numeric_limits<double>::quiet_NaN(), weak_mu_standard_error = std::numeric_limits<double>::quiet_NaN();
   std::vector<std::string> notes;         // what was done to the data (keyphasor timing, averaging)

@@ -40,6 +40,8 @@ nlohmann::ordered_json to_json(const identification& id, const identify_settings
                                      {"e_m", se[4]}, {"unbalance_phase_rad", se[5]}};
     j["linear"]["dwells"] = id.linear_fitted->dwells;
     j["linear"]["residual_rms_m_s2"] = id.linear_fitted->residual_rms;
+    j["linear"]["one_phase_test"] = {{"chi2", id.linear_fitted->phase_chi2}, {"dof", id.linear_fitted->phase_dof},
+                                     {"limit_999", id.linear_fitted->phase_limit}};
     if (!id.linear_fitted->beyond_1x_rms.empty()) j["linear"]["beyond_1x_rms_m"] = id.linear_fitted->beyond_1x_rms;
     for (const auto& n : id.free_noise) j["linear"]["noise_m"].push_back(n.sigma);
     for (const auto& n : id.free_noise) j["linear"]["quantisation_m"].push_back(n.quantisation);

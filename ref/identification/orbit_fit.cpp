@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <numbers>
 #include <boost/math/distributions/chi_squared.hpp>
 #include <unsupported/Eigen/LevenbergMarquardt>
 
@@ -140,6 +141,30 @@ class cycles_model {
     return J;
   }
 
+  // Each cycle's forcing phase set to the best (smallest residual) of `count` phases around the
+  // circle and its current one, the law and the linear part as in u.
+  void search_phases(Eigen::VectorXd& u, int count) {
+    parallel_for(cycles_.size(), 0, [&](std::size_t k) {
+      const double a = u[forcing(k)], b = u[forcing(k) + 1], size = std::hypot(a, b);
+      Eigen::VectorXd r(this->size(k));
+      double best = std::numeric_limits<double>::infinity();
+      std::pair<double, double> chosen{a, b};
+      state_type chosen_orbit = guess_[k];
+      for (int j = -1; j < count; ++j) {
+        Eigen::VectorXd trial = u;
+        if (j >= 0) {
+          const double phase = 2.0 * std::numbers::pi * j / count;
+          trial[forcing(k)] = size * std::cos(phase), trial[forcing(k) + 1] = size * std::sin(phase);
+        }
+        state_type orbit = guess_[k];
+        if (!cycle_residuals(k, at(trial, k), orbit, r)) continue;
+        if (r.squaredNorm() < best) best = r.squaredNorm(), chosen = {trial[forcing(k)], trial[forcing(k) + 1]}, chosen_orbit = orbit;
+      }
+      u[forcing(k)] = chosen.first, u[forcing(k) + 1] = chosen.second;
+      guess_[k] = chosen_orbit;
+    });
+  }
+
   int evaluations() const { return evaluations_; }
   int failed() const { return failed_; }
   bool last_failed() const { return last_failed_; }
@@ -242,7 +267,8 @@ orbit_fit_result fit_periodic_orbits(const std::vector<orbit_fit_cycle>& cycles,
   out.unknowns = static_cast<std::size_t>(model.unknowns());
   const double dof = std::max(1.0, static_cast<double>(out.residuals) - static_cast<double>(out.unknowns));
 
-  const Eigen::VectorXd start_values = model.start();
+  Eigen::VectorXd start_values = model.start();
+  if (s.phase_search > 0) model.search_phases(start_values, s.phase_search);
   Eigen::VectorXd u = start_values;
   out.initial_chi2 = model.evaluate(u).squaredNorm() / dof;
   lm_functor f(model);

@@ -41,6 +41,10 @@ struct orbit_fit_settings {
   // Relative change of the scaled unknowns at which LM stops: a thousandth of the smallest
   // standard error seen on the records (~0.5 %).
   double tolerance = 1e-6;
+  // Cycles whose shaft angle is not known (times not on one angle): before Levenberg-Marquardt,
+  // each cycle's forcing phase starts at the best of this many phases around the circle and its
+  // given start (0: the given start).
+  int phase_search = 0;
 };
 
 struct orbit_fit_parameter {
