@@ -319,6 +319,7 @@ void reproduce(const reproduce_settings& s) {
     is.linear = paper;
     is.reference = paper;
     is.law_route = law_method::samples;  // the paper's route, on a noise-free record (Table 1's ERRs)
+    is.average = averaging::never;       // the paper's samples as recorded, every revolution
     is.reidentify = true;
     const identification id = identify({{rec, "identified_0.3mm.csv"}}, is);
     dir.write("data/identification_record_0.3mm.csv", to_csv(rec));
