@@ -113,11 +113,6 @@ void equation_error_rows(const dwell& d, const derivative_settings& ds, linear_r
   }
 }
 
-// Eq. 1 balanced at 1X: with x = a0 + ac cos wt + as sin wt (a0 a probe offset or a static sag,
-// which the stiffness carries and the balance ignores), x' = w (as cos - ac sin), x'' = -w^2 (x - a0):
-//   cos: (c_x/m) w as + (k_x/m) ac - w^2 p = w^2 ac      sin: -(c_x/m) w ac + (k_x/m) as + w^2 q = w^2 as
-//   cos: (c_y/m) w bs + (k_y/m) bc - w^2 q = w^2 bc      sin: -(c_y/m) w bc + (k_y/m) bs - w^2 p = w^2 bs
-// Returns the RMS of the samples minus their mean and 1X.
 // One dwell's mean and 1X by least squares: (a0, ac, as) for x and y, and the RMS beyond them.
 struct one_x_fit {
   double ac, as, bc, bs, beyond;
@@ -153,7 +148,8 @@ void add_harmonic_rows(const dwell& d, const one_x_fit& f, std::size_t columns, 
   row({{2, -w * f.bc}, {3, f.bs}, {forcing, -w2}}, w2 * f.bs, weight_y);
 }
 
-double weighted_rss(const std::vector<std::vector<double>>& rows, const std::vector<double>& rhs) {
+// Least squares on rows built by add_harmonic_rows: the solution and the residual sum of squares.
+std::pair<Eigen::VectorXd, double> solve_rows(const std::vector<std::vector<double>>& rows, const std::vector<double>& rhs) {
   const auto n = static_cast<Eigen::Index>(rows.size()), p = static_cast<Eigen::Index>(rows.front().size());
   Eigen::MatrixXd P(n, p);
   Eigen::VectorXd y(n);
@@ -161,7 +157,9 @@ double weighted_rss(const std::vector<std::vector<double>>& rows, const std::vec
     for (Eigen::Index j = 0; j < p; ++j) P(i, j) = rows[static_cast<std::size_t>(i)][static_cast<std::size_t>(j)];
     y[i] = rhs[static_cast<std::size_t>(i)];
   }
-  return (y - P * P.colPivHouseholderQr().solve(y)).squaredNorm();
+  Eigen::VectorXd b = P.colPivHouseholderQr().solve(y);
+  const double rss = (y - P * b).squaredNorm();
+  return {std::move(b), rss};
 }
 
 // Eq. 1 balanced at 1X: with x = a0 + ac cos wt + as sin wt (a0 a probe offset or a static sag,
@@ -200,7 +198,7 @@ void one_phase_test(const std::vector<const dwell*>& dwells, linear_fit& fit) {
     add_harmonic_rows(d, f, 4 + 2 * D, 4 + 2 * k, 1.0 / (sc * gx), 1.0 / (sc * gy), own_rows, own_rhs);
   }
   fit.phase_dof = static_cast<int>(2 * (D - 1));
-  fit.phase_chi2 = std::max(0.0, weighted_rss(shared_rows, shared_rhs) - weighted_rss(own_rows, own_rhs));
+  fit.phase_chi2 = std::max(0.0, solve_rows(shared_rows, shared_rhs).second - solve_rows(own_rows, own_rhs).second);
   fit.phase_limit = boost::math::quantile(boost::math::chi_squared(static_cast<double>(fit.phase_dof)), 0.999);
 }
 
@@ -269,13 +267,7 @@ std::vector<double> shaft_angle_shifts(const std::vector<const dwell*>& no_conta
     std::vector<std::vector<double>> rows;
     std::vector<double> rhs;
     for (std::size_t k = 0; k < D; ++k) add_harmonic_rows(*no_contact[k], fits[k], 4 + 2 * D, 4 + 2 * k, 1.0, 1.0, rows, rhs);
-    Eigen::MatrixXd P(static_cast<Eigen::Index>(rows.size()), static_cast<Eigen::Index>(4 + 2 * D));
-    Eigen::VectorXd y(static_cast<Eigen::Index>(rows.size()));
-    for (std::size_t i = 0; i < rows.size(); ++i) {
-      for (std::size_t j = 0; j < rows[i].size(); ++j) P(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(j)) = rows[i][j];
-      y[static_cast<Eigen::Index>(i)] = rhs[i];
-    }
-    const Eigen::VectorXd b = P.colPivHouseholderQr().solve(y);
+    const Eigen::VectorXd b = solve_rows(rows, rhs).first;
     for (std::size_t k = 0; k < D; ++k) phase[k] = std::atan2(b[static_cast<Eigen::Index>(5 + 2 * k)], b[static_cast<Eigen::Index>(4 + 2 * k)]);
   }
   std::vector<double> shift(D, 0.0);

@@ -208,6 +208,7 @@ struct law_context {
   const identify_settings& s;
   std::vector<candidate_term> library;
   std::vector<const dwell*> touching;
+  std::vector<std::size_t> touching_index;  // each one's place in identify_law's dwells
   std::vector<dwell> retimed_free;  // contact-free dwells put on one shaft angle (shaft_angle_shifts)
   std::vector<dwell> retimed_touching;  // the dwells in contact likewise (one_x_shift), when the free ones were
   std::vector<dwell_noise> noise;  // each touching dwell's own
@@ -261,12 +262,61 @@ struct law_context {
   }
 };
 
-// The linear part (given, or fitted to the contact-free dwells); the dwells that touch, each
-// with its own noise, and their synchronous averages (dwells with at least one whole revolution).
+bool touches(const dwell& d) {
+  return std::any_of(d.y.begin(), d.y.end(), [&](double y) { return y > d.clearance; });
+}
+
+// Contact-free dwells whose 1X phases reject one shaft angle (linear_fit::phase_chi2) put on one
+// (shaft_angle_shifts), and the linear part fitted again on them.
+void put_free_on_one_angle(law_context& ctx, const std::vector<const dwell*>& free) {
+  identification& id = ctx.id;
+  const identify_settings& s = ctx.s;
+  const linear_fit first = *id.linear_fitted;  // a copy: refitted below
+  if (!(first.phase_dof > 0 && first.phase_chi2 > first.phase_limit)) return;
+  const std::vector<double> shift = shaft_angle_shifts(free, s.mass);
+  for (std::size_t k = 0; k < free.size(); ++k) {
+    dwell c = *free[k];
+    for (double& t : c.t) t += shift[k];
+    ctx.retimed_free.push_back(std::move(c));
+  }
+  std::vector<const dwell*> retimed;
+  for (const auto& c : ctx.retimed_free) retimed.push_back(&c);
+  id.linear_fitted = fit_linear_part(retimed, s.mass, s.derivative, s.linear_route);
+  id.notes.push_back("linear part: the contact-free dwells' 1X phases disagreed with one unbalance phase (chi^2 " + format_digits(first.phase_chi2) +
+                     " for " + std::to_string(first.phase_dof) + " dof, 99.9 % limit " + format_digits(first.phase_limit) +
+                     "), so each dwell's times were shifted to one shaft angle by its own phase (after: chi^2 " +
+                     format_digits(id.linear_fitted->phase_chi2) + "); c and k then rest on the 1X amplitudes across speeds and each dwell's x-y phase");
+}
+
+// Contact-free dwells without a keyphasor were not on one shaft angle, so neither are the
+// touching ones without one (tested there, presumed here): each starts on the linear part's by
+// its 1X, and the orbit fit searches and refines its forcing phase. (Keyphasor-timed dwells keep
+// their angle: the free ones' shifts were small, their mean taken out.)
+void put_touching_on_the_free_angle(law_context& ctx) {
+  const bool free_untimed = std::any_of(ctx.retimed_free.begin(), ctx.retimed_free.end(), [](const dwell& d) { return !std::isfinite(d.timing_sigma); });
+  if (!free_untimed) return;
+  double largest = 0.0;
+  ctx.retimed_touching.reserve(ctx.touching.size());  // no reallocation: touching points into it
+  for (auto*& d : ctx.touching) {
+    if (std::isfinite(d->timing_sigma)) continue;
+    dwell c = *d;
+    const double shift = one_x_shift(c, ctx.id.linear);
+    for (double& t : c.t) t += shift;
+    largest = std::max(largest, std::abs(std::remainder(shift * c.omega(), 2.0 * std::numbers::pi)));
+    ctx.retimed_touching.push_back(std::move(c));
+    d = &ctx.retimed_touching.back();
+  }
+  if (!ctx.retimed_touching.empty())
+    ctx.id.notes.push_back("dwells in contact without a keyphasor: re-timed like the contact-free ones, each by its 1X against the linear part's (up to " +
+                           format_digits(largest) + " rad), as a start the orbit fit searches and refines");
+}
+
+// The linear part (given, or fitted to the contact-free dwells, on one shaft angle); the dwells
+// that touch, each with its own noise, and their synchronous averages (dwells with at least one
+// whole revolution).
 void linear_part_and_touching(law_context& ctx, const std::vector<dwell>& dwells) {
   identification& id = ctx.id;
   const identify_settings& s = ctx.s;
-  const auto touches = [](const dwell& d) { return std::any_of(d.y.begin(), d.y.end(), [&](double y) { return y > d.clearance; }); };
   if (s.linear) {
     const parameters& p = *s.linear;
     id.linear = {p.m, p.c_x, p.c_y, p.k_x, p.k_y, p.e, p.unbalance_phase};
@@ -277,50 +327,14 @@ void linear_part_and_touching(law_context& ctx, const std::vector<dwell>& dwells
       if (!touches(d)) free.push_back(&d);
     for (const auto* d : free) id.free_noise.push_back(estimate_dwell_noise(*d));
     id.linear_fitted = fit_linear_part(free, s.mass, s.derivative, s.linear_route);
-    const linear_fit first = *id.linear_fitted;  // a copy: refitted below
-    if (first.phase_dof > 0 && first.phase_chi2 > first.phase_limit) {
-      // Times not on one shaft angle: each dwell put on the fit's unbalance by its own 1X phase.
-      const std::vector<double> shift = shaft_angle_shifts(free, s.mass);
-      for (std::size_t k = 0; k < free.size(); ++k) {
-        dwell c = *free[k];
-        for (double& t : c.t) t += shift[k];
-        ctx.retimed_free.push_back(std::move(c));
-      }
-      std::vector<const dwell*> retimed;
-      for (const auto& c : ctx.retimed_free) retimed.push_back(&c);
-      id.linear_fitted = fit_linear_part(retimed, s.mass, s.derivative, s.linear_route);
-      id.notes.push_back("linear part: the contact-free dwells' 1X phases disagreed with one unbalance phase (chi^2 " + format_digits(first.phase_chi2) +
-                         " for " + std::to_string(first.phase_dof) + " dof, 99.9 % limit " + format_digits(first.phase_limit) +
-                         "), so each dwell's times were shifted to one shaft angle by its own phase (after: chi^2 " +
-                         format_digits(id.linear_fitted->phase_chi2) + "); c and k then rest on the 1X amplitudes across speeds and each dwell's x-y phase");
-    }
+    put_free_on_one_angle(ctx, free);
     id.linear = id.linear_fitted->value;
     id.linear_source = "fitted";
   }
-  for (const auto& d : dwells)
-    if (touches(d)) ctx.touching.push_back(&d);
+  for (std::size_t i = 0; i < dwells.size(); ++i)
+    if (touches(dwells[i])) ctx.touching.push_back(&dwells[i]), ctx.touching_index.push_back(i);
   if (ctx.touching.empty()) throw input_error("no dwell reaches its clearance: there is no contact to identify");
-  const bool free_untimed = std::any_of(ctx.retimed_free.begin(), ctx.retimed_free.end(), [](const dwell& d) { return !std::isfinite(d.timing_sigma); });
-  if (free_untimed) {
-    // Contact-free dwells without a keyphasor were not on one shaft angle, so neither are the
-    // touching ones without one (tested there, presumed here): each starts on the linear part's
-    // by its 1X, and the orbit fit searches and refines its forcing phase. (Keyphasor-timed
-    // dwells keep their angle: the free ones' shifts were small, their mean taken out.)
-    double largest = 0.0;
-    ctx.retimed_touching.reserve(ctx.touching.size());
-    for (auto*& d : ctx.touching) {
-      if (std::isfinite(d->timing_sigma)) continue;
-      dwell c = *d;
-      const double shift = one_x_shift(c, id.linear);
-      for (double& t : c.t) t += shift;
-      largest = std::max(largest, std::abs(std::remainder(shift * c.omega(), 2.0 * std::numbers::pi)));
-      ctx.retimed_touching.push_back(std::move(c));
-      d = &ctx.retimed_touching.back();
-    }
-    if (!ctx.retimed_touching.empty())
-      id.notes.push_back("dwells in contact without a keyphasor: re-timed like the contact-free ones, each by its 1X against the linear part's (up to " +
-                         format_digits(largest) + " rad), as a start the orbit fit searches and refines");
-  }
+  put_touching_on_the_free_angle(ctx);
   double sq = 0.0;
   for (const auto* d : ctx.touching) {
     ctx.noise.push_back(estimate_dwell_noise(*d));
@@ -949,7 +963,32 @@ void reidentify_law(law_context& ctx) {
 // The law (docs/identification.md): the linear part, the route, the contact forces, the
 // regression, FROLS's terms, their intervals by the route's own means, and the orbit fit and the
 // re-identification where asked for. Each step is one function above.
-identification identify_law_by(const std::vector<dwell>& dwells, const identify_settings& s) {
+identification identify_law_by(const std::vector<dwell>& dwells, const identify_settings& s, bool first_pass = true);
+
+// Where the orbit fit had to search the touching dwells' forcing phases, the weak form ran on
+// times it then found wrong, and its law (the orbit fit's start, and the structures' starts) with
+// them. The dwells are put on the angles the orbit fit found (as if timed by a keyphasor) and
+// everything runs again once, the notes of the first pass kept.
+identification again_on_the_orbits_angles(const law_context& ctx, const std::vector<dwell>& dwells) {
+  std::vector<dwell> timed = dwells;
+  const auto& phase = ctx.id.orbit->phase;
+  std::size_t cycle = 0;
+  for (std::size_t k = 0; k < ctx.touching.size(); ++k) {
+    if (!ctx.averaged[k]) continue;
+    const dwell& used = *ctx.touching[k];  // as the first pass had it (1X-shifted, perhaps)
+    dwell& d = timed[ctx.touching_index[k]];
+    const double shift = used.t.front() - d.t.front() + std::remainder(phase[cycle++] - ctx.id.linear.phase, 2.0 * std::numbers::pi) / d.omega();
+    for (double& t : d.t) t += shift;
+    d.timing_sigma = 0.0;  // timed by the first pass's orbit fit
+  }
+  identification id = identify_law_by(timed, ctx.s, false);
+  std::vector<std::string> notes = ctx.id.notes;
+  notes.push_back("the dwells in contact were put on the shaft angles the orbit fit found and identified again (the notes below are that pass's)");
+  id.notes.insert(id.notes.begin(), notes.begin(), notes.end());
+  return id;
+}
+
+identification identify_law_by(const std::vector<dwell>& dwells, const identify_settings& s, bool first_pass) {
   identification id;
   law_context ctx(id, s);
   linear_part_and_touching(ctx, dwells);
@@ -962,6 +1001,7 @@ identification identify_law_by(const std::vector<dwell>& dwells, const identify_
   if (ctx.weak) weak_form_estimates(ctx);
   else samples_estimates(ctx);
   refine_by_orbits(ctx);
+  if (first_pass && id.phases_searched && id.orbit && id.orbit->converged) return again_on_the_orbits_angles(ctx, dwells);
   shares_and_pull(ctx);
   if (s.reidentify) reidentify_law(ctx);
   return id;

@@ -90,7 +90,8 @@ nlohmann::ordered_json to_json(const identification& id, const identify_settings
                       {"evaluations", o.evaluations}, {"failed_evaluations", o.failed_evaluations},
                       {"residuals", o.residuals}, {"unknowns", o.unknowns}, {"initial_chi2_per_dof", num(o.initial_chi2)},
                       {"final_chi2_per_dof", num(o.final_chi2)}, {"chi2_limit", orbit_fit_chi2_limit(o)},
-                      {"final_rms_m", num(o.final_rms)}, {"unbalance_e_m", o.e}, {"unbalance_phase_rad", o.phase}};
+                      {"final_rms_m", num(o.final_rms)}, {"correlation_factor", o.correlation_factor},
+                      {"unbalance_e_m", o.e}, {"unbalance_phase_rad", o.phase}};
     for (const auto& p : o.parameters)
       j["orbit_fit"]["parameters"].push_back({{"name", p.name}, {"start", p.start}, {"value", p.value},
                                               {"standard_error", num(p.standard_error)}});

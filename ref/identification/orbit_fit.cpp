@@ -2,6 +2,7 @@
 
 #include <Eigen/Dense>
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <numbers>
@@ -302,6 +303,22 @@ orbit_fit_result fit_periodic_orbits(const std::vector<orbit_fit_cycle>& cycles,
     at += n;
   }
   out.final_rms = std::sqrt(sq / static_cast<double>(out.residuals));
+  {
+    // Lag-k products within each cycle's x series (even entries) and y series (odd entries).
+    constexpr int kLags = 4;
+    std::array<double, kLags + 1> c{};
+    Eigen::Index start = 0;
+    for (const auto& cy : cycles) {
+      const auto n = static_cast<Eigen::Index>(cy.forces->source->size());
+      for (int axis = 0; axis < 2; ++axis)
+        for (int k = 0; k <= kLags; ++k)
+          for (Eigen::Index i = 0; i + k < n; ++i) c[static_cast<std::size_t>(k)] += r[start + 2 * i + axis] * r[start + 2 * (i + k) + axis];
+      start += 2 * n;
+    }
+    double f = 1.0;
+    for (int k = 1; k <= kLags && c[0] > 0.0; ++k) f += 2.0 * c[static_cast<std::size_t>(k)] / c[0];
+    out.correlation_factor = std::max(1.0, f);
+  }
 
   // Covariance: (J'J)^-1 on whitened residuals, times the residual's excess over the noise when
   // the model leaves more than noise (never narrowed below what the noise gives).
@@ -309,7 +326,7 @@ orbit_fit_result fit_periodic_orbits(const std::vector<orbit_fit_cycle>& cycles,
   const Eigen::MatrixXd info = J.transpose() * J;
   const Eigen::LDLT<Eigen::MatrixXd> ldlt(info);
   const bool solvable = ldlt.info() == Eigen::Success && ldlt.isPositive();
-  const Eigen::MatrixXd cov = std::max(1.0, out.final_chi2) * ldlt.solve(Eigen::MatrixXd::Identity(info.rows(), info.cols()));
+  const Eigen::MatrixXd cov = std::max(1.0, out.final_chi2) * out.correlation_factor * ldlt.solve(Eigen::MatrixXd::Identity(info.rows(), info.cols()));
   std::vector<std::string> names = terms;
   names.insert(names.end(), {"mu", "c_x", "c_y", "k_x", "k_y"});
   for (std::size_t j = 0; j < names.size(); ++j) {

@@ -57,6 +57,12 @@ struct orbit_fit_result {
   std::vector<double> e, phase;                 // per cycle: the fitted unbalance (m, rad)
   double initial_chi2 = 0.0, final_chi2 = 0.0;  // whitened residual sum of squares per degree of freedom
   double final_rms = 0.0;                       // m, RMS of x_sim - x, y_sim - y
+  // The residuals' long-run variance over their variance, 1 + 2 sum_{k=1..4} rho_k (x and y
+  // series of every cycle pooled), at least 1: an averaged cycle resampled off its grid by cubic
+  // interpolation has neighbouring samples that share raw ones, so its noise is correlated over a
+  // few samples and (J'J)^-1 alone understates the covariance of parameters that move the orbit
+  // smoothly. The covariance is scaled by it.
+  double correlation_factor = 1.0;
   std::size_t residuals = 0, unknowns = 0;
   int iterations = 0, evaluations = 0, failed_evaluations = 0;
   bool converged = false;  // LM ended on its tolerance, and the final orbits were all computed
