@@ -307,8 +307,9 @@ void put_touching_on_the_free_angle(law_context& ctx) {
     d = &ctx.retimed_touching.back();
   }
   if (!ctx.retimed_touching.empty())
-    ctx.id.notes.push_back("dwells in contact without a keyphasor: re-timed like the contact-free ones, each by its 1X against the linear part's (up to " +
-                           format_digits(largest) + " rad), as a start the orbit fit searches and refines");
+    ctx.id.notes.push_back("dwells in contact without a keyphasor: presumed off one shaft angle like the contact-free ones (not tested on them), "
+                           "each re-timed by its 1X against the linear part's (up to " + format_digits(largest) +
+                           " rad) as a start the orbit fit searches and refines");
 }
 
 // The linear part (given, or fitted to the contact-free dwells, on one shaft angle); the dwells
