@@ -985,7 +985,9 @@ identification again_on_the_orbits_angles(const law_context& ctx, const std::vec
   identification id = identify_law_by(timed, ctx.s, false);
   std::vector<std::string> notes = ctx.id.notes;
   notes.push_back("the dwells in contact were put on the shaft angles the orbit fit found and identified again (the notes below are that pass's)");
-  id.notes.insert(id.notes.begin(), notes.begin(), notes.end());
+  for (const auto& n : id.notes)
+    if (std::find(ctx.id.notes.begin(), ctx.id.notes.end(), n) == ctx.id.notes.end()) notes.push_back(n);
+  id.notes = std::move(notes);
   return id;
 }
 
@@ -1069,6 +1071,8 @@ void add_warnings(identification& id, const identify_settings& s) {
                   format_digits(e.standard_error) + (std::isfinite(e.ci_low) ? ", bootstrap [" + format_digits(e.ci_low) + ", " +
                   format_digits(e.ci_high) + "]" : std::string()) + "): the data do not determine it");
   }
+  if (!id.structures.empty() && !id.orbit)
+    w.push_back("orbit fit: " + id.structure_reason + " (statuses in identification.json, structure)");
   if (id.orbit && !id.orbit->converged)
     w.push_back("orbit fit: " + id.orbit->status + " (" + std::to_string(id.orbit->failed_evaluations) +
                 " failed orbit evaluations); the weak form's estimates are reported");
