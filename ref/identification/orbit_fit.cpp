@@ -145,14 +145,15 @@ class cycles_model {
   // Each cycle's forcing phase set to the best (smallest residual) of `count` phases around the
   // circle and its current one, the law and the linear part as in u.
   void search_phases(Eigen::VectorXd& u, int count) {
+    const Eigen::VectorXd base = u;  // read by every cycle; each writes only its own forcing into u
     parallel_for(cycles_.size(), 0, [&](std::size_t k) {
-      const double a = u[forcing(k)], b = u[forcing(k) + 1], size = std::hypot(a, b);
+      const double a = base[forcing(k)], b = base[forcing(k) + 1], size = std::hypot(a, b);
       Eigen::VectorXd r(this->size(k));
       double best = std::numeric_limits<double>::infinity();
       std::pair<double, double> chosen{a, b};
       state_type chosen_orbit = guess_[k];
       for (int j = -1; j < count; ++j) {
-        Eigen::VectorXd trial = u;
+        Eigen::VectorXd trial = base;
         if (j >= 0) {
           const double phase = 2.0 * std::numbers::pi * j / count;
           trial[forcing(k)] = size * std::cos(phase), trial[forcing(k) + 1] = size * std::sin(phase);
