@@ -800,58 +800,58 @@ void refine_by_orbits(law_context& ctx) {
   for (const auto& c : ctx.pooled) peak_force = std::max(peak_force, std::abs(c.fn));
   // Every structure fitted, lowest BIC first (structures without one after, in their order).
   const auto fit_structures = [&](int phase_search) {
-  std::vector<trial> trials;
-  for (const auto& sub : subsets) {
-    trial t;
-    std::vector<std::size_t> cols;
-    for (const auto b : sub) t.report.terms.push_back(present[b]), cols.push_back(column[b]);
-    const least_squares_fit ls = least_squares(ctx.sys.A, ctx.sys.b, cols);
-    parameters start = ctx.output_error_start();
-    start.unbalance_phase = id.linear.phase;
-    start.mu = std::isfinite(id.mu) && id.mu > 0.0 ? id.mu : 0.0;
-    start.k1 = start.k3 = start.c2 = 0.0;
-    std::vector<std::string> members;
-    std::string restarted;
-    for (std::size_t j = 0; j < cols.size(); ++j) {
-      const auto& term = ctx.library[cols[j]];
-      double v = ls.coefficients[static_cast<Eigen::Index>(j)];
-      const double se = ls.standard_errors[static_cast<Eigen::Index>(j)];
-      if (!(v > 0.0)) {
-        // A contact law's terms are > 0: a term the weak form puts at <= 0 starts where it
-        // carries kRestartShare of the weak law's peak force over the contact samples.
-        double peak_term = 0.0;
-        for (const auto& c : ctx.pooled) peak_term = std::max(peak_term, std::abs(term(c.z, c.zd)));
-        restarted += (restarted.empty() ? "" : ", ") + term.pretty() + " from " + format_digits(v);
-        v = peak_term > 0.0 ? kRestartShare * peak_force / peak_term : 0.0;
+    std::vector<trial> trials;
+    for (const auto& sub : subsets) {
+      trial t;
+      std::vector<std::size_t> cols;
+      for (const auto b : sub) t.report.terms.push_back(present[b]), cols.push_back(column[b]);
+      const least_squares_fit ls = least_squares(ctx.sys.A, ctx.sys.b, cols);
+      parameters start = ctx.output_error_start();
+      start.unbalance_phase = id.linear.phase;
+      start.mu = std::isfinite(id.mu) && id.mu > 0.0 ? id.mu : 0.0;
+      start.k1 = start.k3 = start.c2 = 0.0;
+      std::vector<std::string> members;
+      std::string restarted;
+      for (std::size_t j = 0; j < cols.size(); ++j) {
+        const auto& term = ctx.library[cols[j]];
+        double v = ls.coefficients[static_cast<Eigen::Index>(j)];
+        const double se = ls.standard_errors[static_cast<Eigen::Index>(j)];
+        if (!(v > 0.0)) {
+          // A contact law's terms are > 0: a term the weak form puts at <= 0 starts where it
+          // carries kRestartShare of the weak law's peak force over the contact samples.
+          double peak_term = 0.0;
+          for (const auto& c : ctx.pooled) peak_term = std::max(peak_term, std::abs(term(c.z, c.zd)));
+          restarted += (restarted.empty() ? "" : ", ") + term.pretty() + " from " + format_digits(v);
+          v = peak_term > 0.0 ? kRestartShare * peak_force / peak_term : 0.0;
+        }
+        t.start.push_back({term.name(), term.pretty(), v, se, kNaN, kNaN});
+        members.push_back(family_parameter(term.name()));
+        start.*law_member(term.name()) = v;
       }
-      t.start.push_back({term.name(), term.pretty(), v, se, kNaN, kNaN});
-      members.push_back(family_parameter(term.name()));
-      start.*law_member(term.name()) = v;
-    }
-    if (dof_rows <= static_cast<Eigen::Index>(cols.size()) || std::any_of(t.start.begin(), t.start.end(), [](const term_estimate& e) { return !(e.value > 0.0); })) {
-      t.report.status = "not fitted: no positive start from the weak form's rows";
+      if (dof_rows <= static_cast<Eigen::Index>(cols.size()) || std::any_of(t.start.begin(), t.start.end(), [](const term_estimate& e) { return !(e.value > 0.0); })) {
+        t.report.status = "not fitted: no positive start from the weak form's rows";
+        trials.push_back(std::move(t));
+        continue;
+      }
+      orbit_fit_settings os = s.orbit;
+      os.phase_search = std::max(os.phase_search, phase_search);
+      const orbit_fit_result fit = fit_periodic_orbits(cycles, start, members, os);
+      t.report.fitted = true;
+      t.report.converged = fit.converged;
+      t.report.chi2_per_dof = fit.final_chi2;
+      t.report.status = fit.status + (restarted.empty() ? "" : "; started at " + format_digits(100.0 * kRestartShare) +
+                                                                " % of the peak force where the weak form's least squares gave <= 0: " + restarted);
+      if (fit.converged && std::isfinite(fit.final_chi2))
+        t.report.bic = fit.final_chi2 * static_cast<double>(fit.residuals - fit.unknowns) +
+                       static_cast<double>(fit.unknowns) * std::log(static_cast<double>(fit.residuals));
+      t.fit = fit;
       trials.push_back(std::move(t));
-      continue;
     }
-    orbit_fit_settings os = s.orbit;
-    os.phase_search = std::max(os.phase_search, phase_search);
-    const orbit_fit_result fit = fit_periodic_orbits(cycles, start, members, os);
-    t.report.fitted = true;
-    t.report.converged = fit.converged;
-    t.report.chi2_per_dof = fit.final_chi2;
-    t.report.status = fit.status + (restarted.empty() ? "" : "; started at " + format_digits(100.0 * kRestartShare) +
-                                                              " % of the peak force where the weak form's least squares gave <= 0: " + restarted);
-    if (fit.converged && std::isfinite(fit.final_chi2))
-      t.report.bic = fit.final_chi2 * static_cast<double>(fit.residuals - fit.unknowns) +
-                     static_cast<double>(fit.unknowns) * std::log(static_cast<double>(fit.residuals));
-    t.fit = fit;
-    trials.push_back(std::move(t));
-  }
-  std::stable_sort(trials.begin(), trials.end(), [](const trial& a, const trial& b) {
-    const bool fa = std::isfinite(a.report.bic), fb = std::isfinite(b.report.bic);
-    return fa != fb ? fa : fa && a.report.bic < b.report.bic;
-  });
-  return trials;
+    std::stable_sort(trials.begin(), trials.end(), [](const trial& a, const trial& b) {
+      const bool fa = std::isfinite(a.report.bic), fb = std::isfinite(b.report.bic);
+      return fa != fb ? fa : fa && a.report.bic < b.report.bic;
+    });
+    return trials;
   };
   // Times not on one shaft angle (the contact-free dwells' test): each cycle's phase searched from
   // the start. Otherwise searched only when the cycles' given phases leave no fit within the noise
