@@ -85,6 +85,11 @@ struct unmodelled_effects {
   bool any() const noexcept { return drive.amplitude != 0.0 || cubic_stiffness != 0.0 || probe_gain_x != 0.0; }
 };
 
+// The parameters a branch of periodic orbits is continued in (ref/orbits/continuation.hpp), and
+// the shooting differentiates the n-revolution map by (ref/integrate/shooting.hpp): the speed w
+// in rad/s, the clearance delta and the unbalance e in m, the friction coefficient mu.
+enum class model_parameter { omega, clearance, unbalance, mu };
+
 struct paper_terms {};   // Eq. 1-2 as printed
 struct effect_terms {};  // plus the effect library's and the outside-library terms
 
@@ -365,6 +370,69 @@ class rotor_model {
       if (fx.misalignment_force != 0.0)
         add(2, fx.misalignment_force * inv_m_, fx.misalignment_force * inv_m_, fx.misalignment_phase);
     }
+    return d;
+  }
+
+  // d(ds/dt)/d lambda at (s, t) under the current phase: the forcing of the parameter's
+  // variational equation q' = J q + f_lambda (ref/integrate/shooting.hpp), Eq. 1-2 differentiated.
+  // The unbalance e w^2 (cos, sin)(w t + phi) in e, and in w through its amplitude and its angle
+  // (hence the t); the contact force f_N(y - delta, y') in delta (d/d delta = -df_N/dz) and its
+  // friction mu f_N in mu. The friction's direction sgn(w) is constant away from w = 0. Stuck,
+  // y = delta is held and only x moves. (The impact law's map and stick have no parameter in
+  // them but delta: clearance_rate.)
+  state_type parameter_rate(model_parameter p, const state_type& s, double t) const noexcept
+    requires(!with_effects)
+  {
+    state_type d{};
+    const bool stuck = phase_ == contact_phase::stuck;
+    switch (p) {
+      case model_parameter::omega:
+      case model_parameter::unbalance: {
+        const forcing_phasor f = phasor_of(forcing_angle(t));
+        // d(a cos th)/dlambda = a' cos th - a th' sin th, d(a sin th)/dlambda = a' sin th + a th' cos th
+        const bool w = p == model_parameter::omega;
+        const double amp = w ? 2.0 * e_ * omega_ : omega_ * omega_;  // d(e w^2)/dlambda
+        const double turn = w ? unbalance_acc_ * t : 0.0;            // e w^2 d(w t + phi)/dlambda
+        d[idx::vx] = amp * f.cos - turn * f.sin;
+        if (!stuck) d[idx::vy] = amp * f.sin + turn * f.cos;
+        break;
+      }
+      case model_parameter::clearance:
+        if constexpr (compliant) {
+          const double z = penetration(s);
+          if (in_contact(z)) {
+            const double dfn = -law_.normal_force_gradient(z, penetration_rate(s))[0];  // d f_N / d delta
+            d[idx::vx] = friction_sign_ * mu_ * dfn * inv_m_;
+            d[idx::vy] = -dfn * inv_m_;
+          }
+        }
+        break;
+      case model_parameter::mu:
+        if constexpr (compliant) d[idx::vx] = friction_sign_ * contact_force(s) * inv_m_;
+        break;
+    }
+    return d;
+  }
+  // d delta / d lambda: how the stator's face moves with the parameter (z = y - delta, and the
+  // stuck phase's y = delta).
+  static double clearance_rate(model_parameter p) noexcept { return p == model_parameter::clearance ? 1.0 : 0.0; }
+  // d T / d lambda, T = 2 pi / |w|: -T / w in w, else 0.
+  double period_rate(model_parameter p) const noexcept { return p == model_parameter::omega ? -period() / omega_ : 0.0; }
+  // The free dynamics' derivative in lambda, as a linear_dynamics of its members' derivatives
+  // (A, b, normal: zero; F: the 1X unbalance's, through e w^2; omega: dw/dlambda; offset:
+  // d delta/dlambda). None of the four parameters enters A: the parameter column's free flight
+  // is then in closed form (ref/integrate/shooting.hpp, particular_rate).
+  linear_dynamics<N> free_dynamics_rate(model_parameter p) const
+    requires(!with_effects)
+  {
+    linear_dynamics<N> d;
+    double amp = 0.0;  // d(e w^2)/dlambda
+    if (p == model_parameter::omega) amp = 2.0 * e_ * omega_, d.omega = 1.0;
+    if (p == model_parameter::unbalance) amp = omega_ * omega_;
+    const std::complex<double> u = std::polar(1.0, unbalance_phase_);
+    d.F[0][idx::vx] = amp * u;  // as free_dynamics: a (cos, sin)(w t + phi) = Re (1, -i) a e^{i phi} e^{i w t}
+    d.F[0][idx::vy] = std::complex<double>(0.0, -1.0) * (amp * u);
+    d.offset = clearance_rate(p);
     return d;
   }
 
