@@ -11,6 +11,25 @@
 //    grows without bound: the multipliers jump there (docs/orbits.md).
 // The Floquet multipliers are M's eigenvalues; the orbit is stable when all lie inside the unit
 // circle.
+//
+// Continuation (ref/orbits/continuation.cpp) also needs dP/dlambda in a model parameter lambda
+// (model_parameter: w, delta, e, mu), exact in the same way: one more column q = ds/dlambda beside
+// Phi, q(t0) = 0, with
+//  - free arcs: q(t) = p_l(t) + e^{A tau} (q(t0) - p_l(t0)), p_l = dp/dlambda the derivative of
+//    the particular solution (particular_rate, below): A does not depend on lambda, so this
+//    solves q' = A q + f_lambda exactly, as the state's own closed form does;
+//  - contact and stuck phases: q' = J(s) q + f_lambda(s, t) (the model's parameter_rate);
+//  - at each event, the saltation of a parameter. An event at z(s, lambda) = 0 (z = y - delta has
+//    no explicit t) moves by dt*/dlambda = -(g . q- + z_lambda) / (g . f-), z_lambda = -1 for the
+//    clearance and 0 otherwise; with a reset s+ = R(s-, lambda),
+//      q+ = R q- + R_lambda + (f+ - R f-) (g . q- + z_lambda) / (g . f-)
+//         = S q- + (f+ - R f-) z_lambda / (g . f-) + R_lambda.
+//    R_lambda is zero but for a stick, which puts y on delta (R_lambda = e_y d delta/dlambda); the
+//    impact map y' -> -r y' has no parameter in it. A release leaves q unchanged: R = I and
+//    f+ = f- there, so its event function's dependence on lambda (the free acceleration's on w
+//    and e) moves its time but not the state.
+// The n-revolution map ends at t0 + n T(lambda): dP/dlambda = q(t1) + f(P, t1) n dT/dlambda, the
+// last term nonzero for the speed only (dT/dw = -T/w).
 
 #include <Eigen/Dense>
 #include <algorithm>
@@ -37,6 +56,18 @@ concept differentiable_system = contact_system<S> && requires(const S sys, const
   { sys.penetration_gradient() } -> std::same_as<state_of<S>>;
 };
 
+// A differentiable_system that also gives its vector field's, face's, period's and free flight's
+// derivatives in a model_parameter (ref/model/rotor_model.hpp): the parameter column's sources.
+template <class S>
+concept parameter_differentiable_system =
+    differentiable_system<S> && requires(const S sys, const state_of<S>& x, double t, model_parameter p) {
+      { sys.parameter_rate(p, x, t) } -> std::same_as<state_of<S>>;
+      { sys.clearance_rate(p) } -> std::convertible_to<double>;
+      { sys.period_rate(p) } -> std::convertible_to<double>;
+    } && (!linear_free_flight<S> || requires(const S sys, model_parameter p) {
+      { sys.free_dynamics_rate(p) } -> std::same_as<linear_dynamics<static_cast<int>(std::tuple_size_v<state_of<S>>)>>;
+    });
+
 template <int N>
 using square_matrix = Eigen::Matrix<double, N, N>;
 
@@ -50,27 +81,91 @@ int moving_states(const System& sys) {
   }
 }
 
-// The closed-form free flight of the state and of Phi: Phi(t) = e^{A (t - t0)} Phi(t0).
+// d p / d lambda of the free flight's particular solution (ref/model/free_flight.hpp)
+//   p(t) = -A^-1 b + Re sum_h P_h e^{i h w t},  P_h = (i h w - A)^-1 F_h,
+// when b, F_h and w depend on lambda and A does not (`rate` holds their derivatives):
+//   dp/dlambda = -A^-1 b' + Re sum_h (P_h' + i h w' t P_h) e^{i h w t},  P_h' = (i h w - A)^-1 (F_h' - i h w' P_h).
+// Differentiating p' = A p + b + forcing shows it solves q' = A q + f_lambda(t): the particular
+// solution of the parameter column's free flight, in closed form and exact, like the state's (a
+// numerically integrated column would cost the free arcs their closed form). The t in the
+// secular term is absolute time, as the forcing's angle w t is.
 template <int N>
+class particular_rate {
+ public:
+  using vector = Eigen::Matrix<double, N, 1>;
+  particular_rate(const linear_dynamics<N>& d, const linear_dynamics<N>& rate) : omega_(d.omega), domega_(rate.omega) {
+    using cscalar = std::complex<double>;
+    using cmatrix = Eigen::Matrix<cscalar, N, N>;
+    if (!rate.A.isZero(0.0)) throw numerical_error("free flight: a parameter that enters A has no closed-form sensitivity");
+    if (!rate.b.isZero(0.0)) {
+      const Eigen::FullPivLU<square_matrix<N>> lu(d.A);
+      p0_ = lu.solve(-rate.b);
+      if (!(d.A * p0_ + rate.b).isZero(1e-9 * rate.b.norm()))
+        throw numerical_error("free flight: no static equilibrium for the parameter's sensitivity");
+    }
+    for (int h = 0; h < linear_dynamics<N>::kMaxHarmonics; ++h) {
+      const auto k = static_cast<std::size_t>(h);
+      const auto& F = d.F[k];
+      const auto& dF = rate.F[k];
+      if (F.isZero(0.0) && dF.isZero(0.0)) continue;
+      const cmatrix m = cscalar(0.0, (h + 1) * d.omega) * cmatrix::Identity() - d.A.template cast<cscalar>();
+      const Eigen::PartialPivLU<cmatrix> lu(m);
+      P_[k] = lu.solve(F);
+      dP_[k] = lu.solve(dF - cscalar(0.0, (h + 1) * domega_) * P_[k]);
+      if (!P_[k].allFinite() || !dP_[k].allFinite())
+        throw numerical_error("free flight: the forcing is at an undamped resonance");
+    }
+  }
+
+  vector at(double t) const {
+    using cscalar = std::complex<double>;
+    const forcing_phasor u = phasor_of(omega_ * t);
+    const cscalar z1(u.cos, u.sin);
+    cscalar z = 1.0;
+    vector v = p0_;
+    for (int h = 0; h < linear_dynamics<N>::kMaxHarmonics; ++h) {
+      const auto k = static_cast<std::size_t>(h);
+      z *= z1;
+      v += ((dP_[k] + cscalar(0.0, (h + 1) * domega_ * t) * P_[k]) * z).real();
+    }
+    return v;
+  }
+
+ private:
+  using cvector = typename linear_dynamics<N>::complex_vector;
+  double omega_, domega_;
+  vector p0_ = vector::Zero();
+  std::array<cvector, linear_dynamics<N>::kMaxHarmonics> P_{cvector::Zero(), cvector::Zero()}, dP_{cvector::Zero(), cvector::Zero()};
+};
+
+// The closed-form free flight of the state, of Phi (Phi(t) = e^{A (t - t0)} Phi(t0)) and, with
+// P = 1, of the parameter column (q(t) = p_l(t) + e^{A (t - t0)} (q(t0) - p_l(t0))).
+template <int N, int P = 0>
 class sensitivity_free_flight {
  public:
-  using state = std::array<double, N + N * N>;
-  explicit sensitivity_free_flight(const linear_dynamics<N>& d) : ff_(d) {}
+  static constexpr int C = N + P;  // columns: Phi's, then the parameter's
+  using state = std::array<double, N + N * C>;
+  using columns = Eigen::Matrix<double, N, C>;
+  explicit sensitivity_free_flight(const linear_dynamics<N>& d)
+    requires(P == 0)
+      : ff_(d) {}
+  sensitivity_free_flight(const linear_dynamics<N>& d, const linear_dynamics<N>& rate)
+    requires(P == 1)
+      : ff_(d), rate_(std::in_place, d, rate) {}
 
   class arc {
    public:
     arc(const sensitivity_free_flight& owner, double t0, const state& a)
-        : owner_(&owner), base_(owner.ff_.from(t0, head(a))), t0_(t0) {
-      for (int c = 0; c < N; ++c)
-        for (int r = 0; r < N; ++r) phi0_(r, c) = a[static_cast<std::size_t>(N + c * N + r)];
+        : owner_(&owner), base_(owner.ff_.from(t0, head(a))), t0_(t0), cols0_(Eigen::Map<const columns>(a.data() + N)) {
+      if constexpr (P == 1) cols0_.col(N) -= owner.rate_->at(t0);  // q(t0) - p_l(t0)
     }
     state at(double t) const {
       const auto s = base_.at(t);
-      const square_matrix<N> phi = owner_->ff_.transition(t - t0_) * phi0_;
       state a{};
       std::copy(s.begin(), s.end(), a.begin());
-      for (int c = 0; c < N; ++c)
-        for (int r = 0; r < N; ++r) a[static_cast<std::size_t>(N + c * N + r)] = phi(r, c);
+      Eigen::Map<columns> cols(a.data() + N);
+      cols.noalias() = owner_->ff_.transition(t - t0_) * cols0_;
+      if constexpr (P == 1) cols.col(N) += owner_->rate_->at(t);
       return a;
     }
     std::optional<std::pair<double, double>> first_onset(double from, double t_end, double min_depth, double time_tol,
@@ -87,26 +182,35 @@ class sensitivity_free_flight {
     const sensitivity_free_flight* owner_;
     typename free_flight<N>::arc base_;
     double t0_;
-    square_matrix<N> phi0_;
+    columns cols0_;
   };
 
   arc from(double t0, const state& a) const { return arc(*this, t0, a); }
 
  private:
   free_flight<N> ff_;
+  std::optional<particular_rate<N>> rate_;
 };
 
 // The system's flow and its sensitivity Phi = ds(t)/ds(t0) as one ContactSystem of N + N^2 states
-// (Phi column-major after s), so the hybrid integrator locates its events as it does the model's.
-template <differentiable_system System>
+// (Phi column-major after s), so the hybrid integrator locates its events as it does the model's;
+// with P = 1, also the parameter column q = ds(t)/dlambda after Phi (N + N (N + 1) states).
+template <differentiable_system System, int P = 0>
+  requires(P == 0 || (P == 1 && parameter_differentiable_system<System>))
 class sensitivity_system {
  public:
   static constexpr int N = static_cast<int>(std::tuple_size_v<state_of<System>>);
+  static constexpr int C = N + P;  // columns after s: Phi's, then the parameter's
   using base_state = state_of<System>;
-  using state_type = std::array<double, N + N * N>;
+  using state_type = std::array<double, N + N * C>;
   static constexpr bool compliant = System::compliant;
 
-  explicit sensitivity_system(const System& sys) : sys_(sys) {}
+  explicit sensitivity_system(const System& sys)
+    requires(P == 0)
+      : sys_(sys) {}
+  sensitivity_system(const System& sys, model_parameter p)
+    requires(P == 1)
+      : sys_(sys), parameter_(p) {}
 
   void operator()(const state_type& a, state_type& da, double t) const {
     const base_state s = head(a);
@@ -115,12 +219,21 @@ class sensitivity_system {
     std::copy(ds.begin(), ds.end(), da.begin());
     const auto J = sys_.jacobian(s);  // row-major
     const Eigen::Map<const Eigen::Matrix<double, N, N, Eigen::RowMajor>> Jm(J.data());
-    const Eigen::Map<const square_matrix<N>> phi(a.data() + N);  // column-major after s
-    Eigen::Map<square_matrix<N>>(da.data() + N).noalias() = Jm * phi;
+    const Eigen::Map<const Eigen::Matrix<double, N, C>> cols(a.data() + N);  // column-major after s
+    Eigen::Map<Eigen::Matrix<double, N, C>> dcols(da.data() + N);
+    dcols.noalias() = Jm * cols;
+    if constexpr (P == 1) {
+      const base_state r = sys_.parameter_rate(parameter_, s, t);
+      dcols.col(N) += Eigen::Map<const Eigen::Matrix<double, N, 1>>(r.data());
+    }
   }
 
   contact_phase phase() const noexcept { return sys_.phase(); }
-  sensitivity_system with_phase(contact_phase ph) const { return sensitivity_system(sys_.with_phase(ph)); }
+  sensitivity_system with_phase(contact_phase ph) const {
+    sensitivity_system copy = *this;
+    copy.sys_ = sys_.with_phase(ph);
+    return copy;
+  }
   double penetration(const state_type& a) const noexcept { return sys_.penetration(head(a)); }
   double penetration_rate(const state_type& a) const noexcept { return sys_.penetration_rate(head(a)); }
   double period() const noexcept { return sys_.period(); }
@@ -142,19 +255,26 @@ class sensitivity_system {
     return sys_.free_vertical_jerk_stuck(t);
   }
 
-  // The closed-form free flight of both parts, where the model's is linear.
-  std::optional<sensitivity_free_flight<N>> free_flight_propagator() const {
+  // The closed-form free flight of every part, where the model's is linear.
+  std::optional<sensitivity_free_flight<N, P>> free_flight_propagator() const {
     if constexpr (linear_free_flight<System>) {
-      if (auto d = sys_.free_dynamics()) return sensitivity_free_flight<N>(*d);
+      if (auto d = sys_.free_dynamics()) {
+        if constexpr (P == 1) {
+          return sensitivity_free_flight<N, P>(*d, sys_.free_dynamics_rate(parameter_));
+        } else {
+          return sensitivity_free_flight<N, P>(*d);
+        }
+      }
     }
     return std::nullopt;
   }
 
-  // Phi across an event: S Phi, S the saltation matrix (top of this file). `before` is the
-  // system of the phase that ended, `pre` the state there before any reset, `post` after it.
+  // Phi (and q) across an event: S Phi, S q + (f+ - R f-) g_lambda / (g . f-) + R_lambda, S the
+  // saltation matrix (top of this file). `before` is the system of the phase that ended, `pre`
+  // the state there before any reset, `post` after it.
   state_type after_event(const sensitivity_system& before, event_kind kind, double t, const state_type& pre,
                          const state_type& post) const {
-    if (kind == event_kind::release) return post;  // f+ = f- at a release: S = I
+    if (kind == event_kind::release) return post;  // f+ = f- at a release: S = I, and q+ = q-
     square_matrix<N> R = square_matrix<N>::Identity();
     if constexpr (!System::compliant) {
       if (kind == event_kind::impact) R(idx::vy, idx::vy) = sys_.law().rebound_slope(pre[idx::vy]);
@@ -171,13 +291,16 @@ class sensitivity_system {
                             " s: the saltation matrix is unbounded there");
     Eigen::Map<const Eigen::Matrix<double, N, 1>> fmv(fm.data()), fpv(fp.data()), gv(g.data());
     const square_matrix<N> S = R + (fpv - R * fmv) * gv.transpose() / denom;
-    square_matrix<N> phi;
-    for (int c = 0; c < N; ++c)
-      for (int r = 0; r < N; ++r) phi(r, c) = pre[static_cast<std::size_t>(N + c * N + r)];
-    const square_matrix<N> out = S * phi;
     state_type a = post;
-    for (int c = 0; c < N; ++c)
-      for (int r = 0; r < N; ++r) a[static_cast<std::size_t>(N + c * N + r)] = out(r, c);
+    Eigen::Map<Eigen::Matrix<double, N, C>> cols(a.data() + N);
+    cols.noalias() = S * Eigen::Map<const Eigen::Matrix<double, N, C>>(pre.data() + N);
+    if constexpr (P == 1) {
+      // z = y - delta: z_lambda = -d delta/dlambda; a stick puts y on delta (R_lambda = e_y d delta/dlambda).
+      const double ddelta = sys_.clearance_rate(parameter_);
+      cols.col(N) += (fpv - R * fmv) * (-ddelta / denom);
+      if constexpr (!System::compliant)
+        if (kind == event_kind::stick) cols(idx::y, N) += ddelta;
+    }
     return a;
   }
 
@@ -191,6 +314,7 @@ class sensitivity_system {
 
  private:
   System sys_;
+  model_parameter parameter_ = model_parameter::omega;  // the parameter column's (P = 1)
 };
 
 // The state after n T from (t0, s0) and the monodromy d s(t0 + n T) / d s0.
@@ -217,6 +341,47 @@ flow_with_monodromy<static_cast<int>(std::tuple_size_v<state_of<System>>)> flow_
   out.end = sensitivity_system<System>::head(end.s);
   for (int c = 0; c < N; ++c)
     for (int r = 0; r < N; ++r) out.monodromy(r, c) = end.s[static_cast<std::size_t>(N + c * N + r)];
+  return out;
+}
+
+// The flow with its parameter column (one type per model, the parameter a run-time value).
+template <parameter_differentiable_system System>
+using parameter_sensitivity_system = sensitivity_system<System, 1>;
+
+// The n-revolution map P from (t0, s0), its monodromy dP/ds0 and its derivative in a model
+// parameter: dP/dlambda = q(t1) + f(P, t1) n dT/dlambda (top of this file).
+template <int N>
+struct map_with_sensitivities {
+  std::array<double, N> end{};
+  square_matrix<N> monodromy;
+  Eigen::Matrix<double, N, 1> parameter_at_fixed_end;  // q(t1): ds(t1)/dlambda with t1 held
+  Eigen::Matrix<double, N, 1> parameter;               // dP/dlambda: with the end moving as n T(lambda)
+  integration_counts counts;
+};
+
+template <parameter_differentiable_system System>
+map_with_sensitivities<static_cast<int>(std::tuple_size_v<state_of<System>>)> map_and_sensitivities(
+    const System& sys, const state_of<System>& s0, double t0, int periods, model_parameter parameter,
+    const integration_options& opt) {
+  constexpr int N = static_cast<int>(std::tuple_size_v<state_of<System>>);
+  using augmented = parameter_sensitivity_system<System>;
+  const augmented aug(sys, parameter);
+  typename augmented::state_type a{};
+  std::copy(s0.begin(), s0.end(), a.begin());
+  for (int i = 0; i < N; ++i) a[static_cast<std::size_t>(N + i * N + i)] = 1.0;  // Phi(t0) = I, q(t0) = 0
+  map_with_sensitivities<N> out;
+  null_observer none;
+  const double t1 = t0 + periods * sys.period();
+  const auto start = start_state(sys, s0, t0);
+  const auto end = integrate_hybrid(aug, basic_hybrid_state<typename augmented::state_type>{a, t0, start.phase, start.episode_peak}, t1, opt,
+                                    sample_grid{}, none, &out.counts);
+  out.end = augmented::head(end.s);
+  const Eigen::Map<const Eigen::Matrix<double, N, N + 1>> cols(end.s.data() + N);
+  out.monodromy = cols.template leftCols<N>();
+  out.parameter_at_fixed_end = cols.col(N);
+  state_of<System> rate{};
+  sys.with_phase(end.phase)(out.end, rate, t1);  // the phase the map ends in
+  out.parameter = out.parameter_at_fixed_end + Eigen::Map<const Eigen::Matrix<double, N, 1>>(rate.data()) * (periods * sys.period_rate(parameter));
   return out;
 }
 
@@ -394,11 +559,20 @@ periodic_orbit<static_cast<int>(std::tuple_size_v<state_of<System>>)> shoot_peri
                                                                             double, const integration_options&);           \
   PREFIX template periodic_orbit<SYSTEM::N> shoot_periodic_orbit<SYSTEM>(const SYSTEM&, const state_of<SYSTEM>&, double, int, \
                                                                          const shooting_settings&);
+// The paper's models' parameter sensitivities (continuation), in
+// ref/integrate/instances_parameter_sensitivity.cpp.
+#define RUBREF_PARAMETER_SENSITIVITY_INSTANCE(PREFIX, SYSTEM)                                                                  \
+  RUBREF_INTEGRATOR_INSTANCE(PREFIX, parameter_sensitivity_system<SYSTEM>)                                                    \
+  PREFIX template map_with_sensitivities<SYSTEM::N> map_and_sensitivities<SYSTEM>(const SYSTEM&, const state_of<SYSTEM>&, double, int, \
+                                                                                  model_parameter, const integration_options&);
 #define RUBREF_EXTERN_MODEL_SHOOTING(LAW) RUBREF_SHOOTING_INSTANCE(extern, rotor_system<LAW>)
 #define RUBREF_EXTERN_EFFECTS_SHOOTING(LAW) RUBREF_SHOOTING_INSTANCE(extern, rotor_with_effects<LAW>)
+#define RUBREF_EXTERN_PARAMETER_SENSITIVITY(LAW) RUBREF_PARAMETER_SENSITIVITY_INSTANCE(extern, rotor_system<LAW>)
 RUBREF_FOR_EACH_VARIANT(RUBREF_EXTERN_MODEL_SHOOTING)
 RUBREF_FOR_EACH_COMPLIANT_VARIANT(RUBREF_EXTERN_EFFECTS_SHOOTING)
+RUBREF_FOR_EACH_VARIANT(RUBREF_EXTERN_PARAMETER_SENSITIVITY)
 #undef RUBREF_EXTERN_MODEL_SHOOTING
 #undef RUBREF_EXTERN_EFFECTS_SHOOTING
+#undef RUBREF_EXTERN_PARAMETER_SENSITIVITY
 
 }  // namespace rubref
