@@ -1,7 +1,8 @@
 // Branches of periodic orbits (ref/orbits/continuation.hpp): the contact-free branch against the
 // closed form, every point a fixed point of the map, folds where a Floquet multiplier crosses +1
 // and where the sweeps jump, grazing where the closed-form orbit touches the stator, bad requests;
-// the map's exact dP/dlambda (ref/integrate/shooting.hpp) against central differences.
+// the map's exact dP/dlambda (ref/integrate/shooting.hpp) against central differences, and a
+// restitution branch reaching its grazing from either side in a few dozen points.
 
 #include <gtest/gtest.h>
 
@@ -338,6 +339,59 @@ TEST(parameter_column, matches_central_differences_through_a_stuck_phase) {
   p.e = 1e-3;
   p.r = 0.0;
   expect_exact_parameter_columns<restitution>(p, 300.0, 5, {event_kind::impact, event_kind::stick, event_kind::release});
+}
+
+// A restitution branch meets its grazing with an unbounded slope (the impact velocity ~
+// sqrt(lambda - lambda_g), docs/orbits.md). With a forward difference for dP/dlambda that erred
+// by ~h / (lambda - lambda_g) the corrector slowed down there and the branch crept towards the
+// grazing until max_points (5000: issue 45; in speed from the impacting side down, in clearance from
+// it up). With the exact column each side reaches it in a few dozen points, and stops at the
+// contact-free orbit's grazing in closed form: the speed where |Y(w)| is the clearance, or the
+// clearance |Y(w)|.
+// Measured 20-71 points (the impacting side's steps follow its turning from the range's end).
+constexpr std::size_t kMaxPointsOntoGrazing = 100;
+// The impacting side stops where its largest multiplier (~1 / impact velocity) is ~4e6 and
+// Newton cannot reach 1e-12 m any more: 2e-7 of the range from the grazing in speed, 7e-7 in
+// clearance (with the forward difference: 1e-4 and 7e-3). The contact-free side grazes to 1e-14 m.
+constexpr double kGrazingReachedTol = 1e-5;  // of the range
+
+TEST(continuation, restitution_branches_reach_their_grazing_from_either_side) {
+  struct approach {
+    continuation_parameter parameter;
+    double from, to;
+    bool downward;
+    bool impacting;  // the side the branch comes from
+  };
+  const approach approaches[] = {
+      // at 0.3 mm the contact-free orbit grazes at 1416.7 rpm; above it only the impacting one exists
+      {continuation_parameter::speed, 1300.0, 1600.0, false, false},
+      {continuation_parameter::speed, 1300.0, 1600.0, true, true},
+      // at 1400 rpm the contact-free orbit's top is at 0.2675 mm: it impacts under a smaller clearance
+      {continuation_parameter::clearance, 0.2e-3, 0.4e-3, false, true},
+      {continuation_parameter::clearance, 0.2e-3, 0.4e-3, true, false},
+  };
+  for (const approach& a : approaches) {
+    continuation_request r;
+    r.variant = "restitution";
+    r.parameter = a.parameter;
+    r.from = a.from;
+    r.to = a.to;
+    r.downward = a.downward;
+    r.rpm = 1400.0;
+    const std::string what = std::string(to_string(a.parameter)) + (a.downward ? " down" : " up");
+    const auto b = continue_branch(r);
+    ASSERT_FALSE(b.reached_end) << what;
+    EXPECT_LE(b.points.size(), kMaxPointsOntoGrazing) << what << ": " << b.stopped;
+    ASSERT_FALSE(b.special.empty()) << what;
+    const special_point& g = b.special.back();
+    EXPECT_EQ(g.kind, special_kind::grazing) << what;
+    EXPECT_EQ(g.after_point, b.points.size() - 1) << what << ": the grazing ends the branch";
+    for (const auto& p : b.points) EXPECT_EQ(p.summary.contact_episodes_per_rev > 0.0, a.impacting) << what << " at " << p.parameter;
+    const double grazing = a.parameter == continuation_parameter::speed
+                               ? closed_form_grazing_rpm(r.params, 1300.0, 1500.0)
+                               : std::abs(unbalance_response(r.params, rpm_to_rad_s(r.rpm)).y_phasor);
+    EXPECT_NEAR(b.points.back().parameter, grazing, kGrazingReachedTol * (r.to - r.from)) << what;
+  }
 }
 
 }  // namespace

@@ -92,13 +92,26 @@ void validate(const continuation_request& req) {
 
 namespace {
 
+// The model's parameter a continuation parameter is, and d(model's) / d(continuation's): the
+// speed is continued in rpm, the model's w is in rad/s.
+model_parameter model_parameter_of(continuation_parameter p) {
+  switch (p) {
+    case continuation_parameter::speed: return model_parameter::omega;
+    case continuation_parameter::clearance: return model_parameter::clearance;
+    case continuation_parameter::unbalance: return model_parameter::unbalance;
+    case continuation_parameter::mu: return model_parameter::mu;
+  }
+  return model_parameter::omega;
+}
+double model_units_per_unit(continuation_parameter p) { return p == continuation_parameter::speed ? rpm_to_rad_s(1.0) : 1.0; }
+
 // Pseudo-arclength continuation of the fixed points of the n-revolution map in one parameter.
 // Unknowns u = (s / scale, lambda / lambda_scale); the residual G(u) = (P(s; lambda) - s) / scale.
-// dG/ds = D^-1 (M - I) D from the exact monodromy M; dG/dlambda by a forward difference of P
-// from the flow the monodromy came with (a step of 1e-6 of the range: truncation and the two
-// flows' integration error each ~1e-6 relative, which costs the corrector at most an iteration,
-// not accuracy: the converged points are exact to the tolerance, and folds are located on
-// det(M - I), which uses the exact M alone).
+// dG/ds = D^-1 (M - I) D from the exact monodromy M, and dG/dlambda from the exact dP/dlambda, both
+// from one flow (map_and_sensitivities, ref/integrate/shooting.hpp: the parameter's variational
+// equation and its saltation at every event, and the speed's dT/dw column). A forward difference
+// of P erred by ~h / (lambda - lambda_g) next to a restitution branch's grazing, where P has a
+// square-root singularity: the corrector slowed down and the branch crept onto it (issue 45).
 template <class Law>
 class branch_tracer {
  public:
@@ -276,11 +289,6 @@ class branch_tracer {
     const run_request r = request_at(req_, lambda);
     return rotor_system<Law>(r.params, rpm_to_rad_s(r.rpm));
   }
-  state_type flow(double lambda, const state_type& s) const {
-    const auto sys = system_at(lambda);
-    null_observer none;
-    return integrate_hybrid(sys, start_state(sys, s, 0.0), req_.periods * sys.period(), set_.integration, sample_grid{}, none).s;
-  }
 
   // G and its Jacobian at u; nullopt (failure_ says why) when the map cannot be evaluated there.
   std::optional<evaluation> evaluate(const vec& u) {
@@ -295,7 +303,8 @@ class branch_tracer {
           failure_ = "a state inside the stator";
           return std::nullopt;
         }
-      const auto f = flow_and_monodromy(sys, s, 0.0, req_.periods * sys.period(), set_.integration);
+      const auto f = map_and_sensitivities(sys, s, 0.0, req_.periods, model_parameter_of(req_.parameter), set_.integration);
+      const double per_unit = model_units_per_unit(req_.parameter);  // d(model's lambda)/d(lambda)
       evaluation e;
       e.u = u;
       e.monodromy = f.monodromy;
@@ -305,12 +314,7 @@ class branch_tracer {
         e.G[i] = (f.end[k] - s[k]) / scale_[k];
         for (int j = 0; j < N; ++j)
           e.J(i, j) = (f.monodromy(i, j) - (i == j ? 1.0 : 0.0)) * scale_[static_cast<std::size_t>(j)] / scale_[k];
-      }
-      const double h = 1e-6 * lambda_scale_;
-      const state_type up = flow(lambda + h, s);
-      for (int i = 0; i < N; ++i) {
-        const auto k = static_cast<std::size_t>(i);
-        e.J(i, N) = (up[k] - f.end[k]) / h * lambda_scale_ / scale_[k];
+        e.J(i, N) = f.parameter[i] * per_unit * lambda_scale_ / scale_[k];
       }
       if (!e.G.allFinite() || !e.J.allFinite()) {
         failure_ = "a non-finite map";
