@@ -285,7 +285,9 @@ void expect_exact_parameter_columns(const parameters& p, double rpm, int revs, c
   for (std::size_t i = 0; i < 4; ++i) state_size = std::max(state_size, std::abs(s0[i]) * weight[i]);
   const std::array<std::pair<model_parameter, double>, 4> cases{
       {{model_parameter::omega, omega}, {model_parameter::clearance, p.delta}, {model_parameter::unbalance, p.e}, {model_parameter::mu, p.mu}}};
-  for (const auto& [which, value] : cases) {
+  for (const auto& one : cases) {
+    const model_parameter which = one.first;  // (a named copy: clang before 16 cannot capture a structured binding)
+    const double value = one.second;
     SCOPED_TRACE(::testing::Message() << "d/d parameter " << static_cast<int>(which) << " (w, delta, e, mu)");
     const auto exact = map_and_sensitivities(sys, s0, 0.0, 1, which, opt);
     const auto map = [&](double d) {
