@@ -1,14 +1,19 @@
 // The chatter rule of the restitution variant (docs/model.md, "Chatter"). When the unbalance
 // presses the rotor against the stator, rebounds shrink geometrically (v -> r v per impact for
-// short flights) and the impact times accumulate. Below `stick_velocity` the rotor sticks at
-// y = delta until the free vertical acceleration turns negative, then it is released.
+// short flights) and the impact times accumulate. When the remaining impacts would fit in
+// `stick_time` (or the next hop is too low to locate) the rotor sticks at y = delta until the
+// free vertical acceleration turns negative, then it is released.
 // Setting: 300 rpm, 10 um clearance, 1 mm eccentricity: m e w^2 = 1.5 N against k_y delta = 0.41 N.
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <utility>
+#include <vector>
 #include <numbers>
 
+#include "ref/analysis/simulate.hpp"
 #include "test_support.hpp"
 
 namespace rubref::testing {
@@ -55,7 +60,14 @@ TEST(chatter, impacts_shrink_by_r_then_stick_then_release_on_time) {
     } else if (ev.kind == event_kind::stick) {
       ++sticks;
       SCOPED_TRACE(::testing::Message() << "stick at t = " << ev.t);
-      EXPECT_LT(std::abs(c.p.r * ev.approach_velocity), opt.events.stick_velocity);
+      // The rule: the remaining impacts 2 r v / (a (1 - r)) fit in stick_time, or the next hop
+      // (r v)^2 / (2 a) is below kUnlocatableHop resolutions of z (the stepper's rtol y + atol).
+      const double v = c.p.r * ev.approach_velocity;
+      const double a = c.model.free_vertical_acceleration(ev.state, ev.t);
+      const double resolution = std::max(opt.stepper.rtol * c.p.delta + opt.stepper.atol, 1e-10 * c.p.delta);
+      EXPECT_TRUE(2.0 * v / (a * (1.0 - c.p.r)) <= opt.events.stick_time * c.period ||
+                  v * v / (2.0 * a) <= kUnlocatableHop * resolution)
+          << "rebound " << v << " m/s at a = " << a << " m/s^2";
       ASSERT_GE(approach.size(), static_cast<std::size_t>(kMinRebounds));
       // The last rebounds before sticking form a geometric sequence of ratio r.
       for (std::size_t k = approach.size() - kMinRebounds + 1; k < approach.size(); ++k)
@@ -122,13 +134,49 @@ TEST(chatter, plastic_impact_sticks_at_once) {
   EXPECT_EQ(tr.events.front().kind, event_kind::stick);
 }
 
-// Without the rule (stick_velocity = 0) the accumulation never ends: an error, never a hang or
-// a silently wrong orbit.
-TEST(chatter, without_the_rule_the_accumulation_is_reported) {
+// An accumulation beyond the event cap is an error naming where, never a hang or a silently
+// wrong orbit: the pressed rotor's chatter has ~70 impacts before it sticks, over a cap of 5.
+TEST(chatter, an_accumulation_beyond_the_event_cap_is_reported) {
   const pressed_rotor c;
   auto opt = options_for(stepper_kind::dopri5);
-  opt.events.stick_velocity = 0.0;
+  opt.events.max_events_per_rev = 5.0;
   EXPECT_THROW(run(c.model, state_type{}, c.period, opt), numerical_error);
+}
+
+// Issue 45: `rubref simulate --variant restitution --clearance 1e-6 --rpm 300` stopped with
+// "events do not advance in time" at t = 2.087 s, y a few ulps above delta (a release on the
+// face followed by a rounding-level onset). That run and twelve others spread over
+// 0.5-10 um and 200-900 rpm (golden-ratio spacing) run through simulate with the defaults, with
+// the rotor never above the face beyond the location accuracy and stuck samples on it exactly.
+TEST(chatter, small_clearances_chatter_and_stick_without_error) {
+  constexpr double kAboveFaceTol = 1e-9;  // of delta: events are located to 1e-13 s, at speeds < 1 m/s
+  std::vector<std::pair<double, double>> runs{{1e-6, 300.0}};
+  const double golden = (std::sqrt(5.0) - 1.0) / 2.0;
+  for (int k = 1; k <= 12; ++k) {
+    const double u = std::fmod(k * golden, 1.0), w = std::fmod(k * golden * golden, 1.0);
+    runs.emplace_back(0.5e-6 * std::pow(20.0, u), 200.0 + 700.0 * w);
+  }
+  int stuck_runs = 0;
+  for (const auto& [delta, rpm] : runs) {
+    SCOPED_TRACE(::testing::Message() << "clearance " << delta << " m, " << rpm << " rpm");
+    run_request req;
+    req.variant = "restitution";
+    req.params.delta = delta;
+    req.rpm = rpm;
+    orbit o;
+    ASSERT_NO_THROW(o = simulate(req));
+    ASSERT_EQ(o.samples.size(), static_cast<std::size_t>(req.record_revs * req.samples_per_rev));
+    bool stuck = false;
+    for (const auto& smp : o.samples) {
+      EXPECT_LE(smp.s[idx::y] - delta, kAboveFaceTol * delta) << "t = " << smp.t;
+      if (smp.fn > 0.0) {
+        stuck = true;
+        EXPECT_EQ(smp.s[idx::y], delta) << "stuck at t = " << smp.t;
+      }
+    }
+    stuck_runs += stuck;
+  }
+  EXPECT_GE(stuck_runs, 1);  // the set reaches the sticking regime it was chosen for
 }
 
 }  // namespace

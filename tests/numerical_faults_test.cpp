@@ -10,6 +10,8 @@
 #include <string>
 
 #include "ref/analysis/simulate.hpp"
+#include "ref/integrate/shooting.hpp"
+#include "ref/rig/rig.hpp"
 #include "test_support.hpp"
 
 namespace rubref::testing {
@@ -72,24 +74,38 @@ TEST(numerical_faults, a_runaway_state_is_an_error_not_an_orbit) {
   }
 }
 
-// simulate's last guard: an orbit that reached a displacement no rotor kit has (1 m) is an error
-// naming the first such sample, never an orbit, even when every number is finite.
-TEST(numerical_faults, a_bounded_but_absurd_orbit_is_refused_with_where) {
-  orbit o;
-  for (int k = 0; k < 8; ++k) o.samples.push_back({0.125 * k, state_type{1e-4, std::pow(10.0, k - 4), 0.0, 0.0}, 0.0});  // y: 1e-4 .. 1e3 m
-  o.end = {o.samples.back().s, 1.0, contact_phase::free, 0.0};
-  try {
-    require_bounded(o);
-    FAIL() << "a 1e3 m orbit passed";
-  } catch (const numerical_error& e) {
-    const std::string msg = e.what();
-    EXPECT_NE(msg.find("t = 0.625 s"), std::string::npos) << msg;  // the first sample beyond 1 m (y = 10 m)
-  }
-  o.samples.resize(5);  // up to y = 1 m: on the bound, accepted
-  o.end.s = o.samples.back().s;
-  EXPECT_NO_THROW(require_bounded(o));
-  o.samples[2].s[idx::x] = std::numeric_limits<double>::quiet_NaN();
-  EXPECT_THROW(require_bounded(o), numerical_error);
+// The runaway guard (integration_options::runaway_displacement) sits inside the hybrid
+// integrator, so every path refuses a diverged run with where it happened: exact free flight,
+// an integrated one, shooting's flow with its monodromy, and the rig. The guard is lowered to
+// 50 um so that the paper's rotor run up from rest at 1600 rpm (amplitude ~0.3 mm) crosses it.
+TEST(numerical_faults, a_runaway_is_refused_inside_the_integrator_on_every_path) {
+  constexpr double kLoweredGuard = 5e-5;  // m, below the orbit's amplitude, above its first step
+  parameters p;
+  p.delta = 1.0;  // no contact: the free orbit alone crosses the guard
+  const rotor_system<identified> model(p, rpm_to_rad_s(1600.0));
+  const auto expect_runaway = [](const std::function<void()>& f, const char* path) {
+    SCOPED_TRACE(path);
+    try {
+      f();
+      ADD_FAILURE() << "a run beyond the guard returned";
+    } catch (const numerical_error& e) {
+      const std::string msg = e.what();
+      EXPECT_NE(msg.find("runaway state at t = "), std::string::npos) << msg;
+      EXPECT_NE(msg.find("beyond 5e-05 m"), std::string::npos) << msg;
+    }
+  };
+  integration_options opt = reference_options();
+  opt.runaway_displacement = kLoweredGuard;
+  expect_runaway([&] { run(model, state_type{}, 2.0, opt); }, "exact free flight");
+  integration_options stepped = opt;
+  stepped.exact_free_flight = false;
+  expect_runaway([&] { run(model, state_type{}, 2.0, stepped); }, "integrated free flight");
+  expect_runaway([&] { flow_and_monodromy(model, state_type{}, 0.0, 2.0, opt); }, "shooting's flow and monodromy");
+  rig_request rig;
+  rig.integration.runaway_displacement = kLoweredGuard;
+  expect_runaway([&] { run_rig(rig); }, "rig");
+  // At its default (1 m) the same runs pass.
+  EXPECT_NO_THROW(run(model, state_type{}, 2.0, reference_options()));
 }
 
 // A step budget stops a run that would take too long (the loop's trial laws), naming where.

@@ -56,7 +56,7 @@ record to_record(const orbit& o) {
     r.set("max_dt_s", steps.max_dt);
   }
   r.set("event_time_tolerance_s", req.integration.events.time_tolerance);
-  r.set("stick_velocity_m_s", req.integration.events.stick_velocity);
+  r.set("stick_time_revs", req.integration.events.stick_time);
 
   orbit_columns cols;
   cols.append(o.samples, req.rpm);

@@ -39,10 +39,6 @@ struct orbit {
 // ~1e9 explicit steps at rate * dt = 1. The paper's rotor over 208 revolutions at 1600 rpm: 1.2e4.
 inline constexpr double kMaxRateTimesDuration = 1e9;
 
-// A displacement beyond this is no rotor kit's orbit (the CLI already warns at a 1 cm clearance):
-// a run that reaches it has diverged and is a numerical_error, not an orbit.
-inline constexpr double kRunawayDisplacement = 1.0;  // m
-
 // Largest speed accepted; far above any rotor kit, it only keeps the period well resolved in t.
 inline constexpr double kMaxSpeedRpm = 1e6;
 
@@ -57,10 +53,6 @@ void require_safe_rates(const parameters& p, bool compliant, double duration_s);
 
 // Throws input_error naming the first bad parameter or setting.
 void validate(const run_request& req);
-
-// Throws numerical_error naming the first sample (or the end state) with |x| or |y| beyond
-// kRunawayDisplacement, or not finite.
-void require_bounded(const orbit& o);
 
 // Validates, then integrates. Throws input_error or numerical_error, never returns a partial orbit.
 orbit simulate(const run_request& req);

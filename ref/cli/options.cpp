@@ -72,8 +72,8 @@ void integration_cli::add_to(CLI::App& app) {
   app.add_option("--dt", opt_.stepper.dt, "rk4 step [s]; 0: period/1024")->capture_default_str()->group(group);
   app.add_option("--max-dt", opt_.stepper.max_dt, "largest adaptive step [s]; 0: period/16")->capture_default_str()->group(group);
   app.add_option("--event-tol", opt_.events.time_tolerance, "event location bracket [s]")->capture_default_str()->group(group);
-  app.add_option("--stick-velocity", opt_.events.stick_velocity,
-                 "restitution: rebound speed below which chatter ends in sticking [m/s]")
+  app.add_option("--stick-time", opt_.events.stick_time,
+                 "restitution: chatter ends in sticking when its remaining impacts fit in this time [rev]")
       ->capture_default_str()
       ->group(group);
 }

@@ -36,7 +36,7 @@ class parameter_options {
 // thread count (ref/base/parallel.hpp); 0 keeps RUBREF_THREADS, else every core.
 void add_threads_option(CLI::App& app);
 
-// --stepper, --rtol, --atol, --dt, --max-dt, --event-tol, --stick-velocity.
+// --stepper, --rtol, --atol, --dt, --max-dt, --event-tol, --stick-time.
 class integration_cli {
  public:
   void add_to(CLI::App& app);

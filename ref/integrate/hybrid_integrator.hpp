@@ -93,7 +93,10 @@ struct event_settings {
   // An exact free-flight arc passes over no contact episode deeper than this fraction of the
   // clearance (ref/model/free_flight.hpp): 3e-16 m at the paper's 0.3 mm.
   double min_depth_fraction = 1e-12;
-  double stick_velocity = 1e-6;    // m/s, rebound speed below which chatter ends in sticking
+  // Chatter rule (docs/model.md, "Chatter"): an impact ends the accumulation in a stuck phase
+  // when its remaining impacts, 2 |v+| / (a (1 - rho)) of time at the free acceleration a and
+  // the law's rebound ratio rho, would all fit in this fraction of a revolution.
+  double stick_time = 1e-6;        // revolutions
   double max_events_per_rev = 1e3; // more is an accumulation that does not terminate: an error
 };
 
@@ -105,6 +108,10 @@ struct integration_options {
   bool exact_free_flight = true;
   std::size_t max_steps = 0;  // accepted steps per call before a numerical_error (0: no limit);
                               // a fit's trial point with a runaway law fails fast instead of crawling
+  // A rotor displaced further than this (|x| or |y|, m) has diverged: a numerical_error naming
+  // where, on every path that integrates (simulate, rig, shooting, loop, study, Python). Checked
+  // at every step's end, every event and every free arc's end.
+  double runaway_displacement = 1.0;  // m
 };
 
 // Output times: uniform, t0 + k dt for k < count, or the ascending `times` given (`at`).
@@ -124,6 +131,10 @@ struct sample_grid {
   }
   double time(std::size_t k) const { return times.empty() ? t0 + static_cast<double>(k) * dt : times[k]; }
 };
+
+// A chatter hop lower than this many resolutions of z cannot be located: the impact before it
+// ends the accumulation in sticking (event_settings::stick_time, docs/model.md "Chatter").
+inline constexpr double kUnlocatableHop = 8.0;
 
 // A fixed step over a contact whose rate (rotor_system::contact_rate) times dt exceeds this
 // resolves it poorly: RK4's relative error per step grows as (rate dt)^5 / 120 (~3e-4 here) and
@@ -311,14 +322,69 @@ basic_hybrid_state<state_of<System>> hybrid_loop(const System& base, Stepper& st
     }
   };
 
+  // The runaway guard (integration_options::runaway_displacement).
+  const auto require_bounded = [&](double t, const auto& s) {
+    const auto& head = [&]() -> decltype(auto) {
+      if constexpr (augmented_system<System>) return System::head(s); else return (s);
+    }();
+    if (!(std::abs(head[idx::x]) <= opt.runaway_displacement && std::abs(head[idx::y]) <= opt.runaway_displacement))
+      throw numerical_error("runaway state at " + describe_state(t, head) + ": beyond " + format_digits(opt.runaway_displacement, 3) +
+                            " m, the integration diverged");
+  };
+  // What a stepper's solution knows z and z' to: its error tolerance at the state, and never
+  // less than the boundary's dense-output noise.
+  const auto stepper_resolution = [&](const head_state_t<System>& s) -> std::pair<double, double> {
+    const auto& model = probe_system(sys);
+    return {std::max(opt.stepper.rtol * std::abs(s[idx::y]) + opt.stepper.atol, boundary_noise),
+            opt.stepper.rtol * std::abs(model.penetration_rate(s)) + opt.stepper.atol};
+  };
+
+  // A stepped free flight of an impact law. A step's ends and one interior extremum of h miss an
+  // excursion when the step holds more extrema (a chatter hop far shorter than the step, or a
+  // slow rotor whose natural period is shorter than the step). The closed-form flight's safe
+  // march (ref/model/free_flight.hpp) on the dense output, with the model's bound M on |y''|
+  // over the step, does not: from a point with h >= 0 the next is the root of h + h' tau -
+  // M tau^2 / 2, so no excursion deeper than the resolution is passed over.
+  constexpr bool steps_free_flight_safely =
+      !System::compliant && requires(const head_state_t<System>& x) { probe_system(std::declval<const System&>()).free_vertical_acceleration_bound(x, 1.0); };
+  const auto march_free = [&](double from, double to) -> std::optional<std::pair<double, double>> {
+    if constexpr (steps_free_flight_safely) {
+      const auto& model = probe_system(sys);
+      const auto s0 = probe_at(from);
+      const double M = model.free_vertical_acceleration_bound(s0, to - from);
+      const double res = stepper_resolution(s0).first;
+      const double min_tau = std::sqrt(2.0 * res / M);
+      double a = from, ha = -model.penetration(s0), ra = -model.penetration_rate(s0);
+      double t_out = from, h_out = std::max(ha, 0.0);  // the last point seen outside (h >= 0)
+      while (a < to) {
+        // Largest tau with ha + ra tau - M tau^2 / 2 >= 0, in a cancellation-free form.
+        const double h0 = std::max(ha, 0.0), disc = std::sqrt(ra * ra + 2.0 * M * h0);
+        const double tau = std::max(ra < 0.0 ? 2.0 * h0 / (disc - ra) : (ra + disc) / M, min_tau);
+        const double b = std::min(a + tau, to);
+        const auto sb = probe_at(b);
+        const double hb = -model.penetration(sb);
+        if (hb < -res) return bracket_root(h_at, t_out, b, h_out, hb, tol);
+        if (hb >= 0.0) {
+          t_out = b;
+          h_out = hb;
+        }
+        a = b;
+        ha = hb;
+        ra = -model.penetration_rate(sb);
+      }
+    }
+    return std::nullopt;
+  };
+
   // Exact free flight (ref/model/free_flight.hpp) where the model's is linear.
   auto exact = exact_free_flight_of(base, opt.exact_free_flight);
   const double min_depth = opt.events.min_depth_fraction * base.clearance();
   double step_hint = first_dt;  // the next numeric step's size
 
   // The transition at a located exit [inside, outside] of the current phase, the state read from
-  // state_of_t; then the next phase starts (at the same time) from the state it returns.
-  const auto transit = [&](const std::pair<double, double>& bracket, const auto& state_of_t) {
+  // state_of_t, known to res = (z, z') resolution; then the next phase starts (at the same time)
+  // from the state it returns.
+  const auto transit = [&](const std::pair<double, double>& bracket, const auto& state_of_t, std::pair<double, double> res) {
     // Transition at the located event. Onset, separation and release start the next phase from
     // the bracket end already inside it (so its exit function starts >= 0); an impact maps the
     // velocity at the bracket end still outside the stator.
@@ -340,22 +406,37 @@ basic_hybrid_state<state_of<System>> hybrid_loop(const System& base, Stepper& st
         hs.episode_peak = 0.0;
       }
     } else if (sys.phase() == contact_phase::free) {
+      // Chatter rule (docs/model.md, "Chatter"). An impact only for an approaching velocity,
+      // beyond what the flight knows it to (res.second); then y is put on the face. A rotor
+      // that arrives at rest to that resolution sticks if pressed on the face beyond the free
+      // acceleration's rounding, and else only touches it (an impact at zero speed). An impact
+      // whose remaining chatter would fit in stick_time, or whose next hop would be too small
+      // to locate, ends the accumulation in a stuck phase.
       ev.t = bracket.first;
       ev.state = state_of_t(ev.t);
       pre = ev.state;
-      ev.approach_velocity = ev.state[idx::vy];
-      const double rebound = base.law().rebound_velocity(ev.approach_velocity);
+      const double v = ev.state[idx::vy];
+      ev.approach_velocity = v;
       state_type at_stator = ev.state;
       at_stator[idx::y] = base.clearance();
       at_stator[idx::vy] = 0.0;
-      // Chatter rule (docs/model.md): a rebound slower than stick_velocity while the rotor is
-      // still pushed up ends the accumulation of impacts in a stuck phase at y = delta.
-      if (std::abs(rebound) < opt.events.stick_velocity && sys.free_vertical_acceleration(at_stator, ev.t) > 0.0) {
+      const double a = sys.free_vertical_acceleration(at_stator, ev.t);
+      const bool pressed = a > sys.free_vertical_acceleration_rounding(at_stator, ev.t);
+      const bool approaching = v > res.second;
+      const double rebound = base.law().rebound_velocity(approaching ? v : std::max(v, 0.0));
+      bool sticks = pressed && !approaching;
+      if (pressed && approaching) {
+        const double rho = std::abs(rebound) / v;  // the law's rebound ratio (r)
+        const double remaining = rho < 1.0 ? 2.0 * std::abs(rebound) / (a * (1.0 - rho)) : std::numeric_limits<double>::infinity();
+        sticks = remaining <= opt.events.stick_time * period || rebound * rebound <= 2.0 * a * kUnlocatableHop * res.first;
+      }
+      if (sticks) {
         ev.kind = event_kind::stick;
         ev.state = at_stator;
         hs.phase = contact_phase::stuck;
       } else {
         ev.kind = event_kind::impact;
+        ev.state[idx::y] = base.clearance();
         ev.state[idx::vy] = rebound;
       }
     } else {  // stuck -> free
@@ -366,6 +447,7 @@ basic_hybrid_state<state_of<System>> hybrid_loop(const System& base, Stepper& st
       hs.phase = contact_phase::free;
     }
 
+    require_bounded(ev.t, ev.state);
     ++counts.events;
     if (++events_here > max_events)
       throw numerical_error("more than " + std::to_string(static_cast<long long>(max_events)) +
@@ -411,11 +493,13 @@ basic_hybrid_state<state_of<System>> hybrid_loop(const System& base, Stepper& st
         const auto end = arc.at(t_end);
         if (!std::all_of(end.begin(), end.end(), [](double v) { return std::isfinite(v); }))
           throw numerical_error("non-finite state at the end of the free flight from " + describe_state(hs.t, hs.s));
+        require_bounded(t_end, end);
         hs.s = end;
         hs.t = t_end;
         break;
       }
-      transit(*onset, [&](double t) { return arc.at(t); });
+      const auto round = arc.rounding(onset->first);
+      transit(*onset, [&](double t) { return arc.at(t); }, {std::max(round.first, min_depth), round.second});
       continue;
     }
     }
@@ -484,8 +568,13 @@ basic_hybrid_state<state_of<System>> hybrid_loop(const System& base, Stepper& st
       const double t_min = 0.5 * (m_lo + m_hi), h_min = h_at(t_min);
       if (h_min < 0.0) bracket = bracket_root(h_at, ta, t_min, std::max(0.0, h_lo), h_min, tol);
     }
+    if constexpr (steps_free_flight_safely) {
+      if (!bracket && sys.phase() == contact_phase::free) bracket = march_free(ta, t_hi);
+    }
     const bool crossed = bracket.has_value();
     const double t_stop = crossed ? bracket->first : t_hi;
+    // After the step's own checks, which say more about what went wrong.
+    require_bounded(tb, st.current_state());
 
     // Peak penetration of an open contact episode: step end, and an interior maximum of z.
     if (sys.phase() == contact_phase::contact) {
@@ -518,7 +607,7 @@ basic_hybrid_state<state_of<System>> hybrid_loop(const System& base, Stepper& st
     }
 
     step_hint = std::min(next_dt, tb - ta);
-    transit(*bracket, state_at);
+    transit(*bracket, state_at, stepper_resolution(probe_at(bracket->first)));
   }
   return hs;
 }

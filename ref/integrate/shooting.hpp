@@ -172,6 +172,7 @@ class sensitivity_free_flight {
                                                          double window, std::size_t* steps = nullptr) const {
       return base_.first_onset(from, t_end, min_depth, time_tol, window, steps);
     }
+    std::pair<double, double> rounding(double t) const { return base_.rounding(t); }
 
    private:
     static std::array<double, N> head(const state& a) {
@@ -248,6 +249,11 @@ class sensitivity_system {
     requires requires(const System& s, const base_state& x) { s.free_vertical_acceleration(x, t); }
   {
     return sys_.free_vertical_acceleration(head(a), t);
+  }
+  double free_vertical_acceleration_rounding(const state_type& a, double t) const noexcept
+    requires requires(const System& s, const base_state& x) { s.free_vertical_acceleration_rounding(x, t); }
+  {
+    return sys_.free_vertical_acceleration_rounding(head(a), t);
   }
   double free_vertical_jerk_stuck(double t) const noexcept
     requires requires(const System& s) { s.free_vertical_jerk_stuck(t); }

@@ -14,8 +14,9 @@
 // gives z(a + tau) <= z(a) + z'(a) tau + M tau^2 / 2, which stays <= 0 up to the root tau* of that
 // parabola. The march from a to a + tau* never steps over a crossing; near a crossing the steps
 // shrink like Newton steps from below. A step is never shorter than sqrt(2 d / M), so an episode
-// shallower than d (the `min_depth`, 1e-12 of the clearance by default) may be passed over, and no
-// deeper one can be. The crossing found is bracketed by TOMS 748 on the exact z.
+// shallower than d may be passed over, and no deeper one can be: d is the `min_depth` (1e-12 of
+// the clearance by default) or z's own rounding (arc::rounding), whichever is larger. The crossing
+// found is bracketed by TOMS 748 on the exact z from the last point seen outside.
 
 #include <Eigen/Dense>
 #include <array>
@@ -33,6 +34,10 @@
 #include "ref/model/state.hpp"
 
 namespace rubref {
+
+// How many ulps of its terms' sizes a sum of them is known to (free_flight::arc::rounding): the
+// few roundings of each term's own evaluation, with a wide margin.
+inline constexpr double kRoundingUlps = 64.0;
 
 // What a System says its free flight is (`free_dynamics()`): s' = A s + b + Re sum_h F_h e^{i h w t},
 // and the penetration z = normal . s - offset whose first zero ends the arc.
@@ -228,21 +233,17 @@ class free_flight {
 
     // z and z' at t (z = normal . s - offset), from the projections of the solution on the
     // normal alone: z = l.p0 - offset + Re sum_h (l.P_h) e^{i h w t} + Re sum_j (l.V_j) c_j e^{lambda_j tau}.
-    std::pair<double, double> penetration(double t) const {
-      const double w = ff_->d_.omega;
-      const forcing_phasor u = phasor_of(w * t);
-      const cscalar z1(u.cos, u.sin), z2 = z1 * z1;
-      const cscalar p1 = ff_->lP_[0] * z1, p2 = ff_->lP_[1] * z2;
-      double z = z_const_ + p1.real() + p2.real();
-      double zd = -w * (p1.imag() + 2.0 * p2.imag());  // d/dt Re(a e^{i w t}) = -w Im(a e^{i w t})
-      const double tau = t - t0_;
-      for (int j = 0; j < ff_->n_; ++j) {
-        if (ff_->weight_[j] == 0.0) continue;  // the conjugate of the term before
-        const cscalar m = exp_of(ff_->lambda_[j] * tau) * lc_[j];
-        z += m.real();
-        zd += (ff_->lambda_[j] * m).real();
-      }
-      return {z, zd};
+    std::pair<double, double> penetration(double t) const { return evaluate(t, nullptr); }
+
+    // How well z(t) and z'(t) are known: kRoundingUlps ulps of the sum of their terms' sizes.
+    // Near the stator z is a difference of terms much larger than itself (4 mm of forcing
+    // response against a 5.7 um clearance near resonance), and every phase (w t, Im(lambda) tau)
+    // is rounded to an ulp of itself, which moves a term by its size times that ulp: the
+    // rounding grows with |w t|.
+    std::pair<double, double> rounding(double t) const {
+      std::pair<double, double> r;
+      evaluate(t, &r);
+      return r;
     }
 
     // A bound on |z''| over [ta, tb] (ta >= t0): the modal terms' largest size there plus the
@@ -257,19 +258,23 @@ class free_flight {
     }
 
     // The first contact onset in (from, t_end]: a bracket [outside, inside] of width <= time_tol
-    // around the first zero of z reached by an episode deeper than min_depth, or none. z(from)
-    // may be slightly positive only on the boundary the arc starts from (after an event).
+    // around the first zero of z reached by an episode deeper than min_depth and than z's own
+    // rounding, or none. z(from) may be positive to rounding only on the boundary the arc starts
+    // from (after an event).
     std::optional<std::pair<double, double>> first_onset(double from, double t_end, double min_depth, double time_tol,
                                                          double window, std::size_t* marching_steps = nullptr) const {
       constexpr std::size_t kMaxSteps = 10'000'000;  // a bound that always holds makes steps of at least sqrt(2 d / M)
       double a = from;
-      auto [za, zda] = penetration(a);
-      // An arc starts on the boundary after an event (z = 0 to rounding): leaving it or grazing it.
-      if (za > min_depth) return std::pair{from, from};
-      za = std::min(za, 0.0);
-      // z is a difference of numbers of the clearance's size: a few ulps of it are rounding, not a
-      // contact (after a release on y = delta the rotor would otherwise "touch" again at once).
-      const double z_noise = 64.0 * std::numeric_limits<double>::epsilon() * std::abs(ff_->d_.offset);
+      std::pair<double, double> noise;
+      auto [za, zda] = evaluate(a, &noise);
+      // Below its rounding, z > 0 is not a contact (after a release on y = delta the rotor would
+      // otherwise "touch" again at once, and after an impact it would be hit again at the same instant).
+      const double depth = std::max(min_depth, noise.first);
+      if (za > depth) return std::pair{from, from};
+      // The crossing is bracketed from the last point seen outside (z <= 0): from a point with
+      // 0 < z < noise it would be located late and inside, at the higher speed found there.
+      double t_out = a, z_out = std::min(za, 0.0);
+      za = z_out;
       for (std::size_t k = 0; a < t_end; ++k) {
         if (k == kMaxSteps) throw numerical_error("free flight: the onset search does not advance");
         if (marching_steps) ++*marching_steps;
@@ -280,13 +285,17 @@ class free_flight {
         // Largest tau with za + zda tau + M tau^2 / 2 <= 0 (za <= 0), in a cancellation-free form.
         const double disc = std::sqrt(zda * zda - 2.0 * M * za);
         double tau = zda > 0.0 ? -2.0 * za / (zda + disc) : (disc - zda) / M;
-        tau = std::max(tau, std::sqrt(2.0 * min_depth / M));
+        tau = std::max(tau, std::sqrt(2.0 * depth / M));
         if (!(tau > 0.0)) throw numerical_error("free flight: the onset search lost its step at t = " + std::to_string(a) + " s");
         const double b = std::min(a + tau, b_max);
-        const auto [zb, zdb] = penetration(b);
-        if (zb > z_noise) {
+        const auto [zb, zdb] = evaluate(b, &noise);
+        if (zb > std::max(min_depth, noise.first)) {
           const auto f = [this](double t) { return penetration(t).first; };
-          return bracket(f, a, b, za, zb, time_tol);
+          return bracket(f, t_out, b, z_out, zb, time_tol);
+        }
+        if (zb <= 0.0) {
+          t_out = b;
+          z_out = zb;
         }
         a = b;
         za = std::min(zb, 0.0);  // (a rounding-level z > 0 is on the boundary)
@@ -296,6 +305,40 @@ class free_flight {
     }
 
    private:
+    // z and z' at t; with `round`, also their rounding (see rounding()).
+    std::pair<double, double> evaluate(double t, std::pair<double, double>* round) const {
+      const double w = ff_->d_.omega;
+      const forcing_phasor u = phasor_of(w * t);
+      const cscalar z1(u.cos, u.sin), z2 = z1 * z1;
+      const cscalar p1 = ff_->lP_[0] * z1, p2 = ff_->lP_[1] * z2;
+      double z = z_const_ + p1.real() + p2.real();
+      double zd = -w * (p1.imag() + 2.0 * p2.imag());  // d/dt Re(a e^{i w t}) = -w Im(a e^{i w t})
+      const double tau = t - t0_;
+      double size_z = 0.0, size_zd = 0.0;
+      if (round) {
+        const double a1 = std::abs(ff_->lP_[0]), a2 = std::abs(ff_->lP_[1]);
+        const double phase = 1.0 + std::abs(w * t);  // the forcing phase's rounding, in ulps of a term
+        size_z = std::abs(z_const_) + std::abs(ff_->lp0_) + std::abs(ff_->d_.offset) + (a1 + 2.0 * a2) * phase;
+        size_zd = std::abs(w) * (a1 + 4.0 * a2) * phase;
+      }
+      for (int j = 0; j < ff_->n_; ++j) {
+        if (ff_->weight_[j] == 0.0) continue;  // the conjugate of the term before
+        const cscalar m = exp_of(ff_->lambda_[j] * tau) * lc_[j];
+        z += m.real();
+        zd += (ff_->lambda_[j] * m).real();
+        if (round) {
+          const double phase = 1.0 + std::abs(ff_->lambda_[j] * tau);
+          size_z += std::abs(m) * phase;
+          size_zd += std::abs(ff_->lambda_[j]) * std::abs(m) * phase;
+        }
+      }
+      if (round) {
+        constexpr double ulp = std::numeric_limits<double>::epsilon();
+        *round = {kRoundingUlps * ulp * size_z, kRoundingUlps * ulp * size_zd};
+      }
+      return {z, zd};
+    }
+
     template <class F>
     static std::pair<double, double> bracket(F&& f, double a, double b, double fa, double fb, double tol) {
       std::uintmax_t iterations = 200;

@@ -31,6 +31,7 @@
 #include <cmath>
 #include <complex>
 #include <concepts>
+#include <limits>
 #include <numbers>
 #include <optional>
 #include <type_traits>
@@ -238,6 +239,28 @@ class rotor_model {
     requires(!with_effects)
   {
     return (-c_y_ * s[idx::vy] - k_y_ * s[idx::y]) * inv_m_ + unbalance_acc_ * phasor_of(forcing_angle(t)).sin;
+  }
+  // A bound on |y''| over [t, t + span] of the free flight from s (m/s^2). The vertical amplitude
+  // A = sqrt(y^2 + (y'/w_y)^2) grows at most at U / w_y under the unbalance's acceleration U
+  // (damping only takes energy away), so |y| <= A_max, |y'| <= w_y A_max on the span, and
+  // |y''| <= (c_y w_y + k_y) A_max / m + U. It lets a stepped free flight be searched for a
+  // contact as safely as the closed-form one (ref/integrate/hybrid_integrator.hpp).
+  double free_vertical_acceleration_bound(const state_type& s, double span) const noexcept
+    requires(!with_effects)
+  {
+    const double wy = std::sqrt(k_y_ * inv_m_), u = std::abs(unbalance_acc_);
+    const double amplitude = std::hypot(s[idx::y], s[idx::vy] / wy) + span * u / wy;
+    return ((c_y_ * wy + k_y_) * amplitude * inv_m_ + u) * (1.0 + 1e-9);  // (a margin for its own rounding)
+  }
+  // How well that acceleration is known (m/s^2): kRoundingUlps ulps of its terms, the forcing's
+  // phase rounded to an ulp of w t. A rotor whose free acceleration at the face is within this
+  // of zero is neither pressed on the face nor pulled off it.
+  double free_vertical_acceleration_rounding(const state_type& s, double t) const noexcept
+    requires(!with_effects)
+  {
+    const double terms = (std::abs(c_y_ * s[idx::vy]) + std::abs(k_y_ * s[idx::y])) * inv_m_ +
+                         std::abs(unbalance_acc_) * (1.0 + std::abs(forcing_angle(t)));
+    return kRoundingUlps * std::numeric_limits<double>::epsilon() * terms;
   }
   // Its time derivative along a stuck trajectory (y = delta, y' = 0): only the forcing varies.
   double free_vertical_jerk_stuck(double t) const noexcept

@@ -60,8 +60,10 @@ std::string_view to_string(comparison_kind k);
 // The case matrix of the golden files: every variant x clearance x speed.
 struct golden_spec {
   std::string variant;
-  double clearance;  // m
+  double clearance;           // m
   double rpm;
+  double e = parameters{}.e;  // m, the unbalance eccentricity (the paper's unless a case needs more)
+  std::string feature;        // what the case is there for, in its file name ("" for the matrix)
 };
 inline constexpr std::array<double, 3> kGoldenClearances{0.2e-3, 0.3e-3, 0.4e-3};         // m, Fig. 12
 inline constexpr std::array<double, 5> kGoldenSpeeds{1450.0, 1550.0, 1600.0, 1650.0, 1750.0};  // rpm
@@ -73,7 +75,10 @@ inline constexpr int kGoldenSamplesPerRev = 128;
 std::vector<golden_spec> golden_matrix();
 // A periodic case with one long contact episode per revolution (ref/validation/golden.cpp says why this one).
 golden_spec long_contact_case();
-std::string golden_file_name(const golden_spec& spec);  // e.g. "identified_0.3mm_1600rpm.csv"
+// A restitution case whose chatter ends in sticking and release every revolution (golden.cpp says why this one).
+golden_spec chatter_sticking_case();
+// e.g. "identified_0.3mm_1600rpm.csv", "restitution_0.02mm_600rpm_chatter-sticking.csv"
+std::string golden_file_name(const golden_spec& spec);
 
 // The case as rubref runs it by default (its fast path): paper parameters with the case's
 // clearance, from rest at t = 0, kGoldenSettleRevs then kGoldenRecordRevs at kGoldenSamplesPerRev.
