@@ -72,8 +72,8 @@ void validate(const run_request& req) {
   require(std::isfinite(ev.stick_time) && ev.stick_time >= 0.0 && ev.stick_time < 1.0,
           "stick time must be in [0, 1) revolutions (got " + format_number(ev.stick_time) + ")");
   require(ev.max_events_per_rev >= 1.0, "max events per revolution must be >= 1");
-  require(req.integration.runaway_displacement > req.params.delta,
-          "runaway displacement must be larger than the clearance (got " + format_number(req.integration.runaway_displacement) + " m)");
+  require(std::isfinite(req.integration.runaway_displacement) && req.integration.runaway_displacement > 0.0,
+          "runaway displacement must be finite and > 0 (got " + format_number(req.integration.runaway_displacement) + " m)");
   require(is_finite(req.initial_state), "initial state must be finite");
   const double revs = double(req.settle_revs) + double(req.record_revs);
   require(revs * req.samples_per_rev <= 1e8, "settle-revs + revs times samples-per-rev is over 1e8 samples");
