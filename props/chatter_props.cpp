@@ -21,10 +21,11 @@
 namespace rubref::props {
 namespace {
 
-// A sample above the face beyond this is a missed impact. Events are located to 1e-13 s at
-// speeds below ~1 m/s (1e-13 m) and a stepper's solution is good to rtol |y| + atol; the bound
-// is 1e-9 of the clearance (1e-4 of it for the stepper's 1e-10 rtol at ~1e5 clearances of
-// amplitude would be too loose a test) plus 1e-15 m of rounding at the smallest clearances.
+// A sample above the face beyond this is a missed impact. An impact is located to 1e-13 s at
+// speeds below ~1 m/s (1e-13 m) and puts y on the face exactly; between impacts the free flight
+// is searched so that no excursion deeper than its resolution (rounding, or the stepper's
+// rtol |y| + atol with rtol 1e-10) is passed over. 1e-9 of the clearance is 10x the stepper's
+// resolution at the orbit sizes met here; 1e-15 m covers the rounding of y at 0.5 um.
 constexpr double kAboveFaceRel = 1e-9;
 constexpr double kAboveFaceAbs = 1e-15;  // m
 // The impact map is one multiplication, y'+ = -r y'-: a few ulps.
