@@ -104,8 +104,8 @@ const std::vector<scenario> kScenarios{
      0.0, true},
     // Every effect parameter is fitted (issue 42): a stator whose mass and damper are not the
     // library's typical 1 kg and 100 N s/m is named alone, with both recovered (no stand-in second
-    // effect), under a piecewise-linear base law. Measured: k_s 0.25 %, c_s 0.1 %, m_s 1 % off;
-    // 5 % leaves room for another seed.
+    // effect), under a piecewise-linear base law. Measured (docs/loop.md's example, the same
+    // records): k_s 0.07 %, c_s 0.9 %, m_s 0.7 % off; 5 % leaves room for another seed.
     {.name = "a_stator_of_its_own_mass_and_damper",
      .effects = {"stator_compliance:k_s=4e6,c_s=300,m_s=0.4"},
      .expected = {"stator_compliance"},

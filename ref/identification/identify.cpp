@@ -6,9 +6,9 @@
 #include <cmath>
 #include <limits>
 #include <numbers>
-#include <random>
 
 #include "ref/base/errors.hpp"
+#include "ref/base/portable_random.hpp"
 #include "ref/format/record.hpp"
 #include "ref/identification/term_library.hpp"
 
@@ -79,6 +79,9 @@ constexpr double kWeakUnexplained = 1e-4;
 // The same perturbations give what one dose of the noise adds to the residual variance per row
 // (regressors' noise included): the scale of the weak form's chi^2 test.
 constexpr int kSpreadRepeats = 50;
+// The identification's two random streams, both keyed by its seed: the perturbations' noise and
+// the episode bootstrap's resamples.
+constexpr std::uint64_t kPerturbationStream = 0, kBootstrapStream = 1;
 
 struct perturbation_spread {
   Eigen::MatrixXd cov;             // of the estimate
@@ -90,11 +93,8 @@ perturbation_spread perturbation_covariance(const std::vector<std::pair<const dw
                                         const std::vector<candidate_term>& terms, const derivative_settings& velocity,
                                         const weak_form_settings& ws, double residual_variance, unsigned seed) {
   const auto p = static_cast<Eigen::Index>(terms.size());
-  std::mt19937_64 rng(seed);  // the standard fixes its sequence; Box-Muller by hand (std::normal_distribution is not portable)
-  const auto gauss = [&rng] {
-    const double u1 = (static_cast<double>(rng() >> 11) + 0.5) * 0x1.0p-53, u2 = static_cast<double>(rng() >> 11) * 0x1.0p-53;
-    return std::sqrt(-2.0 * std::log(u1)) * std::cos(2.0 * std::numbers::pi * u2);
-  };
+  portable_stream rng(seed, kPerturbationStream);  // the same draws on any toolchain (ref/base/portable_random.hpp)
+  const auto gauss = [&rng] { return rng.normal(); };
   std::vector<std::size_t> all(terms.size());
   for (std::size_t j = 0; j < all.size(); ++j) all[j] = j;
   Eigen::VectorXd mean = Eigen::VectorXd::Zero(p);
@@ -650,11 +650,11 @@ void samples_estimates(law_context& ctx) {
   if (s.bootstrap > 0 && id.episodes > 1 && !kept.empty()) {
     std::vector<std::vector<Eigen::Index>> rows_of(id.episodes);
     for (Eigen::Index i = 0; i < n; ++i) rows_of[pooled[i].episode].push_back(i);
-    std::mt19937_64 rng(s.seed);  // its output sequence is fixed by the standard: same intervals everywhere
+    portable_stream rng(s.seed, kBootstrapStream);  // the same resamples on any toolchain: same intervals everywhere
     for (int b = 0; b < s.bootstrap; ++b) {
       std::vector<Eigen::Index> rows;
       for (std::size_t e = 0; e < id.episodes; ++e) {
-        const auto& r = rows_of[rng() % id.episodes];
+        const auto& r = rows_of[rng.below(id.episodes)];
         rows.insert(rows.end(), r.begin(), r.end());
       }
       if (rows.size() <= kept.size()) continue;

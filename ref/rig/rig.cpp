@@ -4,11 +4,11 @@
 #include <cmath>
 #include <limits>
 #include <numbers>
-#include <random>
 
 #include "ref/analysis/simulate.hpp"
 #include "ref/base/errors.hpp"
 #include "ref/base/parallel.hpp"
+#include "ref/base/portable_random.hpp"
 #include "ref/base/version.hpp"
 #include "ref/format/record.hpp"
 #include "ref/model/parameter_io.hpp"
@@ -52,16 +52,15 @@ truth_samples run_dwell(const rig_request& req, double rpm, std::size_t count, c
 // quantised.
 void measure(const rig_request& req, const truth_samples& truth, std::size_t dwell, std::vector<double>& x, std::vector<double>& y,
              std::vector<double>& keyphasor) {
-  std::mt19937_64 rng(req.probes.seed * 1000003ull + dwell);  // one stream per dwell: thread-independent
-  std::normal_distribution<double> noise(0.0, 1.0);
+  portable_stream noise(req.probes.seed, dwell);  // one stream per dwell: thread-independent, the same draws on any toolchain
   const auto quantise = [&](double v) { return req.probes.quantisation > 0.0 ? std::round(v / req.probes.quantisation) * req.probes.quantisation : v; };
   const double two_pi = 2.0 * std::numbers::pi;
   for (std::size_t i = 0; i < truth.s.size(); ++i) {
     const auto& s = truth.s[i];
     const double psi = truth.angle[i];
     const auto [xm, ym] = probe_reading(req.effects, s[idx::x], s[idx::y], psi);
-    x.push_back(quantise((1.0 + req.unmodelled.probe_gain_x) * xm + req.probes.noise * noise(rng)));
-    y.push_back(quantise(ym + req.probes.noise * noise(rng)));
+    x.push_back(quantise((1.0 + req.unmodelled.probe_gain_x) * xm + req.probes.noise * noise.normal()));
+    y.push_back(quantise(ym + req.probes.noise * noise.normal()));
     const double now = std::floor((psi + req.probes.keyphasor_angle) / two_pi);
     const double before = i > 0 ? std::floor((truth.angle[i - 1] + req.probes.keyphasor_angle) / two_pi) : now;
     keyphasor.push_back(now > before ? 1.0 : 0.0);

@@ -5,11 +5,11 @@
 #include <limits>
 #include <map>
 #include <set>
-#include <boost/math/special_functions/erf.hpp>
 #include <nlohmann/json.hpp>
 
 #include "ref/base/errors.hpp"
 #include "ref/base/number_text.hpp"
+#include "ref/base/portable_random.hpp"
 #include "ref/model/parameter_io.hpp"
 #include "variants/all_variants.hpp"
 
@@ -465,16 +465,9 @@ std::vector<std::string> varied_names(const spec& s) {
 }
 
 double uniform_draw(std::uint64_t seed, std::size_t index, std::size_t k) {
-  // SplitMix64 (Steele, Lea & Flood 2014) chained over (seed, index, k): a counter-based stream,
-  // so a point's draws need no state carried from earlier points.
-  const auto mix = [](std::uint64_t z) {
-    z += 0x9e3779b97f4a7c15ULL;
-    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
-    z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
-    return z ^ (z >> 31);
-  };
-  const std::uint64_t z = mix(mix(mix(seed) ^ static_cast<std::uint64_t>(index)) ^ static_cast<std::uint64_t>(k));
-  return (static_cast<double>(z >> 11) + 0.5) * 0x1.0p-53;  // in (0, 1): the normal's quantile stays finite
+  // A counter-based stream (ref/base/portable_random.hpp): a point's draws need no state carried
+  // from earlier points, and are the same bits on any toolchain.
+  return keyed_uniform(seed, static_cast<std::uint64_t>(index), static_cast<std::uint64_t>(k));
 }
 
 point point_at(const spec& s, std::size_t index) {
@@ -502,8 +495,8 @@ point point_at(const spec& s, std::size_t index) {
     double v = 0.0;
     switch (r.law) {
       case distribution::uniform: v = r.a + (r.b - r.a) * u; break;
-      case distribution::normal: v = r.a + r.b * std::sqrt(2.0) * boost::math::erf_inv(2.0 * u - 1.0); break;
-      case distribution::log_uniform: v = std::exp(std::log(r.a) + (std::log(r.b) - std::log(r.a)) * u); break;
+      case distribution::normal: v = r.a + r.b * normal_quantile(u); break;
+      case distribution::log_uniform: v = log_uniform(r.a, r.b, u); break;
     }
     p.values.push_back(v);
     assign(p, r.name, v);

@@ -112,8 +112,9 @@ struct point {
 };
 point point_at(const spec& s, std::size_t index);
 
-// Uniform double in [0, 1) from the k-th draw of point `index`'s stream (SplitMix64 of the seed,
-// the index and k: independent of which process computes the point, and of every other point).
+// Uniform double in (0, 1) from the k-th draw of point `index`'s stream (keyed_uniform: SplitMix64
+// of the seed, the index and k; independent of which process computes the point, and of every
+// other point; the same bits on any toolchain).
 double uniform_draw(std::uint64_t seed, std::size_t index, std::size_t k);
 
 // The result table's columns: index, the varied names, then the job's outputs.
