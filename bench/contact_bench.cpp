@@ -14,14 +14,14 @@
 #include <chrono>
 #include <cmath>
 
-#include "ref/analysis/simulate.hpp"
-#include "ref/analysis/sweep.hpp"
 #include "ref/integrate/hybrid_integrator.hpp"
 #include "ref/integrate/steppers.hpp"
 #include "ref/model/rotor_model.hpp"
 #include "ref/orbits/continuation.hpp"
 #include "ref/orbits/periodic_orbit.hpp"
+#include "ref/run/simulate.hpp"
 #include "ref/study/study_run.hpp"
+#include "ref/sweep/sweep.hpp"
 #include "variants/all_variants.hpp"
 
 namespace rubref {

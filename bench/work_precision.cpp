@@ -20,10 +20,10 @@
 #include <string>
 #include <vector>
 
-#include "ref/analysis/simulate.hpp"
 #include "ref/base/errors.hpp"
 #include "ref/format/record.hpp"
 #include "ref/model/rotor_model.hpp"
+#include "ref/run/simulate.hpp"
 #include "ref/validation/golden.hpp"
 #include "variants/all_variants.hpp"
 

@@ -19,7 +19,6 @@
 
 #include "ref/analysis/orbit_io.hpp"
 #include "ref/analysis/orbit_summary.hpp"
-#include "ref/analysis/simulate.hpp"
 #include "ref/base/errors.hpp"
 #include "ref/base/parallel.hpp"
 #include "ref/base/setting_names.hpp"
@@ -37,6 +36,7 @@
 #include "ref/orbits/periodic_orbit.hpp"
 #include "ref/orbits/periodic_orbit_io.hpp"
 #include "ref/rig/rig.hpp"
+#include "ref/run/simulate.hpp"
 #include "ref/study/study_run.hpp"
 #include "ref/tracking/tracking_loop.hpp"
 #include "ref/tracking/tracking_report.hpp"

@@ -7,9 +7,7 @@
 // docs/architecture.md says which does what.
 
 #include "ref/analysis/orbit_summary.hpp"
-#include "ref/analysis/simulate.hpp"
 #include "ref/analysis/spectrum.hpp"
-#include "ref/analysis/sweep.hpp"
 #include "ref/base/errors.hpp"
 #include "ref/base/version.hpp"
 #include "ref/format/record.hpp"
@@ -22,9 +20,11 @@
 #include "ref/orbits/continuation.hpp"
 #include "ref/orbits/periodic_orbit.hpp"
 #include "ref/rig/rig.hpp"
-#include "ref/validation/golden.hpp"
-#include "ref/validation/validate.hpp"
+#include "ref/run/simulate.hpp"
 #include "ref/study/study.hpp"
 #include "ref/study/study_folder.hpp"
 #include "ref/study/study_run.hpp"
+#include "ref/sweep/sweep.hpp"
+#include "ref/validation/golden.hpp"
+#include "ref/validation/validate.hpp"
 #include "variants/all_variants.hpp"

@@ -13,7 +13,7 @@
 #include <vector>
 #include <numbers>
 
-#include "ref/analysis/simulate.hpp"
+#include "ref/run/simulate.hpp"
 #include "test_support.hpp"
 
 namespace rubref::testing {

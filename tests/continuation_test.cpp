@@ -12,12 +12,12 @@
 #include <set>
 #include <string>
 
-#include "ref/analysis/sweep.hpp"
 #include "ref/base/errors.hpp"
 #include "ref/integrate/shooting.hpp"
 #include "ref/model/closed_form.hpp"
 #include "ref/orbits/continuation.hpp"
 #include "ref/orbits/periodic_orbit.hpp"
+#include "ref/sweep/sweep.hpp"
 #include "test_support.hpp"
 
 namespace rubref {

@@ -8,13 +8,13 @@
 #include <map>
 #include <random>
 
-#include "ref/analysis/sweep_io.hpp"
 #include "ref/base/errors.hpp"
 #include "ref/identification/identify.hpp"
 #include "ref/identification/term_library.hpp"
 #include "ref/identification/weak_form.hpp"
 #include "ref/model/closed_form.hpp"
 #include "ref/rig/rig.hpp"
+#include "ref/sweep/sweep_io.hpp"
 #include "tests/sanitized.hpp"
 
 namespace rubref {

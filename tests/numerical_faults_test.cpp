@@ -9,9 +9,9 @@
 #include <numbers>
 #include <string>
 
-#include "ref/analysis/simulate.hpp"
 #include "ref/integrate/shooting.hpp"
 #include "ref/rig/rig.hpp"
+#include "ref/run/simulate.hpp"
 #include "test_support.hpp"
 
 namespace rubref::testing {

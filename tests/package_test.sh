@@ -11,7 +11,7 @@ python=${4:-}
 python_dir=${5:-}
 
 cmake --install "$build" --prefix "$work/prefix" >"$work/install.log" 2>&1 || fail "cmake --install: $(tail -3 "$work/install.log")"
-for f in include/rubref/rubref.hpp include/rubref/ref/analysis/simulate.hpp include/rubref/variants/all_variants.hpp \
+for f in include/rubref/rubref.hpp include/rubref/ref/run/simulate.hpp include/rubref/variants/all_variants.hpp \
          lib/cmake/rubref/rubrefConfig.cmake lib/cmake/rubref/rubrefConfigVersion.cmake bin/rubref share/rubref/scripts/plot_figures.py; do
   [ -e "$work/prefix/$f" ] || fail "not installed: $f"
 done

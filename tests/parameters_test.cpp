@@ -7,10 +7,10 @@
 #include <limits>
 #include <string>
 
-#include "ref/analysis/simulate.hpp"
 #include "ref/base/errors.hpp"
 #include "ref/format/record.hpp"
 #include "ref/model/parameter_io.hpp"
+#include "ref/run/simulate.hpp"
 
 namespace rubref {
 namespace {

@@ -7,10 +7,10 @@
 #include <cstring>
 #include <numbers>
 
-#include "ref/analysis/sweep.hpp"
-#include "ref/analysis/sweep_io.hpp"
 #include "ref/base/errors.hpp"
 #include "ref/model/closed_form.hpp"
+#include "ref/sweep/sweep.hpp"
+#include "ref/sweep/sweep_io.hpp"
 
 namespace rubref {
 namespace {

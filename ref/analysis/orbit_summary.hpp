@@ -4,8 +4,8 @@
 #include <complex>
 #include <string_view>
 
-#include "ref/analysis/simulate.hpp"
 #include "ref/analysis/spectrum.hpp"
+#include "ref/run/simulate.hpp"
 
 namespace rubref {
 

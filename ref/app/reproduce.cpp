@@ -11,7 +11,6 @@
 #include <nlohmann/json.hpp>
 
 #include "ref/analysis/orbit_io.hpp"
-#include "ref/analysis/sweep_io.hpp"
 #include "ref/app/python_script.hpp"
 #include "ref/app/reproduce_report.hpp"
 #include "ref/base/errors.hpp"
@@ -23,6 +22,7 @@
 #include "ref/model/closed_form.hpp"
 #include "ref/orbits/continuation.hpp"
 #include "ref/orbits/continuation_io.hpp"
+#include "ref/sweep/sweep_io.hpp"
 #include "variants/all_variants.hpp"
 
 namespace rubref {

@@ -3,10 +3,10 @@
 #include <memory>
 
 #include "ref/analysis/orbit_io.hpp"
-#include "ref/analysis/simulate.hpp"
 #include "ref/cli/commands.hpp"
 #include "ref/cli/options.hpp"
 #include "ref/format/atomic_output.hpp"
+#include "ref/run/simulate.hpp"
 
 namespace rubref::cli {
 

@@ -2,11 +2,11 @@
 #include <memory>
 
 #include "ref/analysis/orbit_io.hpp"
-#include "ref/analysis/sweep_io.hpp"
 #include "ref/base/parallel.hpp"
 #include "ref/cli/commands.hpp"
 #include "ref/cli/options.hpp"
 #include "ref/format/atomic_output.hpp"
+#include "ref/sweep/sweep_io.hpp"
 
 namespace rubref::cli {
 

@@ -8,7 +8,7 @@
 #include <string>
 #include <vector>
 
-#include "ref/analysis/simulate.hpp"
+#include "ref/run/simulate.hpp"
 
 namespace rubref {
 

@@ -5,13 +5,13 @@
 #include <limits>
 #include <numbers>
 
-#include "ref/analysis/simulate.hpp"
 #include "ref/base/errors.hpp"
 #include "ref/base/parallel.hpp"
 #include "ref/base/portable_random.hpp"
 #include "ref/base/version.hpp"
 #include "ref/format/record.hpp"
 #include "ref/model/parameter_io.hpp"
+#include "ref/run/simulate.hpp"
 #include "variants/all_variants.hpp"
 
 namespace rubref {

@@ -17,8 +17,8 @@
 #include <string_view>
 #include <vector>
 
-#include "ref/analysis/simulate.hpp"
 #include "ref/format/record.hpp"
+#include "ref/run/simulate.hpp"
 
 namespace rubref {
 

@@ -10,7 +10,7 @@
 #include <vector>
 
 #include "ref/analysis/orbit_summary.hpp"
-#include "ref/analysis/simulate.hpp"
+#include "ref/run/simulate.hpp"
 
 namespace rubref {
 

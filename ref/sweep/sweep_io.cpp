@@ -1,4 +1,4 @@
-#include "ref/analysis/sweep_io.hpp"
+#include "ref/sweep/sweep_io.hpp"
 
 #include <algorithm>
 #include <charconv>

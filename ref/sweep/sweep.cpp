@@ -1,4 +1,4 @@
-#include "ref/analysis/sweep.hpp"
+#include "ref/sweep/sweep.hpp"
 
 #include <algorithm>
 #include <cmath>

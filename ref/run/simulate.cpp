@@ -1,4 +1,4 @@
-#include "ref/analysis/simulate.hpp"
+#include "ref/run/simulate.hpp"
 
 #include <algorithm>
 #include <cmath>

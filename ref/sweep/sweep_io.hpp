@@ -5,9 +5,9 @@
 #include <string>
 #include <vector>
 
-#include "ref/analysis/sweep.hpp"
 #include "ref/format/record.hpp"
 #include "ref/format/table.hpp"
+#include "ref/sweep/sweep.hpp"
 
 namespace rubref {
 
