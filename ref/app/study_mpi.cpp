@@ -1,6 +1,10 @@
 #include "ref/app/study_mpi.hpp"
 
+#include <unistd.h>
+
+#include <cerrno>
 #include <cstdlib>
+#include <cstring>
 #include <iostream>
 #include <memory>
 #include <sstream>
@@ -29,13 +33,26 @@ bool secondary_mpi_rank() {
 
 bool built_with_mpi() { return false; }
 
+void hand_over_to_mpi_engine(char** argv) {
+  if (!launched_by_mpi()) return;
+  std::error_code ec;
+  const std::filesystem::path self = std::filesystem::read_symlink("/proc/self/exe", ec);
+  if (ec) return;  // no /proc: stay, and say below that this rubref has no MPI
+  const std::filesystem::path engine = self.parent_path() / "rubref-mpi";
+  if (!std::filesystem::exists(engine, ec)) return;
+  ::execv(engine.c_str(), argv);
+  throw input_error("cannot start " + engine.string() + " under mpirun: " + std::strerror(errno));
+}
+
 mpi_outcome run_study_mpi(const std::filesystem::path&, const spec&, unsigned, std::ostream*) {
-  throw input_error("this rubref was built without MPI (configure with -DRUBREF_MPI=ON); under mpirun each process would run the whole study");
+  throw input_error("no rubref-mpi beside this rubref (configure with -DRUBREF_MPI=ON); under mpirun each process would run the whole study");
 }
 
 #else
 
 bool built_with_mpi() { return true; }
+
+void hand_over_to_mpi_engine(char**) {}
 
 namespace {
 

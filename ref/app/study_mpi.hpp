@@ -16,8 +16,16 @@ bool launched_by_mpi();
 // Whether this process is an MPI rank other than 0 (from the launcher's environment): it leaves
 // saying bad input to rank 0, so that a bad SPEC is one line, not one per rank.
 bool secondary_mpi_rank();
-// Whether this rubref was built with -DRUBREF_MPI=ON.
+// Whether this executable is the MPI engine, `rubref-mpi` (built with -DRUBREF_MPI=ON).
 bool built_with_mpi();
+
+// `rubref` itself never links MPI, so every command starts without loading it (OpenMPI and its
+// dependencies cost more than the rest of a start). Under mpirun it hands its whole command line
+// to `rubref-mpi` beside it, which is the same command line interface built with MPI; it returns
+// when there is nothing to hand over (not under mpirun, already the engine, or no engine built).
+// Throws input_error if the engine is there but cannot be started. Call it before any thread
+// starts: the engine inherits the signal mask.
+void hand_over_to_mpi_engine(char** argv);
 
 struct mpi_outcome {
   bool root = false;    // rank 0: the only one that reports

@@ -8,6 +8,7 @@
 #include <iostream>
 
 #include "ref/app/python_script.hpp"
+#include "ref/app/study_mpi.hpp"
 #include "ref/base/errors.hpp"
 #include "ref/base/interrupt.hpp"
 #include "ref/base/parallel.hpp"
@@ -19,6 +20,12 @@
 
 int main(int argc, char** argv) {
   using namespace rubref;
+  try {
+    study::hand_over_to_mpi_engine(argv);  // under mpirun: rubref-mpi (ref/app/study_mpi.hpp)
+  } catch (const input_error& e) {
+    std::cerr << "rubref: error: " << e.what() << "\n";
+    return 2;
+  }
   install_interrupt_cleanup();  // before any thread starts (ref/base/interrupt.hpp)
   CLI::App app{"rubref " + std::string(version()) +
                    ": numerical reference for partial rotor-stator rub (anisotropic Jeffcott rotor, Eq. 1-6)",
