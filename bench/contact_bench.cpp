@@ -32,7 +32,7 @@ constexpr double kClearance = 0.3e-3;  // m
 
 parameters paper_case() {
   parameters p;
-  p.delta = kClearance;
+  p.clearance = kClearance;
   return p;
 }
 
@@ -240,7 +240,7 @@ void periodic_orbit_by_shooting(benchmark::State& state) {
 // special points located. Issue 21's target: <= 50 ms per clearance.
 void branch_by_continuation(benchmark::State& state) {
   continuation_request req;
-  req.params.delta = static_cast<double>(state.range(0)) * 1e-4;
+  req.params.clearance = static_cast<double>(state.range(0)) * 1e-4;
   req.from = 1300.0;
   req.to = 2200.0;
   std::size_t points = 0;
@@ -264,7 +264,7 @@ void paper_sweeps(benchmark::State& state) {
   for (int c = 0; c < clearances; ++c)
     for (const auto d : {sweep_direction::up, sweep_direction::down}) {
       sweep_settings s;
-      s.params.delta = (0.2 + 0.1 * c) * 1e-3;
+      s.params.clearance = (0.2 + 0.1 * c) * 1e-3;
       s.start_from_orbit = from_orbit;
       tasks.push_back({s, d});
     }

@@ -87,7 +87,7 @@ TEST_P(golden_regression, carries_its_provenance) {
     EXPECT_NE(r.find(key), nullptr) << path << " lacks '" << key << "'";
   const golden_case g = read_golden_case(r, path.filename().string());
   EXPECT_EQ(g.request.variant, GetParam().variant);
-  EXPECT_EQ(g.request.params.delta, GetParam().clearance);
+  EXPECT_EQ(g.request.params.clearance, GetParam().clearance);
   EXPECT_EQ(g.request.rpm, GetParam().rpm);
   EXPECT_EQ(*r.find("stepper"), "rkf78");  // the careful method, not the fast path
   EXPECT_LE(r.number("rtol"), 1e-13);

@@ -235,7 +235,7 @@ validation_result changed(const char* name, const std::string& file, const std::
 }
 
 TEST(validate, another_clearance_is_clearance) {
-  const validation_result r = changed(kIdentifiedCase, "clearance_0.25mm.csv", "clearance 0.25 mm", [](parameters& p) { p.delta = 0.25e-3; });
+  const validation_result r = changed(kIdentifiedCase, "clearance_0.25mm.csv", "clearance 0.25 mm", [](parameters& p) { p.clearance = 0.25e-3; });
   expect_first(r, cause_code::clearance);
   EXPECT_NEAR(r.causes.front().fitted["clearance_m"].get<double>(), 0.25e-3, 1e-8);  // Brent stops at ~1e-5 of the value: the RMS is flat at its minimum
 }
@@ -327,7 +327,7 @@ record naive_restitution(const golden_case& g) {
   for (long k = 0; k < last; ++k) {
     if (k >= first && (k - first) % kEvery == 0) o.samples.push_back({static_cast<double>(k) * dt, s, 0.0});
     rk4.do_step(free_rotor, s, static_cast<double>(k) * dt, dt);
-    if (s[idx::y] > g.request.params.delta && s[idx::vy] > 0.0) s[idx::vy] = -g.request.params.r * s[idx::vy];
+    if (s[idx::y] > g.request.params.clearance && s[idx::vy] > 0.0) s[idx::vy] = -g.request.params.r * s[idx::vy];
   }
   return as_record(o);
 }

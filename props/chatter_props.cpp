@@ -55,7 +55,7 @@ rc::Gen<chatter_case> chatter_cases() {
 template <class Law>
 void check(const chatter_case& c) {
   parameters p;
-  p.delta = c.clearance;
+  p.clearance = c.clearance;
   p.e *= c.e_scale;
   const rotor_system<Law> model(p, rpm_to_rad_s(c.rpm));
   integration_options opt;  // the defaults: dopri5, exact free flight
@@ -77,7 +77,7 @@ void check(const chatter_case& c) {
     for (const auto& ev : tr.events) {
       if (ev.kind != event_kind::impact && ev.kind != event_kind::stick) continue;
       const double v = ev.approach_velocity;
-      RC_ASSERT(ev.state[idx::y] == p.delta);
+      RC_ASSERT(ev.state[idx::y] == p.clearance);
       if (ev.kind == event_kind::impact) {
         if (v > 0.0) {
           RC_ASSERT(std::abs(ev.state[idx::vy] + p.r * v) <= kMapRounding * p.r * v);  // on approach
@@ -92,10 +92,10 @@ void check(const chatter_case& c) {
       RC_ASSERT(ev.state[idx::vy] * ev.state[idx::vy] <= v * v * (1.0 + kMapRounding));
     }
     for (std::size_t i = 0; i < tr.t.size(); ++i) {
-      const double above = tr.s[i][idx::y] - p.delta;
-      if (!(above <= kAboveFaceRel * p.delta + kAboveFaceAbs))
+      const double above = tr.s[i][idx::y] - p.clearance;
+      if (!(above <= kAboveFaceRel * p.clearance + kAboveFaceAbs))
         RC_FAIL("above the face by " + std::to_string(above) + " m at t = " + std::to_string(tr.t[i]) + " s");
-      if (tr.phase[i] == contact_phase::stuck) RC_ASSERT(tr.s[i][idx::y] == p.delta);
+      if (tr.phase[i] == contact_phase::stuck) RC_ASSERT(tr.s[i][idx::y] == p.clearance);
     }
   }
 }

@@ -35,7 +35,7 @@ rc::Gen<continuation_request> branch_requests() {
         for_each_variant_type([&]<class V>() {
           if (k++ == variant) req.variant = std::string(V::name);
         });
-        req.params.delta = delta_mm * 1e-3;
+        req.params.clearance = delta_mm * 1e-3;
         req.downward = downward;
         req.rpm = rpm;
         switch (parameter) {
@@ -64,7 +64,7 @@ traced trace(const continuation_request& req) {
 
 RC_GTEST_PROP(continuation, the_step_control_does_not_change_the_special_points, ()) {
   const continuation_request req = *branch_requests();
-  RC_LOG() << std::setprecision(17) << req.variant << ", delta " << req.params.delta << " m, " << to_string(req.parameter) << " " << req.from << " -> "
+  RC_LOG() << std::setprecision(17) << req.variant << ", delta " << req.params.clearance << " m, " << to_string(req.parameter) << " " << req.from << " -> "
            << req.to << (req.downward ? " (down)" : "") << ", rpm " << req.rpm << "\n";
   continuation_request short_steps = req;
   short_steps.max_step = kShortMaxStep;

@@ -109,12 +109,12 @@ episode first_episode(const throw_case& c) {
   const parameters& p = c.p;
   const Law law = Law::from(p);
   const double sign = omega < 0.0 ? -1.0 : 1.0;
-  const auto fn = [&](const state_type& s) { return law.normal_force(s[idx::y] - p.delta, s[idx::vy]); };
+  const auto fn = [&](const state_type& s) { return law.normal_force(s[idx::y] - p.clearance, s[idx::vy]); };
   ep.energy_on = lateral_energy(p, tr.s.front());
   ep.energy_off = lateral_energy(p, tr.s.back());
   ep.friction_work = simpson(tr, [&](double, const state_type& s) { return sign * p.mu * fn(s) * s[idx::vx]; });
   ep.nonconservative_normal_work = simpson(tr, [&](double, const state_type& s) {
-    return -nonconservative_normal_force<Law>::of(law, s[idx::y] - p.delta, s[idx::vy]) * s[idx::vy];
+    return -nonconservative_normal_force<Law>::of(law, s[idx::y] - p.clearance, s[idx::vy]) * s[idx::vy];
   });
   ep.viscous_work = simpson(tr, [&](double, const state_type& s) {
     return -(p.c_x * s[idx::vx] * s[idx::vx] + p.c_y * s[idx::vy] * s[idx::vy]);
@@ -133,7 +133,7 @@ episode first_episode(const throw_case& c) {
   for (const auto& s : tr.s) {
     ep.min_vx = std::min(ep.min_vx, s[idx::vx]);
     ep.max_vx = std::max(ep.max_vx, s[idx::vx]);
-    const double z = s[idx::y] - p.delta;
+    const double z = s[idx::y] - p.clearance;
     ep.peak_stored = std::max(ep.peak_stored, 0.5 * p.k1 * z * z + 0.25 * p.k3 * z * z * z * z);
   }
   return ep;
@@ -170,7 +170,7 @@ RC_GTEST_PROP(energy_per_impact, restitution_keeps_r_squared_of_the_normal_kinet
   const state_type& before = c.start;
   const state_type& after = tr.s.back();
   const auto normal_kinetic = [&](const state_type& s) {
-    return 0.5 * c.p.m * s[idx::vy] * s[idx::vy] + 0.5 * c.p.k_y * (s[idx::y] * s[idx::y] - c.p.delta * c.p.delta);
+    return 0.5 * c.p.m * s[idx::vy] * s[idx::vy] + 0.5 * c.p.k_y * (s[idx::y] * s[idx::y] - c.p.clearance * c.p.clearance);
   };
   const auto horizontal = [&](const state_type& s) { return 0.5 * c.p.m * s[idx::vx] * s[idx::vx] + 0.5 * c.p.k_x * s[idx::x] * s[idx::x]; };
   const double ke_in = normal_kinetic(before), ke_out = normal_kinetic(after);
@@ -227,7 +227,7 @@ RC_GTEST_PROP(energy_per_impact, friction_takes_energy_from_forward_whirl, (cons
   // period (x' keeps its sign through the shaft spring) ...
   c.p.k1 = std::max(c.p.k1, 10.0 * c.p.k_x);
   // ... the rotor starts just below the stator (no time to turn on the way) ...
-  const double wy = std::sqrt(c.p.k_y / c.p.m), y0 = 0.99 * c.p.delta, amplitude = *uniform(1.05, 1.5) * c.p.delta;
+  const double wy = std::sqrt(c.p.k_y / c.p.m), y0 = 0.99 * c.p.clearance, amplitude = *uniform(1.05, 1.5) * c.p.clearance;
   // ... and moves to -x several times faster than the friction impulse, ~2 mu y', can change.
   const double vy0 = wy * std::sqrt(amplitude * amplitude - y0 * y0);
   c.start = {0.0, y0, -(*uniform(5.0, 10.0)) * 2.0 * c.p.mu * wy * amplitude, vy0};

@@ -42,7 +42,7 @@ struct throw_case {
   // Vertical amplitude of the free undamped motion from `start`, in units of the clearance.
   double reach() const {
     const double wy = std::sqrt(p.k_y / p.m);
-    return std::hypot(start[idx::y], start[idx::vy] / wy) / p.delta;
+    return std::hypot(start[idx::y], start[idx::vy] / wy) / p.clearance;
   }
 };
 
@@ -50,7 +50,7 @@ struct throw_case {
 // free vertical amplitude `reach` clearances (> 1), x0 within a clearance, any horizontal speed
 // up to `vx_max` m/s with the sign asked for (`vx_sign` 0: either).
 inline rc::Gen<state_type> rising_start(const parameters& p, double reach_lo, double reach_hi, double vx_max, int vx_sign = 0) {
-  const double wy = std::sqrt(p.k_y / p.m), delta = p.delta;
+  const double wy = std::sqrt(p.k_y / p.m), delta = p.clearance;
   const double vx_lo = vx_sign > 0 ? 0.0 : -vx_max, vx_hi = vx_sign < 0 ? 0.0 : vx_max;
   return rc::gen::apply(
       [=](double y_frac, double reach, double x_frac, double vx) {
@@ -81,7 +81,7 @@ struct Arbitrary<rubref::parameters> {
           p.c_y = c_y;
           p.k_x = k_x;
           p.k_y = k_y;
-          p.delta = delta;
+          p.clearance = delta;
           p.mu = mu;
           p.r = r;
           p.k1 = k1;

@@ -109,7 +109,7 @@ state_type mirrored(const state_type& s) { return {-s[idx::x], s[idx::y], -s[idx
 // states it...
 RC_GTEST_PROP(symmetry, mirror_image_with_reversed_rotation_without_contact, (const throw_case& c)) {
   parameters p = c.p;
-  p.delta = kNoContactClearance;
+  p.clearance = kNoContactClearance;
   parameters reversed = p;
   reversed.unbalance_phase = std::numbers::pi - p.unbalance_phase;
   const double omega = rpm_to_rad_s(c.rpm);
@@ -157,7 +157,7 @@ RC_GTEST_PROP(symmetry, unbalance_phase_shifts_the_orbit_in_time, (const throw_c
 // Without contact Eq. 1 is linear in the forcing: from rest, e times lambda gives the orbit
 // times lambda.
 RC_GTEST_PROP(symmetry, response_without_contact_is_linear_in_e, (parameters p)) {
-  p.delta = kNoContactClearance;
+  p.clearance = kNoContactClearance;
   p.e = *uniform(1e-6, 0.2e-3);
   const double lambda = *log_uniform(0.01, 100.0), omega = rpm_to_rad_s(*uniform(600.0, 3000.0));
   parameters scaled = p;
@@ -174,7 +174,7 @@ RC_GTEST_PROP(symmetry, response_without_contact_is_linear_in_e, (parameters p))
 // R e^{j(wt + ...)}, whatever the speed. Damping ratios of at least ~1 % let it settle in
 // 30 decay times 2m/c (e^-30 ~ 1e-13 of the transient left).
 RC_GTEST_PROP(symmetry, isotropic_rotor_without_contact_whirls_on_a_circle, (parameters p)) {
-  p.delta = kNoContactClearance;
+  p.clearance = kNoContactClearance;
   p.e = *uniform(1e-6, 0.2e-3);
   p.k_y = p.k_x;
   p.c_x = p.c_y = *uniform(0.02, 0.2) * std::sqrt(p.k_x * p.m);

@@ -249,7 +249,7 @@ PYBIND11_MODULE(_rubref, m) {
         return d;
       },
       py::arg("variant") = "identified", py::arg("rpm") = 1600.0, py::arg("clearance") = py::none(), py::arg("periods") = 1,
-      py::arg("tolerance") = 1e-12, py::arg("samples_per_rev") = 128, py::arg("initial") = py::none());
+      py::arg("tolerance") = kShootingTolerance, py::arg("samples_per_rev") = 128, py::arg("initial") = py::none());
 
   m.def(
       "continuation",
@@ -303,7 +303,7 @@ PYBIND11_MODULE(_rubref, m) {
       },
       py::arg("variant") = "identified", py::arg("parameter") = "speed", py::arg("start") = py::none(), py::arg("end") = py::none(),
       py::arg("direction") = "up", py::arg("rpm") = 1600.0, py::arg("clearance") = py::none(), py::arg("periods") = 1,
-      py::arg("max_step") = 0.25, py::arg("max_points") = 5000, py::arg("tolerance") = 1e-12);
+      py::arg("max_step") = 0.25, py::arg("max_points") = 5000, py::arg("tolerance") = kShootingTolerance);
 
   m.def(
       "read_record", [](const std::string& path) { return record_to_python(read_record(path)); }, py::arg("path"),

@@ -29,7 +29,7 @@ constexpr int kMinRebounds = 10;  // the geometric check needs a run of rebounds
 struct pressed_rotor {
   parameters p = [] {
     parameters q;
-    q.delta = 1e-5;
+    q.clearance = 1e-5;
     q.e = 1e-3;
     return q;
   }();
@@ -39,7 +39,7 @@ struct pressed_rotor {
 
   // Release: m e w^2 sin(wt) = k_y delta on the falling side of the sine (y' = 0, y = delta).
   double release_time(double after) const {
-    const double phase = std::numbers::pi - std::asin(p.k_y * p.delta / (p.m * p.e * omega * omega));
+    const double phase = std::numbers::pi - std::asin(p.k_y * p.clearance / (p.m * p.e * omega * omega));
     double t = phase / omega;
     while (t < after) t += period;
     return t;
@@ -64,7 +64,7 @@ TEST(chatter, impacts_shrink_by_r_then_stick_then_release_on_time) {
       // (r v)^2 / (2 a) is below kUnlocatableHop resolutions of z (the stepper's rtol y + atol).
       const double v = c.p.r * ev.approach_velocity;
       const double a = c.model.free_vertical_acceleration(ev.state, ev.t);
-      const double resolution = std::max(opt.stepper.rtol * c.p.delta + opt.stepper.atol, 1e-10 * c.p.delta);
+      const double resolution = std::max(opt.stepper.rtol * c.p.clearance + opt.stepper.atol, 1e-10 * c.p.clearance);
       EXPECT_TRUE(2.0 * v / (a * (1.0 - c.p.r)) <= opt.events.stick_time * c.period ||
                   v * v / (2.0 * a) <= kUnlocatableHop * resolution)
           << "rebound " << v << " m/s at a = " << a << " m/s^2";
@@ -86,7 +86,7 @@ TEST(chatter, impacts_shrink_by_r_then_stick_then_release_on_time) {
   for (std::size_t i = 0; i < tr.t.size(); ++i) {
     if (tr.phase[i] != contact_phase::stuck) continue;
     ++stuck_samples;
-    EXPECT_EQ(tr.s[i][idx::y], c.p.delta);
+    EXPECT_EQ(tr.s[i][idx::y], c.p.clearance);
     EXPECT_EQ(tr.s[i][idx::vy], 0.0);
     EXPECT_GT(c.model.with_phase(contact_phase::stuck).normal_force(tr.s[i], tr.t[i]), 0.0);
   }
@@ -106,7 +106,7 @@ TEST(chatter, a_hop_inside_one_step_is_not_missed) {
   p.c_y = 35.625636329905319;
   p.k_x = 65502.783822892925;
   p.k_y = 22214.369593455158;
-  p.delta = 0.00012973126644110381;
+  p.clearance = 0.00012973126644110381;
   p.r = 0.41836382726796728;
   const rotor_system<restitution> model(p, rpm_to_rad_s(2620.9151998285961));
   const state_type start{6.6724544691246676e-05, 4.032193187005027e-05, 0.059565672001372166, 0.026612319021257602};
@@ -116,8 +116,8 @@ TEST(chatter, a_hop_inside_one_step_is_not_missed) {
   constexpr double kLocationTol = 1e-12;  // m, the documented |y - delta| at a located event
   double deepest = 0.0, when = 0.0;
   for (std::size_t i = 0; i < tr.t.size(); ++i)
-    if (tr.s[i][idx::y] - p.delta > deepest) {
-      deepest = tr.s[i][idx::y] - p.delta;
+    if (tr.s[i][idx::y] - p.clearance > deepest) {
+      deepest = tr.s[i][idx::y] - p.clearance;
       when = tr.t[i];
     }
   EXPECT_LE(deepest, kLocationTol) << "inside the stator by " << deepest << " m at t = " << when << " s";
@@ -161,7 +161,7 @@ TEST(chatter, small_clearances_chatter_and_stick_without_error) {
     SCOPED_TRACE(::testing::Message() << "clearance " << delta << " m, " << rpm << " rpm");
     run_request req;
     req.variant = "restitution";
-    req.params.delta = delta;
+    req.params.clearance = delta;
     req.rpm = rpm;
     orbit o;
     ASSERT_NO_THROW(o = simulate(req));

@@ -24,7 +24,7 @@ expect_error "parameter r" simulate --r 1.2 "${out[@]}"
 expect_error "mu" simulate --mu -0.1 "${out[@]}"
 expect_error "e_m" simulate --e nan "${out[@]}"
 expect_error "k1_N_m" simulate --k1 inf "${out[@]}"
-expect_error "speed rpm" simulate --rpm 0 "${out[@]}"
+expect_error "--rpm must be finite and in (0, 1e+06]" simulate --rpm 0 "${out[@]}"
 expect_error "unknown variant 'hertz'" simulate --variant hertz "${out[@]}"
 expect_error "unknown stepper 'euler'" simulate --stepper euler "${out[@]}"
 expect_error "--bogus" simulate --bogus 1 "${out[@]}"
@@ -85,6 +85,15 @@ grep -q '^t_s,x_m,y_m,speed_rpm,vx_m_s,vy_m_s,fn_N$' "$work/good.csv" || fail "h
 grep -q '"whirl"' "$work/good.summary.json" || fail "summary JSON"
 
 "$rubref" --help >/dev/null || fail "--help"
+# A command line that names a command builds only that command (ref/cli/main.cpp): every other
+# route still knows them all.
+for cmd in reproduce simulate orbit continuation sweep identify rig effects loop study study-merge validate params variants; do
+  "$rubref" --help | grep -q "^  $cmd " || fail "--help does not list $cmd"
+done
+"$rubref" --version | grep -q "^rubref " || fail "--version"
+"$rubref" effects >/dev/null || fail "effects (added with rig)"
+"$rubref" study-merge --help >/dev/null || fail "study-merge --help (added with study)"
+expect_error "did you mean 'simulate'" simluate --out "$work/o.csv"
 "$rubref" simulate --help | grep -q -- "--k1" || fail "simulate --help lists parameters"
 
 # sweep: tables, waterfalls, summary; a folder rubref made is replaced, any other is refused.
@@ -140,8 +149,8 @@ grep -q '"method": "shooting"' "$work/orb.summary.json" || fail "orbit did not s
 grep -q '"floquet_multipliers"' "$work/orb.summary.json" || fail "orbit summary lacks the multipliers"
 grep -q '"stable": true' "$work/orb.summary.json" || fail "the paper's 1600 rpm orbit is not stable"
 [ "$(grep -vc '^#' "$work/orb.csv")" -eq 65 ] || fail "orbit.csv: expected header + 64 rows"
-expect_error "periods must be in [1, 64]" orbit --periods 0 --out "$work/o.csv"
-expect_error "shooting tolerance" orbit --tolerance -1 --out "$work/o.csv"
+expect_error "periods must be a whole number in [1, 64]" orbit --periods 0 --out "$work/o.csv"
+expect_error "--tolerance must be finite and > 0 m (got -1)" orbit --tolerance -1 --out "$work/o.csv"
 # continuation: a branch with its special points; bad ranges and parameters refused.
 "$rubref" continuation --from 1380 --to 1460 --clearance 3e-4 --out "$work/branch" >"$work/stdout" || fail "continuation failed"
 for f in branch.csv summary.json; do [ -s "$work/branch/$f" ] || fail "continuation did not write $f"; done

@@ -54,7 +54,7 @@ TYPED_TEST_SUITE(contact_free, all_variant_types, variant_name);
 
 TYPED_TEST(contact_free, reference_stepper_follows_closed_form) {
   parameters p;
-  p.delta = kNoContactClearance;
+  p.clearance = kNoContactClearance;
   // Below, between and above the two natural frequencies (1520 and 1569 rpm), where the orbit
   // turns from a horizontal to a vertical ellipse to a circle (Fig. 3).
   for (const double rpm : {1200.0, 1540.0, 1600.0, 2400.0}) {
@@ -73,7 +73,7 @@ TYPED_TEST(contact_free, reference_stepper_follows_closed_form) {
 
 TEST(contact_free, every_stepper_at_default_accuracy) {
   parameters p;
-  p.delta = kNoContactClearance;
+  p.clearance = kNoContactClearance;
   const double omega = rpm_to_rad_s(1600.0);
   const double period = 2.0 * std::numbers::pi / omega;
   const unbalance_response exact(p, omega);
@@ -88,7 +88,7 @@ TEST(contact_free, every_stepper_at_default_accuracy) {
 // From rest the transient decays with time constant 2m/c (about 0.2 s) onto the closed form.
 TEST(contact_free, transient_from_rest_decays_onto_closed_form) {
   parameters p;
-  p.delta = kNoContactClearance;
+  p.clearance = kNoContactClearance;
   const double omega = rpm_to_rad_s(1500.0);
   const double period = 2.0 * std::numbers::pi / omega;
   const unbalance_response exact(p, omega);

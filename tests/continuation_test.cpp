@@ -35,7 +35,7 @@ constexpr double kFixedPointTol = 1e-9;  // m
 continuation_request speed_branch(const std::string& variant, double clearance, double from, double to) {
   continuation_request r;
   r.variant = variant;
-  r.params.delta = clearance;
+  r.params.clearance = clearance;
   r.from = std::min(from, to);
   r.to = std::max(from, to);
   r.downward = from > to;
@@ -92,7 +92,7 @@ TEST(continuation, contact_free_branch_is_the_closed_form) {
 // The speed at which the contact-free orbit's top |Y(w)| equals the clearance, on the side of
 // the resonance given by [lo, hi] (|Y| monotone there), by bisection on the closed form.
 double closed_form_grazing_rpm(const parameters& p, double lo, double hi) {
-  const auto top = [&](double rpm) { return std::abs(unbalance_response(p, rpm_to_rad_s(rpm)).y_phasor) - p.delta; };
+  const auto top = [&](double rpm) { return std::abs(unbalance_response(p, rpm_to_rad_s(rpm)).y_phasor) - p.clearance; };
   const bool rising = top(lo) < top(hi);
   for (int i = 0; i < 200 && hi - lo > 1e-12 * hi; ++i) {
     const double mid = 0.5 * (lo + hi);
@@ -239,7 +239,7 @@ rotor_system<Law> moved(const parameters& p, double omega, model_parameter which
   parameters q = p;
   switch (which) {
     case model_parameter::omega: omega += d; break;
-    case model_parameter::clearance: q.delta += d; break;
+    case model_parameter::clearance: q.clearance += d; break;
     case model_parameter::unbalance: q.e += d; break;
     case model_parameter::mu: q.mu += d; break;
   }
@@ -275,7 +275,7 @@ void expect_exact_parameter_columns(const parameters& p, double rpm, int revs, c
   // so that the map is smooth around it.
   null_observer none;
   state_type s0 = integrate_hybrid(sys, start_state(sys, state_type{}, 0.0), revs * sys.period(), opt, sample_grid{}, none).s;
-  if (sys.penetration(s0) > -1e-2 * p.delta) s0[idx::y] = sys.clearance() * (1.0 - 1e-2);
+  if (sys.penetration(s0) > -1e-2 * p.clearance) s0[idx::y] = sys.clearance() * (1.0 - 1e-2);
   std::set<event_kind> seen;
   for (const auto& e : testing::run(sys, s0, sys.period(), opt).events) seen.insert(e.kind);
   ASSERT_EQ(seen, kinds) << "the revolution's events";
@@ -284,7 +284,7 @@ void expect_exact_parameter_columns(const parameters& p, double rpm, int revs, c
   const std::array<double, 4> weight{1.0, 1.0, 1.0 / omega, 1.0 / omega};
   for (std::size_t i = 0; i < 4; ++i) state_size = std::max(state_size, std::abs(s0[i]) * weight[i]);
   const std::array<std::pair<model_parameter, double>, 4> cases{
-      {{model_parameter::omega, omega}, {model_parameter::clearance, p.delta}, {model_parameter::unbalance, p.e}, {model_parameter::mu, p.mu}}};
+      {{model_parameter::omega, omega}, {model_parameter::clearance, p.clearance}, {model_parameter::unbalance, p.e}, {model_parameter::mu, p.mu}}};
   for (const auto& one : cases) {
     const model_parameter which = one.first;  // (a named copy: clang before 16 cannot capture a structured binding)
     const double value = one.second;
@@ -337,7 +337,7 @@ TYPED_TEST(parameter_column, matches_central_differences_of_the_map) {
 // R_lambda) until the release, where the free acceleration turns (a function of w and e).
 TEST(parameter_column, matches_central_differences_through_a_stuck_phase) {
   parameters p;
-  p.delta = 1e-5;
+  p.clearance = 1e-5;
   p.e = 1e-3;
   p.r = 0.0;
   expect_exact_parameter_columns<restitution>(p, 300.0, 5, {event_kind::impact, event_kind::stick, event_kind::release});

@@ -43,7 +43,7 @@ std::vector<double> observed_orders(const std::vector<double>& errors) {
 struct contact_free_case {
   parameters p = [] {
     parameters q;
-    q.delta = 1.0;  // never reached: the exact solution is the closed form
+    q.clearance = 1.0;  // never reached: the exact solution is the closed form
     return q;
   }();
   double omega = rpm_to_rad_s(1600.0);
@@ -113,7 +113,7 @@ struct contact_case {
   state_type reference = run(model, state_type{}, t_end, reference_options()).end.s;
 
   double relative_error(const state_type& s) const {
-    return std::hypot(s[0] - reference[0], s[1] - reference[1]) / p.delta;
+    return std::hypot(s[0] - reference[0], s[1] - reference[1]) / p.clearance;
   }
   double event_exact_rk4(int steps_per_rev) const {
     integration_options opt;

@@ -40,7 +40,7 @@ TYPED_TEST(event_location, events_sit_on_the_stator_surface_for_every_stepper) {
     ASSERT_GE(tr.events.size(), 10u) << "the operating point rubs in most revolutions";
     for (const auto& ev : tr.events) {
       SCOPED_TRACE(::testing::Message() << to_string(ev.kind) << " at t = " << ev.t);
-      EXPECT_LE(std::abs(ev.state[idx::y] - this->p.delta), kEventPositionTol);
+      EXPECT_LE(std::abs(ev.state[idx::y] - this->p.clearance), kEventPositionTol);
       switch (ev.kind) {
         case event_kind::contact_onset:
         case event_kind::impact:
@@ -85,7 +85,7 @@ TYPED_TEST(event_location, halving_the_largest_step_changes_nothing_beyond_toler
   }
   for (std::size_t i = 0; i < coarse.t.size(); ++i)
     for (int c = 0; c < 2; ++c)
-      EXPECT_NEAR(coarse.s[i][c], fine.s[i][c], kStepHalvingRelTol * this->p.delta) << "sample " << i;
+      EXPECT_NEAR(coarse.s[i][c], fine.s[i][c], kStepHalvingRelTol * this->p.clearance) << "sample " << i;
 }
 
 // A grazing contact (y peaks just above delta between two step ends) is found from the interior
@@ -95,7 +95,7 @@ TEST(event_location, grazing_contact_inside_one_step_is_found) {
   p.e = 0.0;
   p.c_y = 0.0;
   const double wy = std::sqrt(p.k_y / p.m);
-  const double peak = p.delta + 1e-9;  // 1 nm above the stator surface
+  const double peak = p.clearance + 1e-9;  // 1 nm above the stator surface
   const rotor_system<piecewise_linear> model(p, rpm_to_rad_s(kRpm));
   const state_type start{0.0, 0.0, 0.0, peak * wy};  // y = (peak) sin(wy t): tops out at delta + 1 nm
   auto opt = options_for(stepper_kind::dopri5);

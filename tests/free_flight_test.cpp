@@ -35,7 +35,7 @@ state_of<System> numeric_flow(const System& sys, const state_of<System>& s0, dou
 
 parameters far_stator() {
   parameters p;
-  p.delta = 1.0;  // m: no contact, free flight only
+  p.clearance = 1.0;  // m: no contact, free flight only
   return p;
 }
 
@@ -129,22 +129,22 @@ TEST(free_flight, finds_grazing_contacts_down_to_the_guaranteed_depth) {
   const double amplitude = std::abs(P);
   integration_options opt;
   for (double depth_fraction : {1e-2, 1e-6, 1e-9, 1e-11}) {
-    p.delta = amplitude * (1.0 - depth_fraction);
+    p.clearance = amplitude * (1.0 - depth_fraction);
     const rotor_system<identified> sys(p, omega, contact_phase::free);
     const free_flight<4> ff(*sys.free_dynamics());
     const double t0 = 0.123 * sys.period();
     const auto arc = ff.from(t0, ff.particular(t0));
-    const double min_depth = opt.events.min_depth_fraction * p.delta;
+    const double min_depth = opt.events.min_depth_fraction * p.clearance;
     const auto onset = arc.first_onset(t0, t0 + 2.0 * sys.period(), min_depth, opt.events.time_tolerance, sys.period() / 8.0);
     ASSERT_TRUE(onset.has_value()) << "depth " << depth_fraction;
     // cos(w t + arg P) = delta / |P|, first on the rising side after t0.
-    const double theta = -std::acos(p.delta / amplitude);
+    const double theta = -std::acos(p.clearance / amplitude);
     double t_cross = (theta - std::arg(P)) / omega;
     while (t_cross < t0) t_cross += sys.period();
     EXPECT_NEAR(onset->first, t_cross, kOnsetTimeTol + 1e-3 * std::sqrt(depth_fraction) / omega) << "depth " << depth_fraction;
     EXPECT_LE(onset->second - onset->first, opt.events.time_tolerance * 1.01);
 
-    p.delta = amplitude * (1.0 + depth_fraction);
+    p.clearance = amplitude * (1.0 + depth_fraction);
     const rotor_system<identified> clear(p, omega, contact_phase::free);
     const free_flight<4> ff2(*clear.free_dynamics());
     const auto none = ff2.from(t0, ff2.particular(t0)).first_onset(t0, t0 + 2.0 * sys.period(), min_depth,
@@ -163,14 +163,14 @@ TEST(free_flight, never_misses_a_contact_a_dense_scan_sees) {
   int found = 0;
   for (int trial = 0; trial < 200; ++trial) {
     parameters p;
-    p.delta = 3e-4 * (1.0 + 0.5 * u(rng));
+    p.clearance = 3e-4 * (1.0 + 0.5 * u(rng));
     const rotor_system<identified> sys(p, rpm_to_rad_s(1500.0 + 300.0 * u(rng)), contact_phase::free);
     const free_flight<4> ff(*sys.free_dynamics());
     const state_type s0{2e-4 * u(rng), 2e-4 * u(rng), 0.05 * u(rng), 0.05 * u(rng)};
     const auto arc = ff.from(0.0, s0);
     if (arc.penetration(0.0).first >= 0.0) continue;
     const double t_end = 3.0 * sys.period();
-    const double min_depth = opt.events.min_depth_fraction * p.delta;
+    const double min_depth = opt.events.min_depth_fraction * p.clearance;
     const auto onset = arc.first_onset(0.0, t_end, min_depth, opt.events.time_tolerance, sys.period() / 8.0);
     // The scan: 20000 points, each local maximum of z refined by golden-section search.
     constexpr int kScan = 20000;

@@ -338,7 +338,7 @@ TEST(identification, piecewise_linear_gives_z_alone) {
 // §3 from data: without contact Eq. 1 / m is linear in c/m, k/m and the unbalance.
 TEST(identification, linear_part_from_records_without_contact) {
   parameters p;
-  p.delta = 1.0;  // no contact anywhere
+  p.clearance = 1.0;  // no contact anywhere
   record r = simulated("identified", p, 256, 1400, 1700, 100);
   const auto dwells = split_dwells(r, "free.csv");
   std::vector<const dwell*> free;
@@ -360,7 +360,7 @@ TEST(identification, linear_part_from_records_without_contact) {
 // derivatives is off by far more there (its second derivative's noise exceeds the signal).
 TEST(identification, harmonic_linear_part_survives_probe_noise) {
   parameters p;
-  p.delta = 1.0;  // no contact anywhere
+  p.clearance = 1.0;  // no contact anywhere
   constexpr int kSamplesPerRev = 400;  // the 10 kHz at 1500 rpm
   record r = simulated("identified", p, kSamplesPerRev, 1100, 1300, 100, 12);
   constexpr double kNoise = 2e-6;  // m
@@ -494,7 +494,7 @@ TEST(identification, one_permille_noise_averaged_within_measured_bounds) {
 
 TEST(identification, refuses_unusable_input) {
   parameters far;
-  far.delta = 1.0;
+  far.clearance = 1.0;
   const record no_contact = simulated("identified", far, 64, 1500, 1600, 50);
   EXPECT_THROW(identify({{no_contact, "free.csv"}}, knowing(far)), input_error);
   record unknown_clearance = no_contact;

@@ -35,7 +35,7 @@ std::vector<loop_dwell> rig_dwells(const rig_request& req) {
 std::vector<loop_dwell> shaft_synchronous_dwells(const rig_request& req) {
   std::vector<loop_dwell> dwells;
   for (auto& d : split_dwells(run_rig(req).measurement, "rig")) {
-    d.clearance = req.params.delta;
+    d.clearance = req.params.clearance;
     dwells.push_back({std::move(d), "rig"});
   }
   return dwells;
@@ -43,7 +43,7 @@ std::vector<loop_dwell> shaft_synchronous_dwells(const rig_request& req) {
 
 rig_request below_the_rub() {
   rig_request req;
-  req.params.delta = 1.0;  // m: never reached
+  req.params.clearance = 1.0;  // m: never reached
   req.speeds_rpm = {1200, 1300, 1400, 1700};
   req.record_revs = 16;
   return req;
@@ -178,7 +178,7 @@ std::vector<loop_dwell> truth_timed_dwells(const rig_request& req) {
     const double t0 = d.data.t.front();
     for (double& t : d.data.t) t -= t0;
     d.timing_sigma = std::numeric_limits<double>::infinity();
-    d.data.clearance = req.params.delta;
+    d.data.clearance = req.params.clearance;
   }
   return dwells;
 }

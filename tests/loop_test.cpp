@@ -35,7 +35,7 @@ namespace {
 rig_request from_elsewhere(std::vector<double> speeds, double clearance, unsigned seed) {
   rig_request req;
   req.speeds_rpm = std::move(speeds);
-  req.params.delta = clearance;
+  req.params.clearance = clearance;
   req.record_revs = 10;
   req.settle_revs = 60;
   req.carry_over = true;
@@ -54,7 +54,7 @@ std::vector<rig_request> rub_and_free(double clearance, std::vector<double> rub,
   for (int i = 0; i < 2; ++i) {
     rig_request& req = out[static_cast<std::size_t>(i)];
     req.speeds_rpm = i == 0 ? rub : free;
-    req.params.delta = i == 0 ? clearance : 0.01;
+    req.params.clearance = i == 0 ? clearance : 0.01;
     req.probes.seed = seed + static_cast<unsigned>(i);
     req.record_revs = revs;
     req.settle_revs = 80;

@@ -58,7 +58,7 @@ void expect_error_with_state(const std::function<void()>& run_it, const std::str
 TEST(numerical_faults, a_runaway_state_is_an_error_not_an_orbit) {
   parameters p;
   p.c_x = p.c_y = -1e5;
-  p.delta = 1e6;  // no contact: the runaway alone
+  p.clearance = 1e6;  // no contact: the runaway alone
   const rotor_system<identified> model(p, rpm_to_rad_s(1600.0));
   integration_options opt;
   opt.stepper.kind = stepper_kind::dopri5;
@@ -81,7 +81,7 @@ TEST(numerical_faults, a_runaway_state_is_an_error_not_an_orbit) {
 TEST(numerical_faults, a_runaway_is_refused_inside_the_integrator_on_every_path) {
   constexpr double kLoweredGuard = 5e-5;  // m, below the orbit's amplitude, above its first step
   parameters p;
-  p.delta = 1.0;  // no contact: the free orbit alone crosses the guard
+  p.clearance = 1.0;  // no contact: the free orbit alone crosses the guard
   const rotor_system<identified> model(p, rpm_to_rad_s(1600.0));
   const auto expect_runaway = [](const std::function<void()>& f, const char* path) {
     SCOPED_TRACE(path);

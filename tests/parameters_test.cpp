@@ -25,7 +25,7 @@ TEST(parameters, defaults_are_the_papers) {
   EXPECT_EQ(p.c_y, 14.727);
   EXPECT_EQ(p.k_x, 38.521e3);
   EXPECT_EQ(p.k_y, 41.017e3);
-  EXPECT_EQ(p.delta, 0.3e-3);
+  EXPECT_EQ(p.clearance, 0.3e-3);
   EXPECT_EQ(p.mu, 0.24);
   EXPECT_EQ(p.r, 0.86);
   EXPECT_EQ(p.k1, 3.946e6);
@@ -48,9 +48,10 @@ TEST(parameters, every_bad_value_is_named) {
   const double inf = std::numeric_limits<double>::infinity();
   for (const auto& info : parameter_table) {
     std::vector<double> bad{nan, inf, -inf};
-    if (info.rule != constraint::finite) bad.push_back(-1.0);
-    if (info.rule == constraint::positive) bad.push_back(0.0);
-    if (info.rule == constraint::unit_interval) bad.push_back(1.5);
+    const valid_range& range = info.row->range;
+    if (std::isfinite(range.lo)) bad.push_back(range.lo - 1.0);
+    if (std::isfinite(range.lo) && range.lo_open) bad.push_back(range.lo);
+    if (std::isfinite(range.hi)) bad.push_back(range.hi + 0.5);
     for (const double v : bad) {
       parameters p;
       p.*info.member = v;
@@ -75,7 +76,7 @@ TEST(parameters, boundary_values_that_are_physical_pass) {
 TEST(parameters, json_round_trip_and_errors) {
   parameters p;
   p.k1 = 1e7;
-  p.delta = 2e-4;
+  p.clearance = 2e-4;
   parameters q;
   apply_json(q, nlohmann::json::parse(to_json(p).dump()), "p.json");
   EXPECT_EQ(q, p);
@@ -87,7 +88,7 @@ TEST(parameters, json_round_trip_and_errors) {
     apply_parameter_text(q, "{\n  \"m_kg\": 1.52,\n  \"mu\": -0.1\n}\n", "p.json");
     ADD_FAILURE() << "mu = -0.1 accepted";
   } catch (const input_error& e) {
-    EXPECT_EQ(std::string(e.what()), "p.json:3: parameter mu must be finite and >= 0 (got -0.10000000000000001)");
+    EXPECT_EQ(std::string(e.what()), "p.json:3: parameter mu must be finite and >= 0 (got -0.10000000000000001): friction opposes the sliding");
   }
 }
 
@@ -102,12 +103,12 @@ TEST(run_request, bad_settings_are_rejected_before_integration) {
       EXPECT_NE(std::string(e.what()).find(what), std::string::npos) << e.what();
     }
   };
-  rejects([](run_request& r) { r.rpm = 0.0; }, "speed rpm");
-  rejects([](run_request& r) { r.rpm = std::nan(""); }, "speed rpm");
-  rejects([](run_request& r) { r.rpm = 1e9; }, "speed rpm");
+  rejects([](run_request& r) { r.rpm = 0.0; }, "`rpm` must be");
+  rejects([](run_request& r) { r.rpm = std::nan(""); }, "`rpm` must be");
+  rejects([](run_request& r) { r.rpm = 1e9; }, "`rpm` must be");
   rejects([](run_request& r) { r.variant = "hertz"; }, "unknown variant 'hertz'");
   rejects([](run_request& r) { r.record_revs = 0; }, "revs");
-  rejects([](run_request& r) { r.samples_per_rev = 2; }, "samples-per-rev");
+  rejects([](run_request& r) { r.samples_per_rev = 2; }, "`samples_per_rev`");
   rejects([](run_request& r) { r.integration.stepper.rtol = -1.0; }, "rtol");
   rejects([](run_request& r) { r.integration.stepper.atol = 0.0; }, "atol");
   rejects([](run_request& r) { r.params.m = -1.52; }, "m_kg");

@@ -107,7 +107,7 @@ TYPED_TEST(rig_without_effects, evaluates_the_papers_equations_to_the_bit) {
 // the unbalance's (ref/model/closed_form.hpp).
 TEST(rig_truth, bow_and_misalignment_have_closed_form_responses) {
   parameters p;
-  p.delta = kNoContactClearance;
+  p.clearance = kNoContactClearance;
   p.e = 0.0;
   effect_parameters fx;
   fx.bow = 5e-5;
@@ -139,7 +139,7 @@ TEST(rig_truth, bow_and_misalignment_have_closed_form_responses) {
 // must stay below ~c w_n = 2400 N/m for the rotor to settle at all: 1.5e3 N/m decays at ~2/s.)
 TEST(rig_truth, preload_and_cross_coupling_give_the_static_deflection) {
   parameters p;
-  p.delta = kNoContactClearance;
+  p.clearance = kNoContactClearance;
   p.e = 0.0;
   effect_parameters fx;
   fx.preload_x = 2.0;
@@ -167,12 +167,12 @@ TEST(rig_truth, contact_angle_turns_the_contact_normal) {
   ASSERT_FALSE(tr.events.empty());
   const double nx = std::sin(0.3), ny = std::cos(0.3);
   constexpr double kLocated = 1e-12;  // m: events are located to |z| <= 1e-12 m (docs/model.md)
-  for (const auto& e : tr.events) EXPECT_NEAR(nx * e.state[idx::x] + ny * e.state[idx::y], p.delta, kLocated);
+  for (const auto& e : tr.events) EXPECT_NEAR(nx * e.state[idx::x] + ny * e.state[idx::y], p.clearance, kLocated);
   // The law along the normal: z = 10 um inside, moving in at 0.05 m/s.
   const double z = 1e-5, zd = 0.05;
   rig_state s{};
-  s[idx::x] = nx * (p.delta + z);
-  s[idx::y] = ny * (p.delta + z);
+  s[idx::x] = nx * (p.clearance + z);
+  s[idx::y] = ny * (p.clearance + z);
   s[idx::vx] = nx * zd;
   s[idx::vy] = ny * zd;
   EXPECT_NEAR(model.with_phase(contact_phase::contact).contact_force(s), identified::from(p).normal_force(z, zd), 1e-9);
@@ -191,7 +191,7 @@ TEST(rig_truth, contact_effects_add_their_forces) {
   const double omega = rpm_to_rad_s(1600.0);
   const rotor_with_effects<identified> model(p, fx, omega, {}, contact_phase::contact);
   const double z = 1e-5, zd = -0.03, vx = -0.1;
-  const rig_state s{vx * 0.0, p.delta + z, vx, zd, 0.0, 0.0};
+  const rig_state s{vx * 0.0, p.clearance + z, vx, zd, 0.0, 0.0};
   const double want = identified::from(p).normal_force(z, zd) + fx.hertz_k * std::pow(z, 1.5) + fx.hc_lambda * std::pow(z, 1.5) * zd;
   EXPECT_NEAR(model.contact_force(s), want, 1e-12 * std::abs(want));
   const double slip = fx.shaft_radius * omega - vx;  // the top moves to -x at R w; the rotor at vx
@@ -295,7 +295,7 @@ TEST(rig_output, states_clearance_and_rate_but_not_the_effects) {
   rig_request req = quiet_rig();
   apply_effect(req.effects, "hertz_contact:k_h=1e9");
   const rig_output o = run_rig(req);
-  EXPECT_EQ(o.measurement.number("clearance_m"), req.params.delta);
+  EXPECT_EQ(o.measurement.number("clearance_m"), req.params.clearance);
   EXPECT_EQ(o.measurement.number("sample_rate_hz"), 1e4);
   for (const auto& [key, value] : o.measurement.metadata) {
     EXPECT_EQ(key.find("hertz"), std::string::npos) << key;
@@ -310,7 +310,7 @@ TEST(rig_output, states_clearance_and_rate_but_not_the_effects) {
 // three metadata lines rubref reads, and dwells that settle from the previous one (a run-up).
 TEST(rig_output, writes_records_as_from_elsewhere) {
   rig_request req = quiet_rig();
-  req.params.delta = 0.01;  // no contact: one attractor, so run-up and from-rest orbits agree
+  req.params.clearance = 0.01;  // no contact: one attractor, so run-up and from-rest orbits agree
   req.speeds_rpm = {1200.0, 1500.0, 1650.0};
   req.settle_revs = 60;
   const rig_output from_rest = run_rig(req);
@@ -365,7 +365,7 @@ TEST(rig_input, bad_settings_are_named) {
   };
   rejects([](rig_request& r) { r.variant = "restitution"; }, "impact map");
   rejects([](rig_request& r) { r.speeds_rpm = {}; }, "at least one speed");
-  rejects([](rig_request& r) { r.probes.noise = -1.0; }, "probe noise");
+  rejects([](rig_request& r) { r.probes.noise = -1.0; }, "`noise` must be finite and >= 0");
   rejects([](rig_request& r) { r.effects.hertz_k = -1.0; }, "hertz_contact");
   rejects([](rig_request& r) { r.params.m = 0.0; }, "m_kg");
   rejects([](rig_request& r) { r.probes.keyphasor = false; }, "shaft-synchronous");

@@ -57,7 +57,7 @@ shooting_settings careful() {
 template <class Law>
 rotor_system<Law> paper_rotor(double rpm, double clearance = 0.3e-3) {
   parameters p;
-  p.delta = clearance;
+  p.clearance = clearance;
   return rotor_system<Law>(p, rpm_to_rad_s(rpm));
 }
 
@@ -94,7 +94,7 @@ TYPED_TEST(monodromy, matches_finite_differences_of_the_map) {
 // the two damped modes: lambda = -c/2m +- i sqrt(k/m - (c/2m)^2).
 TEST(shooting, linear_rotor_in_closed_form) {
   parameters p;
-  p.delta = 1.0;
+  p.clearance = 1.0;
   const double omega = rpm_to_rad_s(1500.0);
   const rotor_system<identified> sys(p, omega);
   const auto orbit = shoot_periodic_orbit(sys, state_type{}, 0.0, 1, careful());

@@ -92,10 +92,10 @@ struct single_impact<restitution> {
     const linear_oscillator fy{p.m, p.c_y, p.k_y, 0.0, 0.0, 0.0, kThrowSpeed};
     const linear_oscillator fx{p.m, p.c_x, p.k_x, 0.0, 0.0, 0.0, 0.02};  // no tangential force
     impact_answer a{};
-    a.t_in = a.t_out = first_crossing([&](double t) { return fy.y(t) - p.delta; }, 0.0, fy.period() / 2);
+    a.t_in = a.t_out = first_crossing([&](double t) { return fy.y(t) - p.clearance; }, 0.0, fy.period() / 2);
     a.v_in = fy.v(a.t_in);
     a.v_out = -p.r * a.v_in;  // Eq. 6
-    const linear_oscillator after{p.m, p.c_y, p.k_y, 0.0, a.t_in, p.delta, a.v_out};
+    const linear_oscillator after{p.m, p.c_y, p.k_y, 0.0, a.t_in, p.clearance, a.v_out};
     a.t_end = a.t_in + after.period() / 4;
     a.end = {fx.y(a.t_end), after.y(a.t_end), fx.v(a.t_end), after.v(a.t_end)};
     return a;
@@ -109,15 +109,15 @@ struct single_impact<piecewise_linear> {
   static impact_answer answer(const parameters& p) {
     const linear_oscillator free_in{p.m, p.c_y, p.k_y, 0.0, 0.0, 0.0, kThrowSpeed};
     impact_answer a{};
-    a.t_in = first_crossing([&](double t) { return free_in.y(t) - p.delta; }, 0.0, free_in.period() / 2);
+    a.t_in = first_crossing([&](double t) { return free_in.y(t) - p.clearance; }, 0.0, free_in.period() / 2);
     a.v_in = free_in.v(a.t_in);
     // In contact: m y'' + c_y y' + (k_y + k1) y = k1 delta.
-    const linear_oscillator contact{p.m, p.c_y, p.k_y + p.k1, p.k1 * p.delta, a.t_in, p.delta, a.v_in};
-    a.t_out = first_crossing([&](double t) { return contact.y(t) - p.delta; }, a.t_in, a.t_in + contact.period());
+    const linear_oscillator contact{p.m, p.c_y, p.k_y + p.k1, p.k1 * p.clearance, a.t_in, p.clearance, a.v_in};
+    a.t_out = first_crossing([&](double t) { return contact.y(t) - p.clearance; }, a.t_in, a.t_in + contact.period());
     a.v_out = contact.v(a.t_out);
     const double t_peak = first_crossing([&](double t) { return contact.v(t); }, a.t_in, a.t_out);
-    a.z_max = contact.y(t_peak) - p.delta;
-    const linear_oscillator free_out{p.m, p.c_y, p.k_y, 0.0, a.t_out, p.delta, a.v_out};
+    a.z_max = contact.y(t_peak) - p.clearance;
+    const linear_oscillator free_out{p.m, p.c_y, p.k_y, 0.0, a.t_out, p.clearance, a.v_out};
     a.t_end = a.t_out + free_out.period() / 4;
 
     // x is driven only by friction mu k1 z(t) during contact: integrated here by odeint with the
@@ -131,7 +131,7 @@ struct single_impact<piecewise_linear> {
         std::ref(stepper),
         [&](const std::array<double, 2>& s, std::array<double, 2>& ds, double t) {
           ds[0] = s[1];
-          ds[1] = (p.mu * p.k1 * (contact.y(t) - p.delta) - p.c_x * s[1] - p.k_x * s[0]) / p.m;
+          ds[1] = (p.mu * p.k1 * (contact.y(t) - p.clearance) - p.c_x * s[1] - p.k_x * s[0]) / p.m;
         },
         x, a.t_in, a.t_out, 1e-6);
     const linear_oscillator free_x{p.m, p.c_x, p.k_x, 0.0, a.t_out, x[0], x[1]};
@@ -176,10 +176,10 @@ template <class Law>
 impact_answer energy_answer(const parameters& p, double c2) {
   const double wy = std::sqrt(p.k_y / p.m);
   impact_answer a{};
-  a.t_in = std::asin(p.delta * wy / kThrowSpeed) / wy;  // undamped free flight y = (v0/wy) sin(wy t)
-  a.v_in = std::sqrt(kThrowSpeed * kThrowSpeed - p.delta * p.delta * wy * wy);
+  a.t_in = std::asin(p.clearance * wy / kThrowSpeed) / wy;  // undamped free flight y = (v0/wy) sin(wy t)
+  a.v_in = std::sqrt(kThrowSpeed * kThrowSpeed - p.clearance * p.clearance * wy * wy);
   const Law law = Law::from(p);
-  const energy_method em{p.m, c2, [&p, law](double z) { return p.k_y * (p.delta + z) + law.normal_force(z, 0.0); }};
+  const energy_method em{p.m, c2, [&p, law](double z) { return p.k_y * (p.clearance + z) + law.normal_force(z, 0.0); }};
   a.z_max = em.z_max(a.v_in);
   a.t_out = a.t_in + em.duration(a.v_in);
   a.v_out = -a.v_in;  // w(z) is the same function in and out: the exit speed equals the entry speed
@@ -242,7 +242,7 @@ TYPED_TEST(single_impact_test, matches_independent_answer) {
     EXPECT_GT(tr.events[1].state[idx::vx], 0.0);
   }
   // Final state (x, y in m; velocities in m/s), relative to the throw's scale.
-  const double scale_pos = p.delta, scale_vel = kThrowSpeed;
+  const double scale_pos = p.clearance, scale_vel = kThrowSpeed;
   for (int i = 0; i < 4 && want.has_end; ++i) {
     const double scale = i < 2 ? scale_pos : scale_vel;
     EXPECT_LE(std::abs(tr.end.s[i] - want.end[i]) / scale, kRelTol) << "state component " << i;

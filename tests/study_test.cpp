@@ -90,10 +90,10 @@ TEST(StudyPoints, GridOrderAndExactEnds) {
       {"name": "speed_rpm", "values": [1500, 1600]}], "sample": {"count": 2, "seed": 3, "vary": [{"name": "mu", "uniform": [0.1, 0.2]}]}})",
                             "t.json");
   ASSERT_EQ(point_count(s), 12u);
-  EXPECT_EQ(point_at(s, 0).params.delta, 2e-4);
-  EXPECT_EQ(point_at(s, 11).params.delta, 4e-4);
+  EXPECT_EQ(point_at(s, 0).params.clearance, 2e-4);
+  EXPECT_EQ(point_at(s, 11).params.clearance, 4e-4);
   EXPECT_EQ(point_at(s, 2).rpm, 1600.0);  // index = (clearance * 2 + speed) * 2 + sample
-  EXPECT_EQ(point_at(s, 4).params.delta, point_at(s, 7).params.delta);
+  EXPECT_EQ(point_at(s, 4).params.clearance, point_at(s, 7).params.clearance);
   EXPECT_NE(point_at(s, 0).params.mu, point_at(s, 1).params.mu);  // each sample its own draw
   EXPECT_EQ(point_at(s, 5).params.mu, point_at(s, 5).params.mu);
 }
@@ -181,9 +181,9 @@ TEST(StudyJobs, RunUpOnsetIsWhereTheClosedFormTouches) {
       return std::abs(cf.y_phasor);  // the contact-free orbit's top: the amplitude of y
     };
     double lo = 1200.0, hi = 1520.0;  // below the vertical critical speed the top grows with speed
-    ASSERT_LT(top(lo), p.delta);
-    ASSERT_GT(top(hi), p.delta);
-    for (int k = 0; k < 60; ++k) (top(0.5 * (lo + hi)) < p.delta ? lo : hi) = 0.5 * (lo + hi);
+    ASSERT_LT(top(lo), p.clearance);
+    ASSERT_GT(top(hi), p.clearance);
+    for (int k = 0; k < 60; ++k) (top(0.5 * (lo + hi)) < p.clearance ? lo : hi) = 0.5 * (lo + hi);
     EXPECT_NEAR(std::stod(row[col(s, "onset_rpm")]), lo, 0.01);
     EXPECT_GT(std::stod(row[col(s, "jump_rpm")]), 2000.0);  // the rubbing branch folds far above (docs/orbits.md)
     EXPECT_GT(std::stod(row[col(s, "peak_force_N")]), 0.0);

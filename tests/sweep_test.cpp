@@ -52,7 +52,7 @@ TEST(sweep, bad_settings_are_rejected) {
 // continuation carries the state across speeds without disturbing the forcing phase.
 TEST(sweep, contact_free_points_are_the_closed_form) {
   auto s = short_sweep(1450, 1650, 10);
-  s.params.delta = 1.0;
+  s.params.clearance = 1.0;
   for (const auto d : {sweep_direction::up, sweep_direction::down}) {
     const auto b = run_branch(s, d);
     ASSERT_EQ(b.points.size(), 21u);
@@ -75,7 +75,7 @@ TEST(sweep, contact_free_points_are_the_closed_form) {
 // while it clears the stator, and must jump onto the rubbing branch once it no longer does.
 TEST(sweep, coexisting_responses_give_a_band_and_its_jump) {
   auto s = short_sweep(1690, 1760, 10);
-  s.params.delta = 0.4e-3;
+  s.params.clearance = 0.4e-3;
   s.first_settle_revs = 300;
   const auto branches = run_branches({{s, sweep_direction::up}, {s, sweep_direction::down}}, 2);
   const auto& up = branches[0];
@@ -90,7 +90,7 @@ TEST(sweep, coexisting_responses_give_a_band_and_its_jump) {
   for (const auto& p : down.points) {
     if (p.rpm < rep.bands[0].from_rpm) continue;
     EXPECT_EQ(p.summary.regime, contact_regime::no_contact) << p.rpm;
-    EXPECT_LT(std::abs(unbalance_response(s.params, rpm_to_rad_s(p.rpm)).y_phasor), s.params.delta) << p.rpm;
+    EXPECT_LT(std::abs(unbalance_response(s.params, rpm_to_rad_s(p.rpm)).y_phasor), s.params.clearance) << p.rpm;
   }
   // The run-down jumps up onto the rubbing branch just below the band.
   ASSERT_EQ(rep.jumps.size(), 1u);
@@ -106,7 +106,7 @@ TEST(sweep, coexisting_responses_give_a_band_and_its_jump) {
 // (kSettledRelTol) plus what an irregular orbit varies by itself (its radius_spread, both sweeps).
 TEST(sweep, starting_from_the_continued_orbit_reaches_the_settled_responses) {
   auto s = short_sweep(1400, 1800, 20);  // through the non-periodic band (1420-1495) and the jump
-  s.params.delta = 0.3e-3;
+  s.params.clearance = 0.3e-3;
   auto shot = s;
   shot.start_from_orbit = true;
   const auto b = run_branches({{s, sweep_direction::up}, {s, sweep_direction::down}, {shot, sweep_direction::up}, {shot, sweep_direction::down}}, 2);
@@ -139,7 +139,7 @@ orbit with_period(double n, double share, double noise = 0.0) {
   o.request.rpm = 1500.0;
   o.request.samples_per_rev = 64;
   o.request.record_revs = 12;
-  o.request.params.delta = 1.0;
+  o.request.params.clearance = 1.0;
   for (int i = 0; i < 12 * 64; ++i) {
     const double th = 2.0 * std::numbers::pi * i / 64.0;
     const double wiggle = noise * std::sin(1e3 * i * i);  // deterministic, irregular
@@ -221,7 +221,7 @@ TEST(sweep, same_bits_whatever_the_thread_count) {
   std::vector<branch_task> tasks;
   for (const double delta : {0.2e-3, 0.3e-3})
     for (const auto d : {sweep_direction::up, sweep_direction::down}) {
-      s.params.delta = delta;
+      s.params.clearance = delta;
       tasks.push_back({s, d});
     }
   const auto one = run_branches(tasks, 1);

@@ -236,7 +236,7 @@ TEST(TrackingLoop, CrossCouplingIsNamed) {
 TEST(TrackingLoop, ARigRunUpOrderTrackedAndWrittenInMilsIsFittedToItsTruth) {
   rig_request req = rig_run_up();
   req.params = anisotropic_rotor();
-  req.params.delta = 5e-3;  // far from the stator: no contact
+  req.params.clearance = 5e-3;  // far from the stator: no contact
   for (double rpm = 1000.0; rpm <= 2200.0; rpm += 25.0) req.speeds_rpm.push_back(rpm);
   req.effects.bow = 30e-6, req.effects.bow_phase = -0.7;
   req.effects.runout_1x = 2e-6, req.effects.runout_1x_phase = 0.5;
@@ -270,7 +270,7 @@ TEST(TrackingLoop, ARigRunUpOrderTrackedAndWrittenInMilsIsFittedToItsTruth) {
 TEST(TrackingLoop, AMisalignmentIsNamedFromTheTwoXColumnsOfARigRunUp) {
   rig_request req = rig_run_up();
   req.params = anisotropic_rotor();
-  req.params.delta = 5e-3;  // no contact
+  req.params.clearance = 5e-3;  // no contact
   for (double rpm = 600.0; rpm <= 2000.0; rpm += 25.0) req.speeds_rpm.push_back(rpm);
   req.effects.misalignment_force = 0.5, req.effects.misalignment_phase = 0.8;
   req.effects.runout_2x = 1e-6, req.effects.runout_2x_phase = -1.0;
@@ -293,7 +293,7 @@ rig_request rub_run_up(double step_rpm) {
   rig_request req = rig_run_up();
   req.variant = "piecewise-linear";
   req.params = anisotropic_rotor();
-  req.params.delta = 50e-6;
+  req.params.clearance = 50e-6;
   for (double rpm = 1000.0; rpm <= 2200.0; rpm += step_rpm) req.speeds_rpm.push_back(rpm);
   req.carry_over = true;
   return req;

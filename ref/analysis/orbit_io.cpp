@@ -69,7 +69,7 @@ nlohmann::ordered_json to_json(const orbit_summary& s, const orbit& o) {
   j["generator"] = "rubref " + std::string(version());
   j["variant"] = o.request.variant;
   j["speed_rpm"] = o.request.rpm;
-  j["clearance_m"] = o.request.params.delta;
+  j["clearance_m"] = o.request.params.clearance;
   j["record_revs"] = o.request.record_revs;
   j["peak_to_peak_x_m"] = s.peak_to_peak_x;
   j["peak_to_peak_y_m"] = s.peak_to_peak_y;

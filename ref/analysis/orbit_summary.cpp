@@ -19,7 +19,7 @@ std::string_view to_string(contact_regime r) {
 orbit_summary summarize(const orbit& o) {
   orbit_summary out;
   if (o.samples.empty()) return out;
-  const double delta = o.request.params.delta;
+  const double delta = o.request.params.clearance;
   double x_lo = o.samples.front().s[idx::x], x_hi = x_lo;
   double y_lo = o.samples.front().s[idx::y], y_hi = y_lo;
   std::size_t in_contact = 0;

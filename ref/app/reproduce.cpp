@@ -71,7 +71,7 @@ std::string rpm_label(double rpm) { return format_fixed(rpm, 0) + "rpm"; }
 sweep_settings paper_sweep(const std::string& variant, double delta, double from_rpm, double to_rpm) {
   sweep_settings s;
   s.variant = variant;
-  s.params.delta = delta;
+  s.params.clearance = delta;
   s.from_rpm = from_rpm;
   s.to_rpm = to_rpm;
   s.step_rpm = kSweepStepRpm;
@@ -184,7 +184,7 @@ struct traced_branch {
 traced_branch trace_branch(double delta, const speed_ranges& touching) {
   const double lo = touching.front().first, hi = touching.back().second, width = hi - lo;
   traced_branch t;
-  t.request.params.delta = delta;
+  t.request.params.clearance = delta;
   t.request.from = std::floor((lo - kContinuationLowShare * width) / kRangeRoundRpm) * kRangeRoundRpm;
   double to = std::ceil((hi + kContinuationHighWidths * width) / kRangeRoundRpm) * kRangeRoundRpm;
   for (int attempt = 0;; ++attempt) {
@@ -304,7 +304,7 @@ void reproduce(const reproduce_settings& s) {
 
   const auto branch_of = [&](const std::string& variant, double delta, sweep_direction d) -> const sweep_branch& {
     for (std::size_t i = 0; i < tasks.size(); ++i)
-      if (tasks[i].settings.variant == variant && tasks[i].settings.params.delta == delta && tasks[i].direction == d &&
+      if (tasks[i].settings.variant == variant && tasks[i].settings.params.clearance == delta && tasks[i].direction == d &&
           tasks[i].settings.samples_per_rev == grid_settings.samples_per_rev && tasks[i].settings.params.mu == paper.mu)
         return branches[i];
     throw numerical_error("reproduce: missing branch");
@@ -383,7 +383,7 @@ void reproduce(const reproduce_settings& s) {
     std::vector<orbit> free_orbits(numbers["fig03"].size());
     parallel_for(free_orbits.size(), s.threads, [&](std::size_t i) {
       run_request req;
-      req.params.delta = kNoContactClearance;
+      req.params.clearance = kNoContactClearance;
       req.rpm = numbers["fig03"][i]["rpm"].get<double>();
       req.record_revs = 2;
       req.samples_per_rev = 256;

@@ -118,7 +118,7 @@ mpi_outcome run_study_mpi(const std::filesystem::path& dir, const spec& s, unsig
       for (std::size_t i = 0; i < point_count(s); ++i)
         if (written.find(i) == written.end()) todo.push_back(i);
       result.outcome.already = point_count(s) - todo.size();
-      require(todo.size() < (std::size_t{1} << 31), "an MPI study computes at most 2^31 points per run; split it with --shard");
+      require(todo.size() < (std::size_t{1} << 31), "an MPI study computes at most 2^31 points per run; split it with " + setting("shard"));
       log = std::make_unique<journal>(dir, s, shard{});
     } catch (const input_error& e) {
       status = 2;

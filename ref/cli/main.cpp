@@ -4,8 +4,12 @@
 // fails its case.
 
 #include <CLI/CLI.hpp>
+#include <algorithm>
 #include <functional>
 #include <iostream>
+#include <string_view>
+#include <utility>
+#include <vector>
 
 #include "ref/app/python_script.hpp"
 #include "ref/app/study_mpi.hpp"
@@ -26,7 +30,6 @@ int main(int argc, char** argv) {
     std::cerr << "rubref: error: " << e.what() << "\n";
     return 2;
   }
-  install_interrupt_cleanup();  // before any thread starts (ref/base/interrupt.hpp)
   CLI::App app{"rubref " + std::string(version()) +
                    ": numerical reference for partial rotor-stator rub (anisotropic Jeffcott rotor, Eq. 1-6)",
                "rubref"};
@@ -42,23 +45,46 @@ int main(int argc, char** argv) {
     return "rubref " + std::string(version()) + " (" + std::string(commit()) + ")\nplot scripts: " + scripts;
   }));
 
-  cli::add_reproduce(app);
-  cli::add_simulate(app);
-  cli::add_orbit(app);
-  cli::add_continuation(app);
-  cli::add_sweep(app);
-  cli::add_identify(app);
-  cli::add_rig(app);
-  cli::add_loop(app);
-  cli::add_study(app);
+  // Every command and what adds it (rig adds `effects` too, study `study-merge`). A command line
+  // that names one builds only that one: CLI11 builds options eagerly, and all of them cost about
+  // a millisecond of start (docs/performance.md, "Process start"). Anything else (help, --version,
+  // a mistyped command, which the suggestion needs every name for) builds them all.
   int exit_status = 0;
-  cli::add_validate(app, exit_status);
-  app.add_subcommand("params", "print the paper's default parameters as a JSON parameter file")->callback([] {
-    std::cout << to_json(parameters{}).dump(2) << "\n";
-  });
-  app.add_subcommand("variants", "list the contact laws")->callback([] {
-    for_each_variant([](auto law) { std::cout << decltype(law)::name << ": " << decltype(law)::equation << "\n"; });
-  });
+  const std::vector<std::pair<std::vector<std::string_view>, std::function<void()>>> commands{
+      {{"reproduce"}, [&] { cli::add_reproduce(app); }},
+      {{"simulate"}, [&] { cli::add_simulate(app); }},
+      {{"orbit"}, [&] { cli::add_orbit(app); }},
+      {{"continuation"}, [&] { cli::add_continuation(app); }},
+      {{"sweep"}, [&] { cli::add_sweep(app); }},
+      {{"identify"}, [&] { cli::add_identify(app); }},
+      {{"rig", "effects"}, [&] { cli::add_rig(app); }},
+      {{"loop"}, [&] { cli::add_loop(app); }},
+      {{"study", "study-merge"}, [&] { cli::add_study(app); }},
+      {{"validate"}, [&] { cli::add_validate(app, exit_status); }},
+      {{"params"},
+       [&] {
+         app.add_subcommand("params", "print the paper's default parameters as a JSON parameter file")->callback([] {
+           std::cout << to_json(parameters{}).dump(2) << "\n";
+         });
+       }},
+      {{"variants"},
+       [&] {
+         app.add_subcommand("variants", "list the contact laws")->callback([] {
+           for_each_variant([](auto law) { std::cout << decltype(law)::name << ": " << decltype(law)::equation << "\n"; });
+         });
+       }},
+  };
+  const auto named = [&](const std::vector<std::string_view>& names) {
+    return argc > 1 && std::find(names.begin(), names.end(), std::string_view(argv[1])) != names.end();
+  };
+  const auto chosen = std::find_if(commands.begin(), commands.end(), [&](const auto& c) { return named(c.first); });
+  if (chosen != commands.end())
+    chosen->second();
+  else if (!(argc == 2 && std::string_view(argv[1]) == "--version"))
+    for (const auto& c : commands) c.second();
+  // Ctrl-C removes a command's partial outputs (ref/base/interrupt.hpp; before any thread starts).
+  // Help, the version, params and variants write none, and start faster without its thread.
+  if (chosen != commands.end() && !named({"params", "variants"})) install_interrupt_cleanup();
 
   if (argc == 1) {  // bare `rubref`: what it can do
     std::cout << app.help();

@@ -15,10 +15,11 @@
 namespace rubref::cli {
 
 std::string with_flags(std::string_view message) {
-  // The fields whose flag is not their name with dashes.
-  static const std::array<std::pair<std::string_view, std::string_view>, 4> renamed{
-      {{"from_rpm", "--from"}, {"to_rpm", "--to"}, {"step_rpm", "--step"}, {"record_revs", "--revs"}}};
+  // A numeric setting's flag is the registry's (ref/model/settings.hpp); of the others, those
+  // whose flag is not their name with dashes.
+  static const std::array<std::pair<std::string_view, std::string_view>, 2> renamed{{{"probe_angles", "--probe-angle"}, {"effects", "--effect"}}};
   return spell_settings(message, [](std::string_view field) {
+    if (const setting_info* row = setting_with_name(field)) return "--" + std::string(row->flag);
     for (const auto& [name, flag] : renamed)
       if (name == field) return std::string(flag);
     std::string flag = "--" + std::string(field);
@@ -44,7 +45,7 @@ void parameter_options::add_to(CLI::App& app) {
     values_[i] = defaults.*info.member;
     options_[i] = app.add_option("--" + std::string(info.flag), values_[i],
                                  std::string(info.description) + " [" + std::string(info.unit) + "], " +
-                                     std::string(describe(info.rule)))
+                                     describe(info.row->range))
                       ->capture_default_str()
                       ->group("Model parameters (SI units; paper defaults)");
   }
@@ -57,7 +58,7 @@ parameters parameter_options::resolve() const {
     if (options_[i]->count() > 0) p.*parameter_table[i].member = values_[i];
   // Lengths are in metres: a clearance or unbalance of centimetres or more is no rotor kit's and
   // most likely millimetres typed as metres. It still runs (a large clearance means no contact).
-  for (const auto& [value, key] : {std::pair{p.delta, "clearance_m"}, std::pair{p.e, "e_m"}})
+  for (const auto& [value, key] : {std::pair{p.clearance, "clearance_m"}, std::pair{p.e, "e_m"}})
     if (value >= kImplausibleLength)
       std::cerr << "warning: " << key << " = " << value << " m is larger than any rotor kit's; if millimetres were meant, " << value
                 << " mm is " << value * 1e-3 << " m\n";
@@ -67,15 +68,17 @@ parameters parameter_options::resolve() const {
 void integration_cli::add_to(CLI::App& app) {
   const char* group = "Integration";
   app.add_option("--stepper", stepper_, "rk4 (fixed dt), dopri5, rkf78, bulirsch-stoer")->capture_default_str()->group(group);
-  app.add_option("--rtol", opt_.stepper.rtol, "relative tolerance of adaptive steppers [-]")->capture_default_str()->group(group);
-  app.add_option("--atol", opt_.stepper.atol, "absolute tolerance of adaptive steppers [m, m/s]")->capture_default_str()->group(group);
-  app.add_option("--dt", opt_.stepper.dt, "rk4 step [s]; 0: period/1024")->capture_default_str()->group(group);
-  app.add_option("--max-dt", opt_.stepper.max_dt, "largest adaptive step [s]; 0: period/16")->capture_default_str()->group(group);
-  app.add_option("--event-tol", opt_.events.time_tolerance, "event location bracket [s]")->capture_default_str()->group(group);
-  app.add_option("--stick-time", opt_.events.stick_time,
-                 "restitution: chatter ends in sticking when its remaining impacts fit in this time [rev]")
-      ->capture_default_str()
-      ->group(group);
+  // Flag, help and unit from the registry (ref/model/settings.hpp): the command line only spells them.
+  const auto add = [&](double& value, setting_key key) {
+    const setting_info& s = *key.row;
+    app.add_option("--" + std::string(s.flag), value, std::string(s.description) + " [" + std::string(s.unit) + "]")->capture_default_str()->group(group);
+  };
+  add(opt_.stepper.rtol, {"integration", "rtol"});
+  add(opt_.stepper.atol, {"integration", "atol"});
+  add(opt_.stepper.dt, {"integration", "dt"});
+  add(opt_.stepper.max_dt, {"integration", "max_dt"});
+  add(opt_.events.time_tolerance, {"integration", "event_tol"});
+  add(opt_.events.stick_time, {"integration", "stick_time"});
 }
 
 integration_options integration_cli::resolve() const {
@@ -104,14 +107,16 @@ std::string suggestion(CLI::App& app, const CLI::ParseError& e) {
     for (std::string w; rest >> w;) words.push_back(w);
   }
   if (words.empty()) return {};
+  const auto active = app.get_subcommands();
+  // With no command recognised, the mistyped command is the first word that is not an option
+  // (`rubref simluate --out a.csv`); else the first option is the mistyped one.
   std::string word = words.front();
   for (const auto& w : words)
-    if (w.rfind("-", 0) == 0) {
+    if (active.empty() ? w.rfind("-", 0) != 0 : w.rfind("-", 0) == 0) {
       word = w.substr(0, w.find('='));
       break;
     }
   std::vector<std::string> names;
-  const auto active = app.get_subcommands();
   if (active.empty() || word.rfind("-", 0) != 0) {
     for (const CLI::App* sub : app.get_subcommands({})) names.push_back(sub->get_name());
   } else {

@@ -196,11 +196,11 @@ order_table parse_order_table(std::string_view text, std::string_view source, co
 
   // Conventions every order needs.
   if (amplitude_kind.value.empty())
-    fail("the amplitude convention is not declared: give it (--amplitude 0-peak|pk-pk|rms, or '# amplitude: ...' in the file)");
+    fail("the amplitude convention is not declared: give it (" + setting("amplitude") + " 0-peak|pk-pk|rms, or '# amplitude: ...' in the file)");
   const auto kind_factor = to_zero_peak(amplitude_kind.value);
   if (!kind_factor) fail("unknown amplitude convention '" + amplitude_kind.value + "' (0-peak, pk-pk, rms)");
   if (phase_sense.value.empty())
-    fail("the phase convention is not declared: give it (--phase lead if the signal is A cos(k theta + phi), lag if A cos(k theta - phi), theta the shaft "
+    fail("the phase convention is not declared: give it (" + setting("phase") + " lead if the signal is A cos(k theta + phi), lag if A cos(k theta - phi), theta the shaft "
          "angle after the keyphasor; or '# phase: ...' in the file)");
   const std::string sense = lower(phase_sense.value);
   if (sense != "lead" && sense != "lag") fail("unknown phase convention '" + phase_sense.value + "' (lead, lag)");
@@ -287,7 +287,7 @@ order_table parse_order_table(std::string_view text, std::string_view source, co
       }
     }
     if (amps.empty())
-      fail("column '" + unread.front() + "' has no unit: declare it (--amplitude-unit " + std::string(kAmplitudeUnitList) +
+      fail("column '" + unread.front() + "' has no unit: declare it (" + setting("amplitude_unit") + " " + std::string(kAmplitudeUnitList) +
            ", or '# amplitude_unit: ...' in the file)");
     for (const auto& u : unread)
       t.notes.push_back("column '" + u + "' not read: its unit is not declared, and '" + r.columns[amps.front().column] + "' gives the " + label + " amplitude");
@@ -295,7 +295,7 @@ order_table parse_order_table(std::string_view text, std::string_view source, co
       const amplitude_unit_info& u = *amplitude_unit(a.unit);
       const double v = r.data[a.column][row];
       if (u.metres > 0.0) return v * u.metres;
-      if (!scale) fail("column '" + r.columns[a.column] + "' is in volts: declare the probe sensitivity (--scale mV/um, or '# scale_mV_per_um: ...')");
+      if (!scale) fail("column '" + r.columns[a.column] + "' is in volts: declare the probe sensitivity (" + setting("scale") + " in mV/um, or '# scale_mV_per_um: ...')");
       return v * u.volts * 1e3 / *scale * 1e-6;
     };
     // The phase: its unit from the suffix, else the declared one.
@@ -304,7 +304,7 @@ order_table parse_order_table(std::string_view text, std::string_view source, co
     std::string phase_from = "column name";
     if (phase_unit.empty()) phase_unit = phase_unit_declared, phase_from = declared_phase_unit.where;
     if (phase_unit.empty())
-      fail("column '" + r.columns[phase_col] + "' has no unit: declare it (--phase-unit deg|rad, or '# phase_unit: ...' in the file)");
+      fail("column '" + r.columns[phase_col] + "' has no unit: declare it (" + setting("phase_unit") + " deg|rad, or '# phase_unit: ...' in the file)");
     if (phase_unit != "deg" && phase_unit != "rad") fail("column '" + r.columns[phase_col] + "': unknown phase unit '" + phase_unit + "' (deg, rad)");
     if (pc.phases.size() > 1) {
       std::string list;

@@ -257,7 +257,7 @@ struct law_context {
     p.k_x = id.linear.k_x;
     p.k_y = id.linear.k_y;
     p.e = id.linear.e;
-    p.delta = forces.front().source->clearance;
+    p.clearance = forces.front().source->clearance;
     return p;
   }
 };

@@ -100,7 +100,7 @@ class cycles_model {
     q.e = e_scale_ * std::hypot(a, b);
     q.unbalance_phase = std::atan2(b, a);
     const dwell& d = *cycles_[k].forces->source;
-    if (d.clearance > 0.0) q.delta = d.clearance;  // each record keeps its own clearance
+    if (d.clearance > 0.0) q.clearance = d.clearance;  // each record keeps its own clearance
     return q;
   }
 

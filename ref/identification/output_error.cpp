@@ -24,22 +24,23 @@ namespace {
 constexpr int kShootIterations = 12;
 constexpr std::size_t kMaxStepsPerRevolution = 100000;
 
+// The parameter a re-identification fits, named as in the registry (ref/model/settings.hpp):
+// the contact law's, the friction, the unbalance and the clearance (the rotor's are identified
+// by the linear step).
 double parameters::*member_named(const std::string& name) {
-  if (name == "k1") return &parameters::k1;
-  if (name == "k3") return &parameters::k3;
-  if (name == "c2") return &parameters::c2;
-  if (name == "mu") return &parameters::mu;
-  if (name == "e") return &parameters::e;
-  if (name == "delta") return &parameters::delta;
-  std::ostringstream msg;  // (not "literal" + string: GCC 12 raises a false -Wrestrict on it)
-  msg << "re-identification: unknown parameter '" << name << "' (k1, k3, c2, mu, e, delta)";
-  throw input_error(msg.str());
+  const std::vector<std::string> fittable{"k1", "k3", "c2", "mu", "e", "clearance"};
+  if (std::find(fittable.begin(), fittable.end(), name) == fittable.end()) {
+    std::ostringstream msg;  // (not "literal" + string: GCC 12 raises a false -Wrestrict on it)
+    msg << "re-identification: unknown parameter '" << name << "'" << did_you_mean(name, fittable) << " (k1, k3, c2, mu, e, clearance)";
+    throw input_error(msg.str());
+  }
+  return parameter_member(name);
 }
 
 class orbit_error {
  public:
-  orbit_error(const std::vector<dwell_forces>& dwells, double phase, int first, bool fit_delta)
-      : dwells_(dwells), phase_(phase), first_(first), fit_delta_(fit_delta) {
+  orbit_error(const std::vector<dwell_forces>& dwells, double phase, int first, bool fit_clearance)
+      : dwells_(dwells), phase_(phase), first_(first), fit_clearance_(fit_clearance) {
     for (const auto& d : dwells_) samples_ += d.source->size() - first_sample(*d.source);
   }
 
@@ -70,7 +71,7 @@ class orbit_error {
   Eigen::VectorXd dwell_residuals(const dwell_forces& f, const parameters& p, std::string& failure) const {
     const dwell& d = *f.source;
     parameters q = p;
-    if (!fit_delta_ && d.clearance > 0.0) q.delta = d.clearance;  // each record keeps its own clearance
+    if (!fit_clearance_ && d.clearance > 0.0) q.clearance = d.clearance;  // each record keeps its own clearance
     const double w = d.omega();
     const std::size_t i0 = first_sample(d), n = d.size() - i0;
     q.unbalance_phase = phase_;  // the fitted or given unbalance angle at t = 0
@@ -117,7 +118,7 @@ class orbit_error {
   const std::vector<dwell_forces>& dwells_;
   double phase_;
   int first_;
-  bool fit_delta_;
+  bool fit_clearance_;
   std::size_t samples_ = 0;
 };
 
@@ -138,12 +139,12 @@ reid_result reidentify(const std::vector<dwell_forces>& dwells, const parameters
     }
     scale.push_back(v);
   }
-  const bool fit_delta = std::find(s.fit.begin(), s.fit.end(), "delta") != s.fit.end();
-  if (fit_delta)
+  const bool fit_clearance = std::find(s.fit.begin(), s.fit.end(), "clearance") != s.fit.end();
+  if (fit_clearance)
     for (const auto& d : dwells)
       if (d.source->clearance > 0.0 && d.source->clearance != dwells.front().source->clearance)
-        throw input_error("re-identification of delta needs records of one clearance");
-  const orbit_error err(dwells, unbalance_phase, s.derivative_half_width, fit_delta);
+        throw input_error("re-identification of the clearance needs records of one clearance");
+  const orbit_error err(dwells, unbalance_phase, s.derivative_half_width, fit_clearance);
   const auto at = [&](const std::vector<double>& u) {
     parameters p = start;
     for (std::size_t i = 0; i < u.size(); ++i) p.*members[i] = u[i] * scale[i];

@@ -1,6 +1,6 @@
 #pragma once
 // Re-identification by output error (simulation error): the contact-law parameters of Eq. 5's
-// family (k1, k3, c2, mu; optionally e and delta) that make simulated orbits match the measured
+// family (k1, k3, c2, mu; optionally e and the clearance) that make simulated orbits match the measured
 // ones, found with NLopt (BOBYQA, after an optional DIRECT-L global stage).
 //
 // A raw dwell is simulated from its measured state (positions, and velocities from the
@@ -20,7 +20,7 @@
 namespace rubref {
 
 struct reid_settings {
-  std::vector<std::string> fit = {"k1", "k3", "c2", "mu"};  // any of k1, k3, c2, mu, e, delta
+  std::vector<std::string> fit = {"k1", "k3", "c2", "mu"};  // any of k1, k3, c2, mu, e, clearance
   bool global = false;        // DIRECT-L over [0.1, 10] x start before the local stage
   int max_evaluations = 600;  // local stage
   double relative_tolerance = 1e-6;  // on the scaled parameters

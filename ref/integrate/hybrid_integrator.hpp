@@ -89,15 +89,15 @@ concept linear_free_flight = requires(const S sys) {
 };
 
 struct event_settings {
-  double time_tolerance = 1e-13;   // s, width of the bracket around each event (issue: <= 1e-12 s)
+  double time_tolerance = default_of("integration", "event_tol");  // s, width of the bracket around each event (<= 1e-12 s)
   // An exact free-flight arc passes over no contact episode deeper than this fraction of the
   // clearance (ref/model/free_flight.hpp): 3e-16 m at the paper's 0.3 mm.
   double min_depth_fraction = 1e-12;
   // Chatter rule (docs/model.md, "Chatter"): an impact ends the accumulation in a stuck phase
   // when its remaining impacts, 2 |v+| / (a (1 - rho)) of time at the free acceleration a and
   // the law's rebound ratio rho, would all fit in this fraction of a revolution.
-  double stick_time = 1e-6;        // revolutions
-  double max_events_per_rev = 1e3; // more is an accumulation that does not terminate: an error
+  double stick_time = default_of("integration", "stick_time");                  // revolutions
+  double max_events_per_rev = default_of("integration", "max_events_per_rev");  // more: an accumulation that does not end, an error
 };
 
 struct integration_options {
@@ -111,7 +111,7 @@ struct integration_options {
   // A rotor displaced further than this (|x| or |y|, m) has diverged: a numerical_error naming
   // where, on every path that integrates (simulate, rig, shooting, loop, study, Python). Checked
   // at every step's end, every event and every free arc's end.
-  double runaway_displacement = 1.0;  // m
+  double runaway_displacement = default_of("integration", "runaway_displacement");  // m
 };
 
 // Output times: uniform, t0 + k dt for k < count, or the ascending `times` given (`at`).

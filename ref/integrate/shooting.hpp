@@ -401,7 +401,7 @@ struct shooting_settings {
   }();
   int max_iterations = 30;
   // Converged when the map moves the state by less than this (positions in m, velocities / |w|).
-  double tolerance = 1e-12;
+  double tolerance = kShootingTolerance;
   // Inexact Newton, for a guess far from the orbit (a contact-free response): an evaluation far
   // from the orbit needs only a small share of the residual that Newton's step will leave, not
   // the tolerance. The first evaluation is then coarse, and each next one at the stepper rtol

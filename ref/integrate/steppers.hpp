@@ -34,6 +34,7 @@
 #include <utility>
 
 #include "ref/base/errors.hpp"
+#include "ref/model/settings.hpp"
 #include "ref/model/state.hpp"
 
 namespace rubref {
@@ -301,11 +302,16 @@ class rkf78_dense {
 
 struct stepper_settings {
   stepper_kind kind = stepper_kind::dopri5;
-  double rtol = 1e-10;  // -, relative tolerance (adaptive steppers)
-  double atol = 1e-14;  // m and m/s, absolute tolerance (adaptive steppers)
-  double dt = 0.0;      // s, fixed step of rk4; 0 = period / kDefaultStepsPerRev
-  double max_dt = 0.0;  // s, largest adaptive step; 0 = period / kDefaultMinStepsPerRev
+  double rtol = default_of("integration", "rtol");      // -, relative tolerance (adaptive steppers)
+  double atol = default_of("integration", "atol");      // m and m/s, absolute tolerance (adaptive steppers)
+  double dt = default_of("integration", "dt");          // s, fixed step of rk4; 0 = period / kDefaultStepsPerRev
+  double max_dt = default_of("integration", "max_dt");  // s, largest adaptive step; 0 = period / kDefaultMinStepsPerRev
 };
+
+// Newton shooting's convergence on the one-revolution map, |P(s) - s| (positions in m, velocities
+// / |w|), the registry's `tolerance`: the one value every shooting starts from
+// (shooting_settings, the periodic-orbit and continuation requests, the golden cases).
+inline constexpr double kShootingTolerance = default_of("", "tolerance");
 
 // rk4's default step resolves a contact episode of the paper's k1 (about 2 ms, 1/20 rev) with
 // about 50 steps. The adaptive cap keeps at most one extremum of y per step, which the grazing

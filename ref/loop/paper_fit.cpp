@@ -165,7 +165,7 @@ model_point staged_model(const std::vector<loop_dwell>& dwells, double mass, std
   is.bootstrap = 0;
   model_point start;
   start.p.m = mass;
-  start.p.delta = dwells.front().data.clearance;  // for the report; every dwell uses its own
+  start.p.clearance = dwells.front().data.clearance;  // for the report; every dwell uses its own
   start.shift.assign(dwells.size(), 0.0);
   const parameters& lin = *is.linear;
   start.p.c_x = lin.c_x;

@@ -119,7 +119,7 @@ orbit_kind orbit_predictor::predict(std::size_t k, const model_point& m) {
   const dwell& d = dwells_[k].data;
   cache& c = caches_[k];
   parameters p = m.p;
-  p.delta = d.clearance;
+  p.clearance = d.clearance;
   // The motion's period: `periods` revolutions (the model's orbit is the n-revolution map's fixed point).
   const int periods = dwells_[k].periods;
   const double w = d.omega(), period = periods * 2.0 * std::numbers::pi / w;

@@ -484,7 +484,7 @@ class rotor_model {
       : law_(Law::from(p)),
         inv_m_(1.0 / p.m),
         c_x_(p.c_x), c_y_(p.c_y), k_x_(p.k_x), k_y_(p.k_y),
-        delta_(p.delta), mu_(p.mu),
+        delta_(p.clearance), mu_(p.mu),
         friction_sign_(omega < 0.0 ? -1.0 : 1.0),
         unbalance_acc_(p.e * omega * omega),
         e_(p.e),

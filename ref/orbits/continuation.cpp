@@ -65,7 +65,7 @@ run_request request_at(const continuation_request& req, double parameter) {
   run.record_revs = req.periods;
   switch (req.parameter) {
     case continuation_parameter::speed: run.rpm = parameter; break;
-    case continuation_parameter::clearance: run.params.delta = parameter; break;
+    case continuation_parameter::clearance: run.params.clearance = parameter; break;
     case continuation_parameter::unbalance: run.params.e = parameter; break;
     case continuation_parameter::mu: run.params.mu = parameter; break;
   }
@@ -74,14 +74,18 @@ run_request request_at(const continuation_request& req, double parameter) {
 
 void validate(const continuation_request& req) {
   const std::string name(to_string(req.parameter));
-  require(std::isfinite(req.from) && std::isfinite(req.to), "continuation range " + setting("from") + "/" + setting("to") + " must be finite");
+  check({"continuation", "from"}, req.from);
+  check({"continuation", "to"}, req.to);
   require(req.from < req.to, "continuation range must have from < to (got from " + format_digits(req.from, 10) + ", to " +
                                  format_digits(req.to, 10) + "; to trace down, keep from < to and set the direction down)");
-  require(req.periods >= 1 && req.periods <= 64, "periods must be in [1, 64] (got " + std::to_string(req.periods) + ")");
-  require(std::isfinite(req.tolerance) && req.tolerance > 0.0, "shooting tolerance must be > 0");
-  require(req.min_step > 0.0 && req.min_step <= req.initial_step && req.initial_step <= req.max_step && req.max_step <= 1.0,
-          "continuation steps must satisfy 0 < min <= initial <= max <= 1");
-  require(req.max_points >= 2, "continuation needs at least 2 points");
+  check({"continuation", "periods"}, req.periods);
+  check({"continuation", "tolerance"}, req.tolerance);
+  check({"continuation", "initial_step"}, req.initial_step);
+  check({"continuation", "max_step"}, req.max_step);
+  check({"continuation", "min_step"}, req.min_step);
+  require(req.min_step <= req.initial_step && req.initial_step <= req.max_step,
+          "continuation steps must satisfy " + setting("min_step") + " <= " + setting("initial_step") + " <= " + setting("max_step"));
+  check({"continuation", "max_points"}, req.max_points);
   // The parameters at both ends of the range (validate(run_request) names the bad one).
   for (double v : {req.from, req.to}) {
     if (req.parameter == continuation_parameter::mu)
@@ -123,8 +127,8 @@ class branch_tracer {
     start_ = req.downward ? req.to : req.from;
     end_ = req.downward ? req.from : req.to;
     const run_request first = request_at(req, start_);
-    scale_[0] = scale_[1] = first.params.delta;
-    scale_[2] = scale_[3] = first.params.delta * rpm_to_rad_s(first.rpm);
+    scale_[0] = scale_[1] = first.params.clearance;
+    scale_[2] = scale_[3] = first.params.clearance * rpm_to_rad_s(first.rpm);
     lambda_scale_ = std::abs(req.to - req.from);
     set_.tolerance = req.tolerance;
     set_.integration.events = req.integration.events;
@@ -217,7 +221,7 @@ class branch_tracer {
   void end_below_min_step(continuation_result& out) const {
     const branch_point& last = out.points.back();
     const std::string where = std::string(column_name(req_.parameter)) + " = " + format_digits(last.parameter, 10);
-    if (std::abs(last.max_z) <= kGrazingGap * request_at(req_, last.parameter).params.delta) {
+    if (std::abs(last.max_z) <= kGrazingGap * request_at(req_, last.parameter).params.clearance) {
       out.special.push_back({special_kind::grazing, last.parameter, last.rpm, last.state, true, out.points.size() - 1});
       out.stopped = "the branch ends at a grazing at " + where + " (" + failure_ + ")";
     } else {
@@ -400,7 +404,7 @@ class branch_tracer {
       std::size_t top = 0;
       for (std::size_t i = 1; i < s.size(); ++i)
         if (s[i].s[idx::y] > s[top].s[idx::y]) top = i;
-      p.max_z = s[top].s[idx::y] - r.params.delta;
+      p.max_z = s[top].s[idx::y] - r.params.clearance;
       const auto sys = system_at(p.parameter);
       if (const auto d = sys.free_dynamics()) {
         const free_flight<N> ff(*d);
@@ -414,7 +418,7 @@ class branch_tracer {
       }
       // Admissibility: a contact-free orbit found above the stator is a missed contact (an episode
       // shallower than the integrator's min_depth is passed over by design).
-      if (p.max_z > set_.integration.events.min_depth_fraction * r.params.delta)
+      if (p.max_z > set_.integration.events.min_depth_fraction * r.params.clearance)
         throw numerical_error("continuation: the orbit at " + std::string(column_name(req_.parameter)) + " = " +
                               format_digits(p.parameter, 10) + " reaches " + (format_digits(p.max_z, 3) + " m") +
                               " into the stator without a contact event");

@@ -24,21 +24,22 @@ struct continuation_request {
   std::string variant = "identified";
   parameters params;
   continuation_parameter parameter = continuation_parameter::speed;
-  double from = 1300.0;  // the parameter's unit: rpm, m, m, 1; from < to
-  double to = 2200.0;
+  // Defaults, units and ranges: the settings registry (ref/model/settings.hpp).
+  double from = default_of("continuation", "from");  // the parameter's unit: rpm, m, m, 1; from < to
+  double to = default_of("continuation", "to");
   bool downward = false;  // trace from `to` down to `from` (another branch where several coexist)
-  double rpm = 1600.0;   // the speed when the parameter is not the speed
-  int periods = 1;       // revolutions per period of the orbits followed
-  int samples_per_rev = 128;  // of each point's recorded period (its summary)
+  double rpm = default_of("continuation", "rpm");  // the speed when the parameter is not the speed
+  int periods = default_count_of("continuation", "periods");  // revolutions per period of the orbits followed
+  int samples_per_rev = default_count_of("continuation", "samples_per_rev");  // of each point's recorded period (its summary)
   // Arclength in the scaled unknowns: states over the clearance (velocities also over |w|), the
   // parameter over |to - from|; one unit spans the range.
   // The step follows the branch's turning (ref/orbits/continuation.cpp, next_step); max_step
   // only caps it on nearly straight stretches.
-  double initial_step = 0.01;
-  double max_step = 0.25;
-  double min_step = 1e-10;
-  int max_points = 5000;
-  double tolerance = 1e-12;  // m, |P(s) - s| at each point (velocities / |w|)
+  double initial_step = default_of("continuation", "initial_step");
+  double max_step = default_of("continuation", "max_step");
+  double min_step = default_of("continuation", "min_step");
+  int max_points = default_count_of("continuation", "max_points");
+  double tolerance = kShootingTolerance;  // m, |P(s) - s| at each point (velocities / |w|)
   integration_options integration;
 };
 

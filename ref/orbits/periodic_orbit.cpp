@@ -57,10 +57,10 @@ periodic_orbit_result shoot_from(const run_request& run, const state_type& guess
 }
 
 periodic_orbit_result find_periodic_orbit(const periodic_orbit_request& req) {
-  require(req.periods >= 1 && req.periods <= 64, "periods must be in [1, 64] (got " + std::to_string(req.periods) + ")");
-  require(req.transient_revs >= 0, "transient revolutions must be >= 0");
-  require(req.fallback_settle_revs >= 1, "fallback settle revolutions must be >= 1");
-  require(std::isfinite(req.tolerance) && req.tolerance > 0.0, "shooting tolerance must be > 0");
+  check({"shooting", "periods"}, req.periods);
+  check({"shooting", "transient_revs"}, req.transient_revs);
+  check({"shooting", "fallback_settle_revs"}, req.fallback_settle_revs);
+  check({"shooting", "tolerance"}, req.tolerance);
   if (req.initial_guess)
     for (const double v : *req.initial_guess) require(std::isfinite(v), "the initial state must be finite");
   run_request run = req.run;
@@ -84,12 +84,12 @@ periodic_orbit_result find_periodic_orbit(const periodic_orbit_request& req) {
       out.start = "given state";
     } else {
       parameters free = run.params;
-      free.delta = std::numeric_limits<double>::max();
+      free.clearance = std::numeric_limits<double>::max();
       guess = free_flight<4>(*rotor_system<Law>(free, omega).free_dynamics()).particular(0.0);
       out.start = "contact-free response";
     }
     if constexpr (!compliant_law<Law>) {
-      if (model.penetration(guess) > 0.0) guess[idx::y] = run.params.delta;  // an impact law starts outside
+      if (model.penetration(guess) > 0.0) guess[idx::y] = run.params.clearance;  // an impact law starts outside
     }
     // A contact-free response or a short transient is far from a rubbing orbit: coarse
     // evaluations until Newton is close (inexact Newton, ref/integrate/shooting.hpp).

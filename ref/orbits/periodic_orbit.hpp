@@ -14,10 +14,11 @@ namespace rubref {
 
 struct periodic_orbit_request {
   run_request run;      // variant, parameters, speed, samples per revolution, integration of the recorded period
-  int periods = 1;      // revolutions per period (n > 1 for subharmonic orbits)
-  int transient_revs = 40;   // the second start: this many revolutions from the first
-  int fallback_settle_revs = 200;  // the fallback: a transient this long (today's `simulate`)
-  double tolerance = 1e-12;  // m, |P(s) - s| at convergence (velocities / |w|)
+  // Defaults, units and ranges: the settings registry (ref/model/settings.hpp).
+  int periods = default_count_of("shooting", "periods");  // revolutions per period (n > 1 for subharmonic orbits)
+  int transient_revs = default_count_of("shooting", "transient_revs");  // the second start: this many revolutions from the first
+  int fallback_settle_revs = default_count_of("shooting", "fallback_settle_revs");  // the fallback: a transient this long
+  double tolerance = kShootingTolerance;  // m, |P(s) - s| at convergence (velocities / |w|)
   // The first start, a state at t = 0 (e.g. a branch point of `rubref continuation`, to pick one
   // of coexisting orbits); default: the contact-free response.
   std::optional<state_type> initial_guess;
@@ -45,7 +46,7 @@ orbit record_periods(const run_request& run, const state_type& on_orbit, int per
 
 // How `shoot_from` shoots: its tolerance, the map's start time, and its stepper.
 struct shot_options {
-  double tolerance = 1e-12;  // m, |P(s) - s| at convergence (velocities / |w|)
+  double tolerance = kShootingTolerance;  // m, |P(s) - s| at convergence (velocities / |w|)
   double t0 = 0.0;           // s: the map from t0 to t0 + periods T
   std::optional<stepper_settings> stepper;  // default: the shooting's own (ref/integrate/shooting.hpp)
 };

@@ -76,12 +76,12 @@ void validate(const rig_request& req) {
   require(!req.speeds_rpm.empty(), "the rig needs at least one speed");
   for (const double rpm : req.speeds_rpm)
     require(std::isfinite(rpm) && rpm > 0.0 && rpm <= kMaxSpeedRpm, "speed " + format_number(rpm) + " rpm must be finite, > 0 and <= " + format_number(kMaxSpeedRpm));
-  require(req.settle_revs >= 0, "settle-revs must be >= 0");
-  require(req.record_revs >= 1, "revs must be >= 1");
+  check({"rig", "settle_revs"}, req.settle_revs);
+  check({"rig", "record_revs"}, req.record_revs);
   const auto& pr = req.probes;
-  require(std::isfinite(pr.sample_rate) && pr.sample_rate > 0.0 && pr.sample_rate <= 1e7, "sample rate must be in (0, 1e7] Hz (got " + format_number(pr.sample_rate) + ")");
-  require(std::isfinite(pr.noise) && pr.noise >= 0.0, "probe noise must be finite and >= 0 (got " + format_number(pr.noise) + ")");
-  require(std::isfinite(pr.quantisation) && pr.quantisation >= 0.0, "quantisation must be finite and >= 0 (got " + format_number(pr.quantisation) + ")");
+  check({"rig", "sample_rate"}, pr.sample_rate);
+  check({"rig", "noise"}, pr.noise);
+  check({"rig", "quantisation"}, pr.quantisation);
   require(std::isfinite(pr.keyphasor_angle), "keyphasor angle must be finite");
   require(pr.keyphasor || req.time_base == rig_time_base::shaft,
           "a record without a keyphasor needs shaft-synchronous time (time base 'shaft'), else no tool can tell the shaft angle");
@@ -156,7 +156,7 @@ rig_output run_rig(const rig_request& req) {
     r.set("generator", "rubref " + std::string(version()) + " rig");
     r.set("commit", std::string(commit()));
   }
-  r.set("clearance_m", req.params.delta);
+  r.set("clearance_m", req.params.clearance);
   if (!req.minimal_header) r.set("m_kg", req.params.m);
   r.set("sample_rate_hz", req.probes.sample_rate);
   if (req.probes.keyphasor && !req.minimal_header)

@@ -20,9 +20,9 @@
 namespace rubref {
 
 struct probe_settings {
-  double sample_rate = 10e3;       // Hz
-  double noise = 0.5e-6;           // m, standard deviation of each probe's white noise
-  double quantisation = 61e-9;     // m, ADC step (16 bits over +-2 mm)
+  double sample_rate = default_of("rig", "sample_rate");    // Hz (ranges: ref/model/settings.hpp)
+  double noise = default_of("rig", "noise");                // m, standard deviation of each probe's white noise
+  double quantisation = default_of("rig", "quantisation");  // m, ADC step (16 bits over +-2 mm)
   double keyphasor_angle = 0.0;    // rad, the notch's angle from the unbalance at t = 0 (unknown to the loop)
   unsigned seed = 1;               // noise: same seed, same bits
   bool keyphasor = true;           // write the keyphasor column (without it, t_s is shaft-synchronous)
@@ -41,11 +41,11 @@ struct rig_request {
   // One dwell each: three below the rub (the loop fits the linear part there), six with it, all
   // with orbits that repeat every revolution under the paper's law at 0.3 mm (1425-1475 rpm do not).
   std::vector<double> speeds_rpm{1200, 1300, 1400, 1500, 1550, 1600, 1650, 1700, 1750};
-  int settle_revs = 100;                 // per dwell, from rest or (carry_over) from the previous dwell
+  int settle_revs = default_count_of("rig", "settle_revs");  // per dwell, from rest or (carry_over) from the previous dwell
   bool carry_over = false;               // each dwell starts where the previous one ended (a run-up), not from rest
   rig_time_base time_base = rig_time_base::acquisition;
   bool minimal_header = false;           // only clearance_m, sample_rate_hz and description (as a record from elsewhere)
-  int record_revs = 16;                  // per dwell
+  int record_revs = default_count_of("rig", "record_revs");  // per dwell
   probe_settings probes;
   integration_options integration;       // of the truth (rubref's defaults; another stepper for records of "another integrator")
 };

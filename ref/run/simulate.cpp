@@ -57,26 +57,24 @@ void require_safe_rates(const parameters& p, bool compliant, double duration) {
 void validate(const run_request& req) {
   validate(req.params);
   visit_variant(req.variant, []<class V>() {});  // unknown variant -> input_error
-  require(std::isfinite(req.rpm) && req.rpm > 0.0 && req.rpm <= kMaxSpeedRpm,
-          "speed rpm must be finite, > 0 and <= " + format_number(kMaxSpeedRpm) + " (got " + format_number(req.rpm) + ")");
-  require(req.settle_revs >= 0, "settle-revs must be >= 0");
-  require(req.record_revs >= 1, "revs must be >= 1");
-  require(req.samples_per_rev >= 4, "samples-per-rev must be >= 4");
+  // Each setting against its range in the registry (ref/model/settings.hpp).
+  check({"run", "rpm"}, req.rpm);
+  check({"run", "settle_revs"}, req.settle_revs);
+  check({"run", "record_revs"}, req.record_revs);
+  check({"run", "samples_per_rev"}, req.samples_per_rev);
   const auto& st = req.integration.stepper;
-  require(std::isfinite(st.rtol) && st.rtol > 0.0 && st.rtol < 1.0, "rtol must be in (0, 1) (got " + format_number(st.rtol) + ")");
-  require(std::isfinite(st.atol) && st.atol > 0.0, "atol must be finite and > 0 (got " + format_number(st.atol) + ")");
-  require(std::isfinite(st.dt) && st.dt >= 0.0, "dt must be finite and >= 0 (0: automatic) (got " + format_number(st.dt) + ")");
-  require(std::isfinite(st.max_dt) && st.max_dt >= 0.0, "max-dt must be finite and >= 0 (0: automatic) (got " + format_number(st.max_dt) + ")");
+  check({"integration", "rtol"}, st.rtol);
+  check({"integration", "atol"}, st.atol);
+  check({"integration", "dt"}, st.dt);
+  check({"integration", "max_dt"}, st.max_dt);
   const auto& ev = req.integration.events;
-  require(std::isfinite(ev.time_tolerance) && ev.time_tolerance > 0.0, "event time tolerance must be > 0");
-  require(std::isfinite(ev.stick_time) && ev.stick_time >= 0.0 && ev.stick_time < 1.0,
-          "stick time must be in [0, 1) revolutions (got " + format_number(ev.stick_time) + ")");
-  require(ev.max_events_per_rev >= 1.0, "max events per revolution must be >= 1");
-  require(std::isfinite(req.integration.runaway_displacement) && req.integration.runaway_displacement > 0.0,
-          "runaway displacement must be finite and > 0 (got " + format_number(req.integration.runaway_displacement) + " m)");
+  check({"integration", "event_tol"}, ev.time_tolerance);
+  check({"integration", "stick_time"}, ev.stick_time);
+  check({"integration", "max_events_per_rev"}, ev.max_events_per_rev);
+  check({"integration", "runaway_displacement"}, req.integration.runaway_displacement);
   require(is_finite(req.initial_state), "initial state must be finite");
   const double revs = double(req.settle_revs) + double(req.record_revs);
-  require(revs * req.samples_per_rev <= 1e8, "settle-revs + revs times samples-per-rev is over 1e8 samples");
+  require(revs * req.samples_per_rev <= 1e8, "(" + setting("settle_revs") + " + " + setting("record_revs") + ") times " + setting("samples_per_rev") + " is over 1e8 samples");
 
   const bool compliant = visit_variant(req.variant, []<class Law>() { return compliant_law<Law>; });
   require_safe_rates(req.params, compliant, revs * 60.0 / req.rpm);

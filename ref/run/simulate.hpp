@@ -13,10 +13,11 @@ namespace rubref {
 struct run_request {
   std::string variant = "identified";
   parameters params;
-  double rpm = 1600.0;             // rev/min, constant speed
-  int settle_revs = 200;           // revolutions discarded before recording
-  int record_revs = 20;            // revolutions recorded
-  int samples_per_rev = 128;       // output samples per revolution
+  // Defaults, units and ranges: the settings registry (ref/model/settings.hpp).
+  double rpm = default_of("run", "rpm");                          // rev/min, constant speed
+  int settle_revs = default_count_of("run", "settle_revs");       // revolutions discarded before recording
+  int record_revs = default_count_of("run", "record_revs");       // revolutions recorded
+  int samples_per_rev = default_count_of("run", "samples_per_rev");  // output samples per revolution
   integration_options integration;
   state_type initial_state{};      // at t = 0; default: the rotor at rest at the origin
 };
@@ -40,7 +41,7 @@ struct orbit {
 inline constexpr double kMaxRateTimesDuration = 1e9;
 
 // Largest speed accepted; far above any rotor kit, it only keeps the period well resolved in t.
-inline constexpr double kMaxSpeedRpm = 1e6;
+inline constexpr double kMaxSpeedRpm = setting_named("run", "rpm").range.hi;
 
 // RK4 is stable for a mode with rate * dt up to 2.785 on the negative real axis and 2.828 on the
 // imaginary one; a fixed step beyond the smaller for the rotor's fastest mode (free, or on the

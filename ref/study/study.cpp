@@ -313,7 +313,7 @@ spec parse_spec(const std::string& spec_text, const std::string& source) {
     }
   }
   if (j.contains("effects")) {
-    if (!j["effects"].is_array()) bad(source, "effects", "must be an array of effects as `rubref rig --effect` takes them (\"preload:F_y=-4\")");
+    if (!j["effects"].is_array()) bad(source, "effects", "must be an array of effects, each as the rig's " + setting("effects") + " takes one (\"preload:F_y=-4\")");
     for (std::size_t i = 0; i < j["effects"].size(); ++i) {
       const std::string where = "effects[" + std::to_string(i) + "]";
       s.effect_texts.push_back(text(j["effects"][i], source, where));

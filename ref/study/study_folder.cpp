@@ -111,7 +111,7 @@ struct parsed_rows {
 // forward and backward 1X amplitudes) agree to 1e-6 of the clearance: a shot orbit is exact to
 // 1e-12 m, and a period-n orbit entered one revolution later gives the same measures.
 std::vector<std::string> label_attractors(const parsed_rows& t, const spec& s, nlohmann::ordered_json& summary, std::string& csv) {
-  const double tol = 1e-6 * s.base.delta;
+  const double tol = 1e-6 * s.base.clearance;
   struct attractor {
     std::string response, period;
     std::vector<double> measures;
@@ -186,7 +186,7 @@ std::string fold_lines(const spec& s, nlohmann::ordered_json& summary, unsigned 
       continuation_request req;
       req.variant = s.variant;
       req.params = s.base;
-      req.params.delta = clearances.values[i];
+      req.params.clearance = clearances.values[i];
       req.from = lo;
       req.to = hi;
       req.samples_per_rev = s.job.samples_per_rev;
@@ -219,7 +219,7 @@ std::string fold_lines(const spec& s, nlohmann::ordered_json& summary, unsigned 
 
 shard parse_shard(const std::string& text) {
   const auto slash = text.find('/');
-  const auto bad = [&] { return input_error("--shard must be i/N with 1 <= i <= N (got '" + text + "')"); };
+  const auto bad = [&] { return input_error(setting("shard") + " must be i/N with 1 <= i <= N (got '" + text + "')"); };
   if (slash == std::string::npos) throw bad();
   const std::string a = text.substr(0, slash), b = text.substr(slash + 1);
   const auto digits = [](const std::string& s) { return !s.empty() && s.size() <= 9 && std::all_of(s.begin(), s.end(), [](char c) { return c >= '0' && c <= '9'; }); };
@@ -240,16 +240,16 @@ void check_study_folder(const fs::path& dir, const std::string& canonical) {
   std::error_code ec;
   if (!fs::exists(dir, ec)) {
     const fs::path parent = dir.has_parent_path() ? dir.parent_path() : fs::path(".");
-    if (!fs::is_directory(parent, ec)) throw input_error("--out " + dir.string() + ": its folder " + parent.string() + " does not exist");
+    if (!fs::is_directory(parent, ec)) throw input_error(setting("out") + " " + dir.string() + ": its folder " + parent.string() + " does not exist");
     return;
   }
-  if (!fs::is_directory(dir, ec)) throw input_error("--out " + dir.string() + " exists and is not a folder");
+  if (!fs::is_directory(dir, ec)) throw input_error(setting("out") + " " + dir.string() + " exists and is not a folder");
   if (fs::exists(dir / kSpecFile, ec)) {
     if (read_text(dir / kSpecFile) != canonical)
-      throw input_error("--out " + dir.string() + " holds another study (its spec.json differs from this SPEC): use another folder");
+      throw input_error(setting("out") + " " + dir.string() + " holds another study (its spec.json differs from this SPEC): use another folder");
     return;
   }
-  if (!fs::is_empty(dir, ec)) throw input_error("--out " + dir.string() + " is not empty and holds no study (no spec.json): use a new or empty folder");
+  if (!fs::is_empty(dir, ec)) throw input_error(setting("out") + " " + dir.string() + " is not empty and holds no study (no spec.json): use a new or empty folder");
 }
 
 void open_study_folder(const fs::path& dir, const std::string& canonical) {

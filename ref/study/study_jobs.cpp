@@ -71,12 +71,12 @@ state_type start_state(const job_settings& job, const point& p) {
   if (job.start == "state") {
     // The protrusion fills y > delta: a start there is no state of the rotor (and the identified
     // law's c2 zdot^2, which pushes out on both halves, blows up from it).
-    require(p.initial[idx::y] <= p.params.delta, "the start y0 = " + format_number(p.initial[idx::y]) + " m is inside the stator (y > clearance " +
-                                                     format_number(p.params.delta) + " m)");
+    require(p.initial[idx::y] <= p.params.clearance, "the start y0 = " + format_number(p.initial[idx::y]) + " m is inside the stator (y > clearance " +
+                                                     format_number(p.params.clearance) + " m)");
     return p.initial;
   }
   state_type s = unbalance_response(p.params, rpm_to_rad_s(p.rpm)).at(0.0);  // contact_free
-  s[idx::y] = std::min(s[idx::y], p.params.delta);  // outside the stator, as an impact law needs
+  s[idx::y] = std::min(s[idx::y], p.params.clearance);  // outside the stator, as an impact law needs
   return s;
 }
 

@@ -17,13 +17,15 @@ void validate(const sweep_settings& s) {
   const auto require = [](bool ok, const std::string& what) {
     if (!ok) throw input_error(what);
   };
-  require(std::isfinite(s.from_rpm) && s.from_rpm > 0.0, "sweep " + setting("from_rpm") + " must be a speed > 0 rpm");
-  require(std::isfinite(s.to_rpm) && s.to_rpm >= s.from_rpm, "sweep " + setting("to_rpm") + " must be >= " + setting("from_rpm"));
-  require(s.to_rpm <= kMaxSpeedRpm, "sweep " + setting("to_rpm") + " is above the largest speed accepted");
-  require(std::isfinite(s.step_rpm) && s.step_rpm > 0.0, "sweep " + setting("step_rpm") + " must be > 0 rpm");
+  check({"sweep", "from_rpm"}, s.from_rpm);
+  check({"sweep", "to_rpm"}, s.to_rpm);
+  require(s.to_rpm >= s.from_rpm, "sweep " + setting("to_rpm") + " must be >= " + setting("from_rpm"));
+  check({"sweep", "step_rpm"}, s.step_rpm);
   require((s.to_rpm - s.from_rpm) / s.step_rpm <= 1e5, "sweep has more than 1e5 speeds");
-  require(s.first_settle_revs >= 0 && s.settle_revs >= 0, "settle revolutions must be >= 0");
-  require(s.record_revs >= 6 && s.record_revs % 6 == 0,
+  check({"sweep", "first_settle_revs"}, s.first_settle_revs);
+  check({"sweep", "settle_revs"}, s.settle_revs);
+  check({"sweep", "record_revs"}, s.record_revs);
+  require(s.record_revs % 6 == 0,
           "sweep " + setting("record_revs") + " must be a positive multiple of 6 (so orders 1/2 and 1/3 fall on spectral bins)");
   validate(request_at(s, s.from_rpm));
 }
@@ -58,7 +60,7 @@ sweep_branch run_branch(const sweep_settings& s, sweep_direction d) {
   // A quasi-static sweep arrives at its first speed slowly: on the contact-free steady state when
   // that orbit clears the stator, else from rest (docs/sweeps.md).
   const unbalance_response free_orbit(s.params, rpm_to_rad_s(speeds.front()));
-  req.initial_state = std::abs(free_orbit.y_phasor) < s.params.delta ? free_orbit.at(0.0) : state_type{};
+  req.initial_state = std::abs(free_orbit.y_phasor) < s.params.clearance ? free_orbit.at(0.0) : state_type{};
   for (std::size_t i = 0; i < speeds.size(); ++i) {
     req.rpm = speeds[i];
     req.settle_revs = i == 0 ? s.first_settle_revs : s.settle_revs;

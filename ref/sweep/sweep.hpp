@@ -20,13 +20,14 @@ std::string_view to_string(sweep_direction d);
 struct sweep_settings {
   std::string variant = "identified";
   parameters params;
-  double from_rpm = 1400.0;
-  double to_rpm = 1800.0;
-  double step_rpm = 5.0;
-  int first_settle_revs = 200;  // the first speed starts from rest: let the free transient die
-  int settle_revs = 60;         // each later speed starts from its neighbour's steady state
-  int record_revs = 12;         // a multiple of 6: orders 1/2 and 1/3 fall on spectral bins
-  int samples_per_rev = 128;
+  // Defaults, units and ranges: the settings registry (ref/model/settings.hpp).
+  double from_rpm = default_of("sweep", "from_rpm");
+  double to_rpm = default_of("sweep", "to_rpm");
+  double step_rpm = default_of("sweep", "step_rpm");
+  int first_settle_revs = default_count_of("sweep", "first_settle_revs");  // the first speed starts from rest: let the free transient die
+  int settle_revs = default_count_of("sweep", "settle_revs");  // each later speed starts from its neighbour's steady state
+  int record_revs = default_count_of("sweep", "record_revs");  // a multiple of 6: orders 1/2 and 1/3 fall on spectral bins
+  int samples_per_rev = default_count_of("sweep", "samples_per_rev");
   integration_options integration;
   bool keep_orbits = false;     // keep every recorded orbit (memory: record_revs * samples_per_rev per speed)
   // Start each speed on the periodic orbit continued from its neighbour (Newton shooting from the

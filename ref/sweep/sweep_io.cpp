@@ -60,7 +60,7 @@ record orbit_record(const sweep_settings& s, const sweep_point& p) {
 record dwell_record(const sweep_settings& s, const sweep_branch& b) {
   record r;
   r.metadata = sweep_metadata(s);
-  r.set("clearance_m", s.params.delta);
+  r.set("clearance_m", s.params.clearance);
   r.set("description", "rubref sweep, " + std::string(to_string(b.direction)) + ", one dwell per speed");
   orbit_columns cols;
   double t_end = -std::numeric_limits<double>::infinity();

@@ -325,7 +325,7 @@ response_fit fit_response(const order_table& table, const response_parts& parts,
   const bool any_undeclared = std::any_of(pr.beta.begin(), pr.beta.end(), [](const auto& b) { return !b.has_value(); });
   if (any_undeclared && pr.orders.size() > 1)
     throw input_error(table.source + ": the table has " + std::to_string(pr.orders.size()) +
-                      " probes: declare each one's angle (--probe-angle NAME=DEG, or '# probe_angle_deg.NAME: ...')");
+                      " probes: declare each one's angle (" + setting("probe_angles") + " NAME=DEG, or '# probe_angle_deg.NAME: ...')");
   pr.beta_fitted = any_undeclared && parts.anisotropy;
   if (pr.rows.size() < 8) throw input_error(table.source + ": " + std::to_string(pr.rows.size()) + " rows: too few for a fit of the 1X response");
   // Noise per probe from every row of the table (not only the fitted ones), floored at the

@@ -141,7 +141,7 @@ struct rub_problem {
     p.m = 1.0, p.k_x = wx * wx, p.k_y = wy * wy, p.c_x = 2.0 * std::exp(f[ln_zx]) * wx, p.c_y = 2.0 * std::exp(f[ln_zy]) * wy;
     const cplx a = cplx(f[re_a], f[im_a]) * ref_m;
     p.e = std::abs(a), p.unbalance_phase = std::arg(a);
-    p.delta = std::exp(f[ln_delta]), p.k1 = std::exp(f[ln_kappa]), p.k3 = 0.0, p.c2 = 0.0, p.mu = f[friction_mu];
+    p.clearance = std::exp(f[ln_delta]), p.k1 = std::exp(f[ln_kappa]), p.k3 = 0.0, p.c2 = 0.0, p.mu = f[friction_mu];
     effect_parameters fx;
     if (parts.shaft_bow) {
       const cplx b = cplx(f[re_b], f[im_b]) * ref_m;
@@ -170,7 +170,7 @@ struct rub_problem {
       const auto [x, y] = linear_xy(f, w);
       row_orbit& o = out[i];
       const bool warm_shot = warm && (*warm)[i].state;
-      if (!warm_shot && !previous_contact && std::abs(y) <= p.delta) {
+      if (!warm_shot && !previous_contact && std::abs(y) <= p.clearance) {
         o.x1 = x, o.y1 = y;
         continue;
       }
@@ -210,7 +210,7 @@ struct rub_problem {
         o.x1 += samples[k][0] * e1, o.y1 += samples[k][1] * e1, o.x2 += samples[k][0] * e2, o.y2 += samples[k][1] * e2;
         top = std::max(top, samples[k][1]);
       }
-      o.contact = top > p.delta;
+      o.contact = top > p.clearance;
       previous_contact = o.contact;
     }
     return out;

@@ -678,7 +678,7 @@ void diagnosis::refit_stage(const std::optional<transform_fit>& transform) {
   std::vector<candidate_refit> list;
   const hypothesis h0 = case_hypothesis(g);
   const auto member = [](double parameters::*m) { return [m](hypothesis& h, double v) { h.params.*m = v; }; };
-  list.push_back({cause_code::clearance, "clearance_m", h0, member(&parameters::delta), 0.5 * p.delta, 1.5 * p.delta, p.delta});
+  list.push_back({cause_code::clearance, "clearance_m", h0, member(&parameters::clearance), 0.5 * p.clearance, 1.5 * p.clearance, p.clearance});
   if (!rigid) {
     const double mu = std::max(p.mu, 0.1);
     list.push_back({cause_code::friction_coefficient, "mu", h0, member(&parameters::mu), -2.0 * mu, 2.0 * mu, p.mu});
@@ -715,10 +715,10 @@ void diagnosis::refit_stage(const std::optional<transform_fit>& transform) {
     const double f0 = transform ? std::abs(transform->by) * p.k_y : 0.0, range = std::max(kMaxStaticLoad * p.m * kStandardGravity, 2.0 * f0);
     list.push_back({cause_code::static_offset, "preload_y_N", h0,
                     [p](hypothesis& h, double F) {
-                      h.params.delta = p.delta - F / p.k_y;
+                      h.params.clearance = p.clearance - F / p.k_y;
                       h.offset_y = F / p.k_y;
                     },
-                    -range, std::min(range, p.delta * p.k_y), 0.0});
+                    -range, std::min(range, p.clearance * p.k_y), 0.0});
   }
 
   // A small fault lies between the coarse grid's points: each hypothesis also tries the
@@ -921,7 +921,7 @@ double rms_of(const std::vector<std::array<double, 2>>& run, const candidate_dat
 
 void diagnosis::event_stage() {
   const parameters& p = g.request.params;
-  const double delta = p.delta, scale = kGoldenOrbitRelTol * g.statistics.max_radius;
+  const double delta = p.clearance, scale = kGoldenOrbitRelTol * g.statistics.max_radius;
   const bool rigid = visit_variant(g.request.variant, []<class V>() { return impact_law<V>; });
 
   std::size_t deepest = 0;

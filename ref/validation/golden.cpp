@@ -89,7 +89,7 @@ std::string golden_file_name(const golden_spec& spec) {
 run_request golden_request(const golden_spec& spec) {
   run_request req;
   req.variant = spec.variant;
-  req.params.delta = spec.clearance;
+  req.params.clearance = spec.clearance;
   req.params.e = spec.e;
   req.rpm = spec.rpm;
   req.settle_revs = kGoldenSettleRevs;
@@ -133,7 +133,7 @@ std::vector<double> times_of(const orbit& o) {
 
 orbit_statistics orbit_statistics_of(const orbit& o) {
   const auto t = times_of(o), x = column_of(o, idx::x), y = column_of(o, idx::y);
-  return statistics_of(t, x, y, rpm_to_rad_s(o.request.rpm), o.request.params.delta);
+  return statistics_of(t, x, y, rpm_to_rad_s(o.request.rpm), o.request.params.clearance);
 }
 
 // Largest position difference between two orbits on the same grid, m.
@@ -177,7 +177,7 @@ struct scan_start {
 std::string mm_text(double metres) { return format_digits(metres * 1e3, 6); }
 
 std::vector<scan_start> scan_starts(const run_request& req) {
-  const double omega = rpm_to_rad_s(req.rpm), period = 2.0 * std::numbers::pi / omega, delta = req.params.delta;
+  const double omega = rpm_to_rad_s(req.rpm), period = 2.0 * std::numbers::pi / omega, delta = req.params.clearance;
   std::vector<scan_start> out;
   // Another unbalance phase phi from t' = 0 is, in the file's frame (phi = 0), rest at t = phi / w.
   for (int k = 1; k <= 7; ++k)
@@ -187,7 +187,7 @@ std::vector<scan_start> scan_starts(const run_request& req) {
   // an impact law cannot start inside the stator, so its y is clipped to the clearance there.
   visit_variant(req.variant, [&]<class Law>() {
     parameters free = req.params;
-    free.delta = std::numeric_limits<double>::max();
+    free.clearance = std::numeric_limits<double>::max();
     state_type s = free_flight<4>(*rotor_system<Law>(free, omega).free_dynamics()).particular(0.0);
     std::string what = "contact-free steady response at t = 0";
     if constexpr (!compliant_law<Law>) {

@@ -97,10 +97,9 @@ inline constexpr double kGoldenOrbitRelTol = 1e-4;
 // (they agree to ~1e-12 on periodic cases and differ by ~0.2 on chaotic ones).
 inline constexpr double kReproducibleRelTol = 1e-9;
 
-// Newton's tolerance on a periodic case's fixed point, |P(s) - s| in m (positions; velocities
-// / |w|): the shooting's default, 3e-9 of the smallest orbit here (0.33 mm) and 3e-5 of its
-// orbit tolerance; the files reach 1e-14 m and below.
-inline constexpr double kGoldenShootingTolerance = 1e-12;
+// Newton's tolerance on a periodic case's fixed point: the shooting's own (kShootingTolerance,
+// 1e-12 m), 3e-5 of the cases' orbit tolerance; the files reach 1e-14 m and below.
+inline constexpr double kGoldenShootingTolerance = kShootingTolerance;
 
 // Another stable steady state of a case's model, reached from another start than the file's (rest
 // at t = 0 with the file's unbalance phase): docs/validation.md, "Coexisting attractors". A

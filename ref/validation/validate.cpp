@@ -137,7 +137,7 @@ validation_result validate_candidate(const golden_case& g, const record& candida
   r.case_name = g.name;
   r.candidate_name = candidate_name;
   r.variant = g.request.variant;
-  r.clearance = g.request.params.delta;
+  r.clearance = g.request.params.clearance;
   r.rpm = g.request.rpm;
   r.comparison = g.comparison;
   r.period_revs = g.period_revs;
@@ -165,13 +165,13 @@ validation_result validate_candidate(const golden_case& g, const record& candida
     }
     r.rms_error = std::sqrt(sum / static_cast<double>(pts.t.size()));
     // Both sides' statistics on the same times (on the case's own, the golden's are the file's).
-    got = statistics_of(pts.t, pts.x, pts.y, omega, g.request.params.delta);
-    want = statistics_of(pts.t, pts.gx, pts.gy, omega, g.request.params.delta);
+    got = statistics_of(pts.t, pts.x, pts.y, omega, g.request.params.clearance);
+    want = statistics_of(pts.t, pts.gx, pts.gy, omega, g.request.params.clearance);
   } else {
     r.sampling = "its own " + std::to_string(c.t.size()) + " samples (statistics only: this case is chaotic)";
     const double nan = std::numeric_limits<double>::quiet_NaN();
     r.max_error = r.rms_error = r.tolerance = r.worst_t = nan;
-    got = statistics_of(c.t, c.x, c.y, omega, g.request.params.delta);
+    got = statistics_of(c.t, c.x, c.y, omega, g.request.params.clearance);
   }
   for (const auto& info : statistic_table)
     r.statistics.push_back({std::string(info.key), want.*info.member, got.*info.member, g.statistics_tolerance.*info.member});

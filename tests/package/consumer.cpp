@@ -12,7 +12,7 @@
 int main() {
   rubref::run_request free_run;
   free_run.variant = "identified";
-  free_run.params.delta = 1.0;  // m: far above any orbit, so never touched
+  free_run.params.clearance = 1.0;  // m: far above any orbit, so never touched
   free_run.rpm = 1200.0;
   const rubref::orbit o = rubref::simulate(free_run);
   const rubref::unbalance_response exact(free_run.params, free_run.rpm * 2.0 * std::numbers::pi / 60.0);
@@ -30,7 +30,7 @@ int main() {
   if (!(worst <= kSettledRel * size)) return 1;
 
   rubref::run_request rub = free_run;
-  rub.params.delta = 0.2e-3;
+  rub.params.clearance = 0.2e-3;
   rub.rpm = 1600.0;
   const rubref::orbit_summary s = rubref::summarize(rubref::simulate(rub));
   std::printf("at 0.2 mm and 1600 rpm: %s, peak normal force %.1f N\n", std::string(rubref::to_string(s.regime)).c_str(), s.max_normal_force);

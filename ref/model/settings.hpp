@@ -1,0 +1,174 @@
+#pragma once
+// Every named setting rubref takes, in one table: its one spelling (the library's field, Python's
+// keyword argument, `setting` in messages), the command line's flag, the file key, unit, default,
+// valid range and why the range is what it is. validate(), the by-name look-ups, --help and the
+// messages all read it; a setting is added here first (docs/architecture.md, "Settings").
+//
+// Rows are scoped by the algorithm that owns them: the same name may mean different things to
+// two algorithms (a sweep's settle_revs starts from the neighbouring speed's steady state, a
+// run's from rest) and then has a row in each; a scope without its own row uses the shared one
+// (scope "").
+
+#include <array>
+#include <limits>
+#include <string>
+#include <string_view>
+
+namespace rubref {
+
+// The values a setting accepts: lo..hi, each end open or closed, optionally whole numbers only.
+struct valid_range {
+  double lo = -std::numeric_limits<double>::infinity();
+  double hi = std::numeric_limits<double>::infinity();
+  bool lo_open = false;
+  bool hi_open = false;
+  bool integer = false;
+};
+
+namespace range {
+inline constexpr valid_range any{};
+inline constexpr valid_range positive{.lo = 0.0, .lo_open = true};
+inline constexpr valid_range non_negative{.lo = 0.0};
+inline constexpr valid_range unit_interval{.lo = 0.0, .hi = 1.0};
+constexpr valid_range at_least(double lo) { return {.lo = lo, .integer = true}; }
+constexpr valid_range count_in(double lo, double hi) { return {.lo = lo, .hi = hi, .integer = true}; }
+}  // namespace range
+
+struct setting_info {
+  std::string_view scope;        // the algorithm: "model", "run", "integration", "shooting", ...; "" shared
+  std::string_view name;         // the one spelling: field, Python keyword, `setting` in messages
+  std::string_view flag;         // the command-line flag without dashes
+  std::string_view key;          // in parameter files and record metadata; "" when not written
+  std::string_view unit;         // SI, or rpm / rev for speeds and revolution counts
+  double default_value;
+  valid_range range;
+  std::string_view description;  // one line, for --help and docs
+  std::string_view reason;       // why the range: the message a bad value gets ends with it
+};
+
+
+// clang-format off
+inline constexpr auto settings_registry = std::to_array<setting_info>({
+    // The model (Eq. 1-2, 6; §3 and Table 2 give the defaults).
+    {"model", "m", "m", "m_kg", "kg", 1.52, range::positive, "rotor mass", "the equations of motion divide by it"},
+    {"model", "e", "e", "e_m", "m", 0.0706e-3, range::non_negative, "mass eccentricity (unbalance m e omega^2)", "a distance"},
+    {"model", "unbalance_phase", "unbalance-phase", "unbalance_phase_rad", "rad", 0.0, range::any,
+     "angle of the unbalance from +x at t = 0: forcing m e omega^2 (cos(omega t + phase), sin(omega t + phase))", "an angle"},
+    {"model", "c_x", "c-x", "c_x_kg_s", "kg/s", 15.100, range::non_negative, "damping, horizontal", "negative damping feeds energy in"},
+    {"model", "c_y", "c-y", "c_y_kg_s", "kg/s", 14.727, range::non_negative, "damping, vertical", "negative damping feeds energy in"},
+    {"model", "k_x", "k-x", "k_x_N_m", "N/m", 38.521e3, range::positive, "stiffness, horizontal", "a rotor without support stiffness has no orbit"},
+    {"model", "k_y", "k-y", "k_y_N_m", "N/m", 41.017e3, range::positive, "stiffness, vertical", "a rotor without support stiffness has no orbit"},
+    {"model", "clearance", "clearance", "clearance_m", "m", 0.3e-3, range::positive,
+     "radial clearance delta to the protrusion at the top", "the stator is touched where y exceeds it (Eq. 2); 0 or less is a preload"},
+    {"model", "mu", "mu", "mu", "-", 0.24, range::non_negative, "Coulomb friction coefficient f_T = mu f_N", "friction opposes the sliding"},
+    {"model", "r", "r", "r", "-", 0.86, range::unit_interval, "coefficient of restitution (restitution variant)",
+     "r > 1 would create energy at each impact (Eq. 6)"},
+    {"model", "k1", "k1", "k1_N_m", "N/m", 3.946e6, range::positive, "linear contact stiffness", "a contact that pushes back"},
+    {"model", "k3", "k3", "k3_N_m3", "N/m^3", 1.408e11, range::non_negative, "cubic contact stiffness", "a softening contact could pull the rotor in"},
+    {"model", "c2", "c2", "c2_kg_m", "kg/m", 3.720e4, range::non_negative, "quadratic contact damping (c2 zdot^2)", "negative damping feeds energy in"},
+
+    // A run at constant speed (`simulate`, and each point of the algorithms built on it).
+    {"", "rpm", "rpm", "speed_rpm", "rpm", 1600.0, {.lo = 0.0, .hi = 1e6, .lo_open = true}, "shaft speed",
+     "above 1e6 rpm is no rotor, and the steps a run needs grow with it"},
+    {"run", "settle_revs", "settle-revs", "settle_revs", "rev", 200, range::at_least(0), "revolutions from rest discarded before recording", "a count"},
+    {"run", "record_revs", "revs", "record_revs", "rev", 20, range::at_least(1), "revolutions recorded", "a record holds at least one revolution"},
+    {"", "samples_per_rev", "samples-per-rev", "samples_per_rev", "-", 128, range::at_least(4), "output samples per revolution",
+     "fewer cannot show an orbit's shape"},
+
+    // The integration (ref/integrate/steppers.hpp, hybrid_integrator.hpp).
+    {"integration", "rtol", "rtol", "rtol", "-", 1e-10, {.lo = 0.0, .hi = 1.0, .lo_open = true, .hi_open = true},
+     "relative tolerance of adaptive steppers", "a relative error"},
+    {"integration", "atol", "atol", "atol", "m, m/s", 1e-14, range::positive, "absolute tolerance of adaptive steppers", "0 would ask exactness of a zero state"},
+    {"integration", "dt", "dt", "dt_s", "s", 0.0, range::non_negative, "rk4 step; 0: period/1024", "a step goes forward in time (0: automatic)"},
+    {"integration", "max_dt", "max-dt", "max_dt_s", "s", 0.0, range::non_negative, "largest adaptive step; 0: period/16",
+     "a step goes forward in time (0: automatic)"},
+    {"integration", "event_tol", "event-tol", "event_tol_s", "s", 1e-13, range::positive, "event location bracket", "a bracket has a width"},
+    {"integration", "stick_time", "stick-time", "stick_time_rev", "rev", 1e-6, {.lo = 0.0, .hi = 1.0, .hi_open = true},
+     "restitution: chatter ends in sticking when its remaining impacts fit in this time",
+     "a share of one revolution (docs/model.md, \"Chatter\")"},
+    {"integration", "max_events_per_rev", "max-events-per-rev", "", "1/rev", 1e3, {.lo = 1.0},
+     "events per revolution beyond which an accumulation is an error", "a run with contact has at least one"},
+    {"integration", "runaway_displacement", "runaway-displacement", "", "m", 1.0, range::positive,
+     "a rotor displaced further than this has diverged (a numerical error)", "a distance"},
+
+    // Shooting for periodic orbits (ref/integrate/shooting.hpp, ref/orbits/periodic_orbit.hpp).
+    {"", "tolerance", "tolerance", "tolerance_m", "m", 1e-12, range::positive,
+     "Newton's convergence |P(s) - s| (velocities / |w|): 3e-9 of the smallest orbit here (0.33 mm)", "a distance"},
+    {"", "periods", "periods", "periods", "rev", 1, range::count_in(1, 64), "revolutions per period of the orbit (n > 1: subharmonic)",
+     "beyond 64 the orbit is not told from a quasi-periodic one by the shooting"},
+    {"shooting", "transient_revs", "transient-revs", "", "rev", 40, range::at_least(0), "the second start: revolutions from the first", "a count"},
+    {"shooting", "fallback_settle_revs", "fallback-settle-revs", "", "rev", 200, range::at_least(1),
+     "the fallback when shooting fails: a transient this long", "the fallback records after a transient"},
+
+    // Continuation (ref/orbits/continuation.hpp): arclength in scaled unknowns, one unit spans the range.
+    {"continuation", "from", "from", "", "rpm, m or -", 1300.0, range::any, "start of the parameter's range (its unit)", "a finite value"},
+    {"continuation", "to", "to", "", "rpm, m or -", 2200.0, range::any, "end of the parameter's range (its unit), > from", "a finite value"},
+    {"continuation", "initial_step", "initial-step", "", "-", 0.01, {.lo = 0.0, .hi = 1.0, .lo_open = true}, "first arclength step",
+     "one unit of arclength spans the range"},
+    {"continuation", "max_step", "max-step", "", "-", 0.25, {.lo = 0.0, .hi = 1.0, .lo_open = true}, "largest arclength step",
+     "one unit of arclength spans the range"},
+    {"continuation", "min_step", "min-step", "", "-", 1e-10, {.lo = 0.0, .hi = 1.0, .lo_open = true}, "smallest arclength step before giving up",
+     "one unit of arclength spans the range"},
+    {"continuation", "max_points", "max-points", "", "-", 5000, range::at_least(2), "points on the branch at most", "a branch has two ends"},
+
+    // Sweeps (ref/sweep/sweep.hpp): speed by speed, each from its neighbour's steady state.
+    {"sweep", "from_rpm", "from", "from_rpm", "rpm", 1400.0, {.lo = 0.0, .hi = 1e6, .lo_open = true}, "first speed", "a shaft speed"},
+    {"sweep", "to_rpm", "to", "to_rpm", "rpm", 1800.0, {.lo = 0.0, .hi = 1e6, .lo_open = true}, "last speed, >= from_rpm", "a shaft speed"},
+    {"sweep", "step_rpm", "step", "step_rpm", "rpm", 5.0, range::positive, "speed step", "a sweep moves"},
+    {"sweep", "first_settle_revs", "first-settle-revs", "first_settle_revs", "rev", 200, range::at_least(0),
+     "revolutions from rest at the first speed before recording", "a count"},
+    {"sweep", "settle_revs", "settle-revs", "settle_revs", "rev", 60, range::at_least(0),
+     "revolutions at each later speed, from its neighbour's steady state, before recording", "a count"},
+    {"sweep", "record_revs", "revs", "record_revs", "rev", 12, {.lo = 6.0, .integer = true},
+     "revolutions recorded per speed, a multiple of 6", "orders 1/2 and 1/3 fall on spectral bins"},
+
+    // The virtual rig (ref/rig/rig.hpp): dwells recorded by probes.
+    {"rig", "settle_revs", "settle-revs", "settle_revs", "rev", 100, range::at_least(0),
+     "revolutions before each dwell is recorded, from rest or from the previous dwell", "a count"},
+    {"rig", "record_revs", "revs", "record_revs", "rev", 16, range::at_least(1), "revolutions recorded per dwell", "a record holds at least one revolution"},
+    {"rig", "sample_rate", "sample-rate", "sample_rate_hz", "Hz", 10e3, {.lo = 0.0, .hi = 1e7, .lo_open = true}, "probe sample rate",
+     "above 10 MHz is no proximity probe's, and a record's size grows with it"},
+    {"rig", "noise", "noise", "noise_m", "m", 0.5e-6, range::non_negative, "probe white noise, standard deviation", "a standard deviation"},
+    {"rig", "quantisation", "quantisation", "quantisation_m", "m", 61e-9, range::non_negative, "probe quantisation step (16 bits over +-2 mm)",
+     "a step size (0: none)"},
+});
+// clang-format on
+
+// The row of `name` in `scope` (else the shared row): at compile time a name with no row does
+// not compile, so every default_of and setting_named below is checked by the compiler.
+constexpr const setting_info& setting_named(std::string_view scope, std::string_view name) {
+  for (const auto& s : settings_registry)
+    if (s.scope == scope && s.name == name) return s;
+  for (const auto& s : settings_registry)
+    if (s.scope.empty() && s.name == name) return s;
+  throw "no such setting in settings_registry";  // not a constant expression: a compile error
+}
+
+// The default of a setting, for a struct's member initializer: `double rtol = default_of("integration", "rtol");`.
+consteval double default_of(std::string_view scope, std::string_view name) { return setting_named(scope, name).default_value; }
+consteval int default_count_of(std::string_view scope, std::string_view name) {
+  return static_cast<int>(setting_named(scope, name).default_value);
+}
+
+// The range as words ("> 0", ">= 0", "in [0, 1]", "a whole number >= 4", "any real").
+std::string describe(const valid_range& r);
+
+// Why `v` is not a valid value of `s` ("`rtol` must be in (0, 1) (got 2): a relative error"), or
+// empty if it is. Every value must also be finite.
+std::string violation(const setting_info& s, double v);
+
+// A row named at compile time: check({"run", "rpm"}, v) does not compile if the registry has no
+// such setting.
+struct setting_key {
+  const setting_info* row;
+  consteval setting_key(std::string_view scope, std::string_view name) : row(&setting_named(scope, name)) {}
+};
+
+// Throws input_error(violation) unless `v` is valid for the setting.
+void check(setting_key key, double v);
+
+// The first row named `name` in any scope, or nullptr: how the command line spells a message's
+// `field` (ref/cli/options.cpp). Rows of one name share their flag (tests/settings_test.cpp).
+const setting_info* setting_with_name(std::string_view name);
+
+}  // namespace rubref
