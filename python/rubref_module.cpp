@@ -49,10 +49,11 @@ using namespace rubref;
 namespace {
 
 // A library message with its settings (`field`, ref/base/errors.hpp) as this module's keyword
-// arguments: 'start' and 'end' for a continuation's range, else the field's own name.
+// arguments: 'start' and 'end' for a continuation's range, 'revs' for the recorded revolutions
+// (as on the command line), else the field's own name.
 std::string with_keywords(std::string_view message) {
   return spell_settings(message, [](std::string_view field) {
-    return "'" + std::string(field == "from" ? "start" : field == "to" ? "end" : field) + "'";
+    return "'" + std::string(field == "from" ? "start" : field == "to" ? "end" : field == "record_revs" ? "revs" : field) + "'";
   });
 }
 
@@ -174,8 +175,9 @@ PYBIND11_MODULE(_rubref, m) {
         if (!warn.empty()) py::module_::import("warnings").attr("warn")(with_keywords(warn));
         return d;
       },
-      py::arg("variant") = "identified", py::arg("rpm") = 1600.0, py::arg("clearance") = py::none(), py::arg("settle_revs") = 200,
-      py::arg("revs") = 20, py::arg("samples_per_rev") = 128, py::arg("stepper") = "dopri5", py::arg("rtol") = py::none(),
+      py::arg("variant") = "identified", py::arg("rpm") = default_of("run", "rpm"), py::arg("clearance") = py::none(),
+      py::arg("settle_revs") = default_count_of("run", "settle_revs"), py::arg("revs") = default_count_of("run", "record_revs"),
+      py::arg("samples_per_rev") = default_count_of("run", "samples_per_rev"), py::arg("stepper") = "dopri5", py::arg("rtol") = py::none(),
       py::arg("atol") = py::none(), py::arg("dt") = py::none(), py::arg("initial") = py::none());
 
   // One steady run per row of `rpm` and `params` (columns of equal length, made by the Python
@@ -248,8 +250,9 @@ PYBIND11_MODULE(_rubref, m) {
         d["summary"] = to_python(periodic_orbit_json(req, r));
         return d;
       },
-      py::arg("variant") = "identified", py::arg("rpm") = 1600.0, py::arg("clearance") = py::none(), py::arg("periods") = 1,
-      py::arg("tolerance") = kShootingTolerance, py::arg("samples_per_rev") = 128, py::arg("initial") = py::none());
+      py::arg("variant") = "identified", py::arg("rpm") = default_of("run", "rpm"), py::arg("clearance") = py::none(),
+      py::arg("periods") = default_count_of("shooting", "periods"), py::arg("tolerance") = kShootingTolerance,
+      py::arg("samples_per_rev") = default_count_of("run", "samples_per_rev"), py::arg("initial") = py::none());
 
   m.def(
       "continuation",
@@ -302,8 +305,9 @@ PYBIND11_MODULE(_rubref, m) {
         return d;
       },
       py::arg("variant") = "identified", py::arg("parameter") = "speed", py::arg("start") = py::none(), py::arg("end") = py::none(),
-      py::arg("direction") = "up", py::arg("rpm") = 1600.0, py::arg("clearance") = py::none(), py::arg("periods") = 1,
-      py::arg("max_step") = 0.25, py::arg("max_points") = 5000, py::arg("tolerance") = kShootingTolerance);
+      py::arg("direction") = "up", py::arg("rpm") = default_of("continuation", "rpm"), py::arg("clearance") = py::none(),
+      py::arg("periods") = default_count_of("continuation", "periods"), py::arg("max_step") = default_of("continuation", "max_step"),
+      py::arg("max_points") = default_count_of("continuation", "max_points"), py::arg("tolerance") = kShootingTolerance);
 
   m.def(
       "read_record", [](const std::string& path) { return record_to_python(read_record(path)); }, py::arg("path"),

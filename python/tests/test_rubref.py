@@ -78,6 +78,14 @@ def test_bad_input_is_an_input_error_with_the_library_message():
     # A fixed step far beyond RK4's stability bound is refused before integrating.
     with pytest.raises(rubref.InputError, match="dt"):
         rubref.simulate(stepper="rk4", dt=1.0)
+    # A setting is named as its keyword argument, never as a command-line flag, with its range
+    # and the reason (the settings registry, docs/architecture.md).
+    with pytest.raises(rubref.InputError, match=r"^'revs' must be a whole number >= 1 rev \(got 0\): "):
+        rubref.simulate(revs=0)
+    with pytest.raises(rubref.InputError, match=r"^'samples_per_rev' must be a whole number >= 4"):
+        rubref.simulate(samples_per_rev=2)
+    with pytest.raises(rubref.InputError, match=r"^'tolerance' must be finite and > 0 m"):
+        rubref.orbit(tolerance=-1.0)
 
 
 def test_batch_equals_single_runs_on_any_thread_count():
@@ -210,7 +218,7 @@ def test_order_table_reads_as_complex_vectors_and_loops(tmp_path):
     t = rubref.read_order_table(tmp_path / "t.csv", amplitude="0-peak", phase="lead")
     assert t["rpm"].shape == (120,) and t["orders"][0]["vector_m"].dtype == complex
     assert t["orders"][0]["probe_angle_deg"] is None
-    with pytest.raises(rubref.InputError, match="the phase convention is not declared"):
+    with pytest.raises(rubref.InputError, match="the phase convention is not declared: give it \\('phase' lead"):
         rubref.read_order_table(tmp_path / "t.csv", amplitude="0-peak")
     with pytest.raises(rubref.InputError, match="unknown setting 'mass'"):
         rubref.loop(tmp_path / "t.csv", amplitude="0-peak", phase="lead", mass=1.0)

@@ -46,7 +46,6 @@ struct setting_info {
   std::string_view reason;       // why the range: the message a bad value gets ends with it
 };
 
-
 // clang-format off
 inline constexpr auto settings_registry = std::to_array<setting_info>({
     // The model (Eq. 1-2, 6; §3 and Table 2 give the defaults).
@@ -69,7 +68,7 @@ inline constexpr auto settings_registry = std::to_array<setting_info>({
 
     // A run at constant speed (`simulate`, and each point of the algorithms built on it).
     {"", "rpm", "rpm", "speed_rpm", "rpm", 1600.0, {.lo = 0.0, .hi = 1e6, .lo_open = true}, "shaft speed",
-     "above 1e6 rpm is no rotor, and the steps a run needs grow with it"},
+     "the shaft turns forward (docs/model.md, \"Sign conventions\"); above 1e6 rpm no rotor turns, and a run's steps grow with it"},
     {"run", "settle_revs", "settle-revs", "settle_revs", "rev", 200, range::at_least(0), "revolutions from rest discarded before recording", "a count"},
     {"run", "record_revs", "revs", "record_revs", "rev", 20, range::at_least(1), "revolutions recorded", "a record holds at least one revolution"},
     {"", "samples_per_rev", "samples-per-rev", "samples_per_rev", "-", 128, range::at_least(4), "output samples per revolution",
@@ -82,8 +81,8 @@ inline constexpr auto settings_registry = std::to_array<setting_info>({
     {"integration", "dt", "dt", "dt_s", "s", 0.0, range::non_negative, "rk4 step; 0: period/1024", "a step goes forward in time (0: automatic)"},
     {"integration", "max_dt", "max-dt", "max_dt_s", "s", 0.0, range::non_negative, "largest adaptive step; 0: period/16",
      "a step goes forward in time (0: automatic)"},
-    {"integration", "event_tol", "event-tol", "event_tol_s", "s", 1e-13, range::positive, "event location bracket", "a bracket has a width"},
-    {"integration", "stick_time", "stick-time", "stick_time_rev", "rev", 1e-6, {.lo = 0.0, .hi = 1.0, .hi_open = true},
+    {"integration", "event_tol", "event-tol", "event_time_tolerance_s", "s", 1e-13, range::positive, "event location bracket", "a bracket has a width"},
+    {"integration", "stick_time", "stick-time", "stick_time_revs", "rev", 1e-6, {.lo = 0.0, .hi = 1.0, .hi_open = true},
      "restitution: chatter ends in sticking when its remaining impacts fit in this time",
      "a share of one revolution (docs/model.md, \"Chatter\")"},
     {"integration", "max_events_per_rev", "max-events-per-rev", "", "1/rev", 1e3, {.lo = 1.0},
@@ -94,7 +93,7 @@ inline constexpr auto settings_registry = std::to_array<setting_info>({
     // Shooting for periodic orbits (ref/integrate/shooting.hpp, ref/orbits/periodic_orbit.hpp).
     {"", "tolerance", "tolerance", "tolerance_m", "m", 1e-12, range::positive,
      "Newton's convergence |P(s) - s| (velocities / |w|): 3e-9 of the smallest orbit here (0.33 mm)", "a distance"},
-    {"", "periods", "periods", "periods", "rev", 1, range::count_in(1, 64), "revolutions per period of the orbit (n > 1: subharmonic)",
+    {"", "periods", "periods", "", "rev", 1, range::count_in(1, 64), "revolutions per period of the orbit (n > 1: subharmonic)",
      "beyond 64 the orbit is not told from a quasi-periodic one by the shooting"},
     {"shooting", "transient_revs", "transient-revs", "", "rev", 40, range::at_least(0), "the second start: revolutions from the first", "a count"},
     {"shooting", "fallback_settle_revs", "fallback-settle-revs", "", "rev", 200, range::at_least(1),
