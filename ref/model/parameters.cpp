@@ -8,9 +8,7 @@
 namespace rubref {
 
 std::string violation(const parameter_info& info, double v) {
-  const std::string why = violation(*info.row, v);  // "`m` must be finite and > 0 kg (got ...): ..."
-  if (why.empty()) return {};
-  return "parameter " + std::string(info.key) + why.substr(why.find('`', 1) + 1);
+  return violation(*info.row, v, "parameter " + std::string(info.key));
 }
 
 void validate(const parameters& p) {

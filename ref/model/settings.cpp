@@ -34,12 +34,12 @@ bool within(const valid_range& r, double v) {
 }
 }  // namespace
 
-std::string violation(const setting_info& s, double v) {
+std::string violation(const setting_info& s, double v, std::string_view named_as) {
   if (within(s.range, v)) return {};
   std::ostringstream msg;
   msg.precision(17);
   const std::string rule = describe(s.range);
-  msg << setting(s.name) << " must be ";
+  msg << (named_as.empty() ? setting(s.name) : std::string(named_as)) << " must be ";
   if (s.range.integer)
     msg << rule;  // a whole number is finite
   else

@@ -152,9 +152,10 @@ consteval int default_count_of(std::string_view scope, std::string_view name) {
 // The range as words ("> 0", ">= 0", "in [0, 1]", "a whole number >= 4", "any real").
 std::string describe(const valid_range& r);
 
-// Why `v` is not a valid value of `s` ("`rtol` must be in (0, 1) (got 2): a relative error"), or
-// empty if it is. Every value must also be finite.
-std::string violation(const setting_info& s, double v);
+// Why `v` is not a valid value of `s` ("`rtol` must be finite and in (0, 1) (got 2): a relative
+// error"), or empty if it is. Every value must also be finite. `named_as` replaces the setting's
+// `name` at the start (a parameter by its file key: "parameter m_kg").
+std::string violation(const setting_info& s, double v, std::string_view named_as = {});
 
 // A row named at compile time: check({"run", "rpm"}, v) does not compile if the registry has no
 // such setting.
