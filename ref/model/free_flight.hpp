@@ -78,94 +78,9 @@ class free_flight {
 
  public:
 
-  explicit free_flight(const dynamics& d) : d_(d) {
-    for (int i = 0; i < N; ++i) {
-      bool moves = d.b[i] != 0.0;
-      for (int j = 0; j < N && !moves; ++j) moves = d.A(i, j) != 0.0;
-      for (const auto& f : d.F) moves = moves || f[i] != 0.0;
-      if (moves) active_[static_cast<std::size_t>(n_++)] = i;
-    }
-    for (int i = 0; i < N; ++i)
-      for (int k = 0; k < n_; ++k)
-        if (!is_active(i) && d.A(active_[static_cast<std::size_t>(k)], i) != 0.0)
-          throw numerical_error("free flight: a moving component depends on a constant one");
-    sub_matrix a(n_, n_);
-    for (int r = 0; r < n_; ++r)
-      for (int c = 0; c < n_; ++c) a(r, c) = d.A(active_[static_cast<std::size_t>(r)], active_[static_cast<std::size_t>(c)]);
-    // The eigenbasis depends on A alone, which a continuation in speed, unbalance or mu and the
-    // flows of one shooting share: the last one is kept per thread (a pure function of A's bits,
-    // compared as bits so that even a zero's sign matches, so the results are the same bits with
-    // or without it, on any number of threads).
-    thread_local std::optional<eigenbasis> last;
-    const auto same_bits = [&](const sub_matrix& m) {
-      return m.rows() == n_ && std::memcmp(m.data(), a.data(), sizeof(double) * static_cast<std::size_t>(n_ * n_)) == 0;
-    };
-    if (!(last && same_bits(last->a))) {
-      last.reset();
-      eigenbasis e;
-      e.a = a;
-      Eigen::EigenSolver<sub_matrix> eig(a);
-      if (eig.info() != Eigen::Success) throw numerical_error("free flight: no eigendecomposition of the linear dynamics");
-      e.lambda = eig.eigenvalues();
-      e.V = eig.eigenvectors();
-      const Eigen::PartialPivLU<sub_cmatrix> lu(e.V);
-      e.Vinv = lu.inverse();
-      // A defective (or nearly so) A, e.g. exactly critical damping, has no usable eigenbasis.
-      const double cond = e.V.cwiseAbs().colwise().sum().maxCoeff() * e.Vinv.cwiseAbs().colwise().sum().maxCoeff();
-      if (!(cond < 1e8)) throw numerical_error("free flight: the linear dynamics have no well-conditioned eigenbasis");
-      last = std::move(e);
-    }
-    lambda_ = last->lambda;
-    V_ = last->V;
-    Vinv_ = last->Vinv;
-    // The particular solution: constant and harmonic parts.
-    p0_ = dynamics::vector::Zero();
-    sub_vector bs(n_);
-    for (int r = 0; r < n_; ++r) bs[r] = d.b[active_[static_cast<std::size_t>(r)]];
-    if (largest(bs) > 0.0) {
-      const sub_vector p = a.fullPivLu().solve(-bs);
-      if (!(a * p + bs).isZero(1e-9 * bs.norm())) throw numerical_error("free flight: no static equilibrium of the linear dynamics");
-      for (int r = 0; r < n_; ++r) p0_[active_[static_cast<std::size_t>(r)]] = p[r];
-    }
-    for (int h = 0; h < dynamics::kMaxHarmonics; ++h) {
-      P_[static_cast<std::size_t>(h)] = dynamics::complex_vector::Zero();
-      sub_cvector f(n_);
-      for (int r = 0; r < n_; ++r) f[r] = d.F[static_cast<std::size_t>(h)][active_[static_cast<std::size_t>(r)]];
-      if (largest(f) == 0.0) continue;
-      const sub_cmatrix m = cscalar(0.0, (h + 1) * d.omega) * sub_cmatrix::Identity(n_, n_) - a.template cast<cscalar>();
-      const Eigen::PartialPivLU<sub_cmatrix> mlu(m);
-      const sub_cvector p = mlu.solve(f);
-      if (!p.allFinite() || !(largest(sub_cvector(m * p - f)) <= 1e-9 * largest(f)))
-        throw numerical_error("free flight: the forcing is at an undamped resonance");
-      for (int r = 0; r < n_; ++r) P_[static_cast<std::size_t>(h)][active_[static_cast<std::size_t>(r)]] = p[r];
-    }
-    // What the onset search reads: l.V_j, l.P_h.
-    lV_.resize(n_);
-    for (int j = 0; j < n_; ++j) {
-      cscalar s = 0.0;
-      for (int r = 0; r < n_; ++r) s += d.normal[active_[static_cast<std::size_t>(r)]] * V_(r, j);
-      lV_[j] = s;
-    }
-    particular_bound_ = 0.0;
-    for (int h = 0; h < dynamics::kMaxHarmonics; ++h) {
-      const double w = (h + 1) * d.omega;
-      lP_[static_cast<std::size_t>(h)] = d.normal.template cast<cscalar>().dot(P_[static_cast<std::size_t>(h)]);
-      particular_bound_ += std::abs(lP_[static_cast<std::size_t>(h)]) * w * w;
-    }
-    lp0_ = d.normal.dot(p0_);
-    // A real A's complex eigenvalues come in conjugate pairs with conjugate eigenvectors (Eigen
-    // builds them so, exactly), and a real state has conjugate modal coordinates on them: the
-    // pair's share of z is twice the real part of one term, which halves the onset search's
-    // complex exponentials.
-    weight_.resize(n_);
-    for (int j = 0; j < n_; ++j) weight_[j] = 1.0;
-    for (int j = 0; j + 1 < n_; ++j)
-      if (weight_[j] == 1.0 && lambda_[j].imag() != 0.0 && lambda_[j + 1] == std::conj(lambda_[j]) &&
-          V_.col(j + 1) == V_.col(j).conjugate()) {
-        weight_[j] = 2.0;
-        weight_[j + 1] = 0.0;
-      }
-  }
+  // The eigendecomposition and the particular solution (defined after the class, compiled once for
+  // N = 4 and 6 in ref/model/free_flight.cpp).
+  explicit free_flight(const dynamics& d);
 
   // e^a for a modal exponent a = lambda tau: the real part's exponential turned by the forcing's
   // fast phasor (ref/model/state.hpp), within a few ulps of std::exp and without its complex
@@ -413,5 +328,100 @@ class free_flight {
   Eigen::Matrix<double, Eigen::Dynamic, 1, 0, N, 1> weight_;  // 2: a pair's first mode, 0: its second, 1: a real mode
   double particular_bound_ = 0.0;
 };
+
+template <int N>
+free_flight<N>::free_flight(const dynamics& d) : d_(d) {
+  for (int i = 0; i < N; ++i) {
+    bool moves = d.b[i] != 0.0;
+    for (int j = 0; j < N && !moves; ++j) moves = d.A(i, j) != 0.0;
+    for (const auto& f : d.F) moves = moves || f[i] != 0.0;
+    if (moves) active_[static_cast<std::size_t>(n_++)] = i;
+  }
+  for (int i = 0; i < N; ++i)
+    for (int k = 0; k < n_; ++k)
+      if (!is_active(i) && d.A(active_[static_cast<std::size_t>(k)], i) != 0.0)
+        throw numerical_error("free flight: a moving component depends on a constant one");
+  sub_matrix a(n_, n_);
+  for (int r = 0; r < n_; ++r)
+    for (int c = 0; c < n_; ++c) a(r, c) = d.A(active_[static_cast<std::size_t>(r)], active_[static_cast<std::size_t>(c)]);
+  // The eigenbasis depends on A alone, which a continuation in speed, unbalance or mu and the
+  // flows of one shooting share: the last one is kept per thread (a pure function of A's bits,
+  // compared as bits so that even a zero's sign matches, so the results are the same bits with
+  // or without it, on any number of threads).
+  thread_local std::optional<eigenbasis> last;
+  const auto same_bits = [&](const sub_matrix& m) {
+    return m.rows() == n_ && std::memcmp(m.data(), a.data(), sizeof(double) * static_cast<std::size_t>(n_ * n_)) == 0;
+  };
+  if (!(last && same_bits(last->a))) {
+    last.reset();
+    eigenbasis e;
+    e.a = a;
+    Eigen::EigenSolver<sub_matrix> eig(a);
+    if (eig.info() != Eigen::Success) throw numerical_error("free flight: no eigendecomposition of the linear dynamics");
+    e.lambda = eig.eigenvalues();
+    e.V = eig.eigenvectors();
+    const Eigen::PartialPivLU<sub_cmatrix> lu(e.V);
+    e.Vinv = lu.inverse();
+    // A defective (or nearly so) A, e.g. exactly critical damping, has no usable eigenbasis.
+    const double cond = e.V.cwiseAbs().colwise().sum().maxCoeff() * e.Vinv.cwiseAbs().colwise().sum().maxCoeff();
+    if (!(cond < 1e8)) throw numerical_error("free flight: the linear dynamics have no well-conditioned eigenbasis");
+    last = std::move(e);
+  }
+  lambda_ = last->lambda;
+  V_ = last->V;
+  Vinv_ = last->Vinv;
+  // The particular solution: constant and harmonic parts.
+  p0_ = dynamics::vector::Zero();
+  sub_vector bs(n_);
+  for (int r = 0; r < n_; ++r) bs[r] = d.b[active_[static_cast<std::size_t>(r)]];
+  if (largest(bs) > 0.0) {
+    const sub_vector p = a.fullPivLu().solve(-bs);
+    if (!(a * p + bs).isZero(1e-9 * bs.norm())) throw numerical_error("free flight: no static equilibrium of the linear dynamics");
+    for (int r = 0; r < n_; ++r) p0_[active_[static_cast<std::size_t>(r)]] = p[r];
+  }
+  for (int h = 0; h < dynamics::kMaxHarmonics; ++h) {
+    P_[static_cast<std::size_t>(h)] = dynamics::complex_vector::Zero();
+    sub_cvector f(n_);
+    for (int r = 0; r < n_; ++r) f[r] = d.F[static_cast<std::size_t>(h)][active_[static_cast<std::size_t>(r)]];
+    if (largest(f) == 0.0) continue;
+    const sub_cmatrix m = cscalar(0.0, (h + 1) * d.omega) * sub_cmatrix::Identity(n_, n_) - a.template cast<cscalar>();
+    const Eigen::PartialPivLU<sub_cmatrix> mlu(m);
+    const sub_cvector p = mlu.solve(f);
+    if (!p.allFinite() || !(largest(sub_cvector(m * p - f)) <= 1e-9 * largest(f)))
+      throw numerical_error("free flight: the forcing is at an undamped resonance");
+    for (int r = 0; r < n_; ++r) P_[static_cast<std::size_t>(h)][active_[static_cast<std::size_t>(r)]] = p[r];
+  }
+  // What the onset search reads: l.V_j, l.P_h.
+  lV_.resize(n_);
+  for (int j = 0; j < n_; ++j) {
+    cscalar s = 0.0;
+    for (int r = 0; r < n_; ++r) s += d.normal[active_[static_cast<std::size_t>(r)]] * V_(r, j);
+    lV_[j] = s;
+  }
+  particular_bound_ = 0.0;
+  for (int h = 0; h < dynamics::kMaxHarmonics; ++h) {
+    const double w = (h + 1) * d.omega;
+    lP_[static_cast<std::size_t>(h)] = d.normal.template cast<cscalar>().dot(P_[static_cast<std::size_t>(h)]);
+    particular_bound_ += std::abs(lP_[static_cast<std::size_t>(h)]) * w * w;
+  }
+  lp0_ = d.normal.dot(p0_);
+  // A real A's complex eigenvalues come in conjugate pairs with conjugate eigenvectors (Eigen
+  // builds them so, exactly), and a real state has conjugate modal coordinates on them: the
+  // pair's share of z is twice the real part of one term, which halves the onset search's
+  // complex exponentials.
+  weight_.resize(n_);
+  for (int j = 0; j < n_; ++j) weight_[j] = 1.0;
+  for (int j = 0; j + 1 < n_; ++j)
+    if (weight_[j] == 1.0 && lambda_[j].imag() != 0.0 && lambda_[j + 1] == std::conj(lambda_[j]) &&
+        V_.col(j + 1) == V_.col(j).conjugate()) {
+      weight_[j] = 2.0;
+      weight_[j + 1] = 0.0;
+    }
+}
+
+// The two flows the library has (the rotor, and the rotor with a stator of its own mass), compiled
+// once: their eigendecompositions were a large part of every file that made a free flight.
+extern template class free_flight<4>;
+extern template class free_flight<6>;
 
 }  // namespace rubref
