@@ -47,7 +47,7 @@ void showValue(const chatter_case& c, std::ostream& os) {
 
 rc::Gen<chatter_case> chatter_cases() {
   return rc::gen::apply(
-      [](int v, double delta, double rpm, double e, bool integrated) { return chatter_case{v, delta, rpm, e, integrated}; },
+      [](int v, double clearance, double rpm, double e, bool integrated) { return chatter_case{v, clearance, rpm, e, integrated}; },
       rc::gen::inRange(0, static_cast<int>(variant_name_list().size())), log_uniform(0.5e-6, 1e-3), uniform(100.0, 3000.0),
       log_uniform(0.1, 10.0), rc::gen::arbitrary<bool>());
 }

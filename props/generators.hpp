@@ -50,12 +50,12 @@ struct throw_case {
 // free vertical amplitude `reach` clearances (> 1), x0 within a clearance, any horizontal speed
 // up to `vx_max` m/s with the sign asked for (`vx_sign` 0: either).
 inline rc::Gen<state_type> rising_start(const parameters& p, double reach_lo, double reach_hi, double vx_max, int vx_sign = 0) {
-  const double wy = std::sqrt(p.k_y / p.m), delta = p.clearance;
+  const double wy = std::sqrt(p.k_y / p.m), clearance = p.clearance;
   const double vx_lo = vx_sign > 0 ? 0.0 : -vx_max, vx_hi = vx_sign < 0 ? 0.0 : vx_max;
   return rc::gen::apply(
       [=](double y_frac, double reach, double x_frac, double vx) {
-        const double y0 = y_frac * delta, amplitude = reach * delta;
-        return state_type{x_frac * delta, y0, vx, wy * std::sqrt(amplitude * amplitude - y0 * y0)};
+        const double y0 = y_frac * clearance, amplitude = reach * clearance;
+        return state_type{x_frac * clearance, y0, vx, wy * std::sqrt(amplitude * amplitude - y0 * y0)};
       },
       uniform(-1.0, 0.9), uniform(reach_lo, reach_hi), uniform(-1.0, 1.0), uniform(vx_lo, vx_hi));
 }
@@ -71,7 +71,7 @@ struct Arbitrary<rubref::parameters> {
     using rubref::props::log_uniform;
     using rubref::props::uniform;
     return gen::apply(
-        [](double m, double e, double phase, double c_x, double c_y, double k_x, double k_y, double delta, double mu,
+        [](double m, double e, double phase, double c_x, double c_y, double k_x, double k_y, double clearance, double mu,
            double r, double k1, double k3, double c2) {
           rubref::parameters p;
           p.m = m;
@@ -81,7 +81,7 @@ struct Arbitrary<rubref::parameters> {
           p.c_y = c_y;
           p.k_x = k_x;
           p.k_y = k_y;
-          p.clearance = delta;
+          p.clearance = clearance;
           p.mu = mu;
           p.r = r;
           p.k1 = k1;

@@ -157,21 +157,21 @@ TEST(chatter, small_clearances_chatter_and_stick_without_error) {
     runs.emplace_back(0.5e-6 * std::pow(20.0, u), 200.0 + 700.0 * w);
   }
   int stuck_runs = 0;
-  for (const auto& [delta, rpm] : runs) {
-    SCOPED_TRACE(::testing::Message() << "clearance " << delta << " m, " << rpm << " rpm");
+  for (const auto& [clearance, rpm] : runs) {
+    SCOPED_TRACE(::testing::Message() << "clearance " << clearance << " m, " << rpm << " rpm");
     run_request req;
     req.variant = "restitution";
-    req.params.clearance = delta;
+    req.params.clearance = clearance;
     req.rpm = rpm;
     orbit o;
     ASSERT_NO_THROW(o = simulate(req));
     ASSERT_EQ(o.samples.size(), static_cast<std::size_t>(req.record_revs * req.samples_per_rev));
     bool stuck = false;
     for (const auto& smp : o.samples) {
-      EXPECT_LE(smp.s[idx::y] - delta, kAboveFaceTol * delta) << "t = " << smp.t;
+      EXPECT_LE(smp.s[idx::y] - clearance, kAboveFaceTol * clearance) << "t = " << smp.t;
       if (smp.fn > 0.0) {
         stuck = true;
-        EXPECT_EQ(smp.s[idx::y], delta) << "stuck at t = " << smp.t;
+        EXPECT_EQ(smp.s[idx::y], clearance) << "stuck at t = " << smp.t;
       }
     }
     stuck_runs += stuck;

@@ -14,6 +14,7 @@
 #include "ref/orbits/periodic_orbit.hpp"
 #include "ref/rig/rig.hpp"
 #include "ref/run/simulate.hpp"
+#include "ref/study/study.hpp"
 #include "ref/sweep/sweep.hpp"
 
 namespace rubref {
@@ -43,7 +44,7 @@ TEST(settings_registry, rows_of_one_name_spell_it_alike) {
 
 TEST(settings_registry, every_row_says_what_it_is_and_why_its_range) {
   for (const auto& s : settings_registry) {
-    EXPECT_FALSE(s.flag.empty()) << s.name;
+    EXPECT_FALSE(s.flag.empty() && s.key.empty()) << s.name;  // set on the command line, in a file, or both
     EXPECT_FALSE(s.unit.empty()) << s.name;
     EXPECT_FALSE(s.description.empty()) << s.name;
     EXPECT_FALSE(s.reason.empty()) << s.name;
@@ -90,6 +91,9 @@ TEST(settings_registry, the_structs_defaults_are_the_registrys_and_valid) {
   EXPECT_EQ(rig.probes.sample_rate, setting_named("rig", "sample_rate").default_value);
   EXPECT_NO_THROW(validate(rig));
   EXPECT_EQ(periodic_orbit_request{}.tolerance, setting_named("", "tolerance").default_value);
+  const study::job_settings job;
+  EXPECT_EQ(job.max_period, setting_named("study", "max_period").default_value);
+  EXPECT_EQ(job.samples_per_rev, setting_named("study", "samples_per_rev").default_value);
 }
 
 }  // namespace

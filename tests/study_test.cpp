@@ -62,7 +62,14 @@ TEST(StudySpec, EachMistakeIsNamedByItsKey) {
       {R"({"study": "grid", "grid": [{"name": "effect.preload.F_y", "values": [0, -4]}]})", "effects and probe noise enter only a loop job"},
       {R"({"study": "grid", "grid": [{"name": "effect.prelod.F_y", "values": [0]}], "job": {"type": "loop"}})", "did you mean 'effect.preload.F_y'"},
       {R"({"study": "grid", "effects": ["hertz"], "grid": [{"name": "mu", "values": [0.2]}], "job": {"type": "loop"}})", "key 'effects[0]'"},
-      {R"({"study": "grid", "grid": [{"name": "mu", "values": [0.2]}], "job": {"type": "loop", "speeds_rpm": [-1]}})", "key 'job'"},
+      {R"({"study": "grid", "grid": [{"name": "mu", "values": [0.2]}], "job": {"type": "loop", "speeds_rpm": [-1]}})",
+       "key 'job.speeds_rpm[0]' must be finite and in (0, "},
+      // The job's counts and the noise: the settings registry's ranges and reasons (ref/model/settings.hpp).
+      {R"({"study": "grid", "grid": [{"name": "mu", "values": [0.2]}], "job": {"settle_rounds": 0}})",
+       "key 'job.settle_rounds' must be a whole number in [1, 64] (got 0): each round"},
+      {R"({"study": "grid", "grid": [{"name": "mu", "values": [0.2]}], "job": {"samples_per_rev": 8.5}})", "key 'job.samples_per_rev' must be a whole number"},
+      {R"({"study": "grid", "grid": [{"name": "mu", "values": [0.2]}], "job": {"type": "loop", "noise_m": -1e-6}})",
+       "key 'job.noise_m' must be finite and >= 0 m"},
       {R"({"study": "grid", "grid": [{"name": "mu", "values": [0.2]}], "job": {"noise_m": 1e-6}})", "key 'job.noise_m': belongs to a loop job only"},
   };
   for (const auto& [text, expected] : cases) {

@@ -219,9 +219,9 @@ void expect_bitwise_equal(const sweep_branch& a, const sweep_branch& b) {
 TEST(sweep, same_bits_whatever_the_thread_count) {
   auto s = short_sweep(1540, 1600, 20);
   std::vector<branch_task> tasks;
-  for (const double delta : {0.2e-3, 0.3e-3})
+  for (const double clearance : {0.2e-3, 0.3e-3})
     for (const auto d : {sweep_direction::up, sweep_direction::down}) {
-      s.params.clearance = delta;
+      s.params.clearance = clearance;
       tasks.push_back({s, d});
     }
   const auto one = run_branches(tasks, 1);

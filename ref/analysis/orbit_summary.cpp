@@ -19,7 +19,7 @@ std::string_view to_string(contact_regime r) {
 orbit_summary summarize(const orbit& o) {
   orbit_summary out;
   if (o.samples.empty()) return out;
-  const double delta = o.request.params.clearance;
+  const double clearance = o.request.params.clearance;
   double x_lo = o.samples.front().s[idx::x], x_hi = x_lo;
   double y_lo = o.samples.front().s[idx::y], y_hi = y_lo;
   std::size_t in_contact = 0;
@@ -33,7 +33,7 @@ orbit_summary summarize(const orbit& o) {
     y_hi = std::max(y_hi, smp.s[idx::y]);
     out.max_radius = std::max(out.max_radius, std::hypot(smp.s[idx::x], smp.s[idx::y]));
     out.max_normal_force = std::max(out.max_normal_force, smp.fn);
-    out.max_penetration = std::max(out.max_penetration, smp.s[idx::y] - delta);
+    out.max_penetration = std::max(out.max_penetration, smp.s[idx::y] - clearance);
     if (smp.fn > 0.0) ++in_contact;
     x.push_back(smp.s[idx::x]);
     y.push_back(smp.s[idx::y]);

@@ -68,10 +68,10 @@ constexpr double kCircleRatio = 0.95;
 std::string mm_label(double m) { return format_fixed(m * 1e3, 1) + "mm"; }
 std::string rpm_label(double rpm) { return format_fixed(rpm, 0) + "rpm"; }
 
-sweep_settings paper_sweep(const std::string& variant, double delta, double from_rpm, double to_rpm) {
+sweep_settings paper_sweep(const std::string& variant, double clearance, double from_rpm, double to_rpm) {
   sweep_settings s;
   s.variant = variant;
-  s.params.clearance = delta;
+  s.params.clearance = clearance;
   s.from_rpm = from_rpm;
   s.to_rpm = to_rpm;
   s.step_rpm = kSweepStepRpm;
@@ -135,10 +135,10 @@ closed_form_scan scan_closed_form(const parameters& p) {
 }
 
 // Where the contact-free orbit's top |Y| exceeds the clearance, on the scan grid.
-speed_ranges touching_band(const closed_form_scan& scan, double delta) {
+speed_ranges touching_band(const closed_form_scan& scan, double clearance) {
   std::map<double, double> top;
   for (std::size_t i = 0; i < scan.rpm.size(); ++i) top[scan.rpm[i]] = std::abs(scan.response[i].y_phasor);
-  return contiguous_ranges(scan.rpm, [&](double rpm) { return top[rpm] > delta; });
+  return contiguous_ranges(scan.rpm, [&](double rpm) { return top[rpm] > clearance; });
 }
 
 // Fig. 3's three shapes, chosen from the closed form (rules at kAxisTolDeg, kCircleRatio).
@@ -181,10 +181,10 @@ struct traced_branch {
   continuation_result result;
 };
 
-traced_branch trace_branch(double delta, const speed_ranges& touching) {
+traced_branch trace_branch(double clearance, const speed_ranges& touching) {
   const double lo = touching.front().first, hi = touching.back().second, width = hi - lo;
   traced_branch t;
-  t.request.params.clearance = delta;
+  t.request.params.clearance = clearance;
   t.request.from = std::floor((lo - kContinuationLowShare * width) / kRangeRoundRpm) * kRangeRoundRpm;
   double to = std::ceil((hi + kContinuationHighWidths * width) / kRangeRoundRpm) * kRangeRoundRpm;
   for (int attempt = 0;; ++attempt) {
@@ -194,7 +194,7 @@ traced_branch trace_branch(double delta, const speed_ranges& touching) {
     const bool back_off_the_stator = t.result.reached_end && !t.result.points.empty() && t.result.points.back().max_z < 0.0;
     if (back_off_the_stator) return t;
     if (attempt == kMaxRangeDoublings || !t.result.reached_end)
-      throw numerical_error("reproduce: the period-1 branch at clearance " + format_fixed(delta * 1e3, 1) + " mm does not return to the "
+      throw numerical_error("reproduce: the period-1 branch at clearance " + format_fixed(clearance * 1e3, 1) + " mm does not return to the "
                             "contact-free orbit by " + format_fixed(to, 0) + " rpm (" + t.result.stopped + ")");
     to = t.request.from + 2.0 * (to - t.request.from);
   }
@@ -246,10 +246,10 @@ void reproduce(const reproduce_settings& s) {
   // 1. The range: the closed form's touching bands, then the period-1 branch at each clearance.
   const closed_form_scan scan = scan_closed_form(paper);
   std::vector<speed_ranges> touching;
-  for (const double delta : kClearances) {
-    touching.push_back(touching_band(scan, delta));
+  for (const double clearance : kClearances) {
+    touching.push_back(touching_band(scan, clearance));
     if (touching.back().empty())
-      throw numerical_error("reproduce: the contact-free orbit never reaches the clearance " + format_fixed(delta * 1e3, 1) + " mm");
+      throw numerical_error("reproduce: the contact-free orbit never reaches the clearance " + format_fixed(clearance * 1e3, 1) + " mm");
   }
   s.progress("[1/6] periodic-orbit branches of the identified law at 0.2/0.3/0.4 mm (continuation in speed) ...");
   auto t0 = std::chrono::steady_clock::now();
@@ -271,9 +271,9 @@ void reproduce(const reproduce_settings& s) {
 
   // 2. Every sweep the figures need, one branch per task, on all cores.
   std::vector<branch_task> tasks;
-  for (const double delta : kClearances)
+  for (const double clearance : kClearances)
     for (const auto dir_kind : {sweep_direction::up, sweep_direction::down})
-      tasks.push_back({paper_sweep("identified", delta, from_rpm, to_rpm), dir_kind});
+      tasks.push_back({paper_sweep("identified", clearance, from_rpm, to_rpm), dir_kind});
   for (const std::string v : {"restitution", "piecewise-linear", "piecewise-nonlinear"})
     tasks.push_back({paper_sweep(v, kPaperClearance, from_rpm, to_rpm), sweep_direction::up});
   // The identified law without friction: what friction adds to the backward whirl.
@@ -302,9 +302,9 @@ void reproduce(const reproduce_settings& s) {
   s.progress("      done in " + since(t0) + " (" + std::to_string(steps) + " steps; " + std::to_string(shot) + " of " +
              std::to_string(points) + " speeds started on a shot periodic orbit)");
 
-  const auto branch_of = [&](const std::string& variant, double delta, sweep_direction d) -> const sweep_branch& {
+  const auto branch_of = [&](const std::string& variant, double clearance, sweep_direction d) -> const sweep_branch& {
     for (std::size_t i = 0; i < tasks.size(); ++i)
-      if (tasks[i].settings.variant == variant && tasks[i].settings.params.clearance == delta && tasks[i].direction == d &&
+      if (tasks[i].settings.variant == variant && tasks[i].settings.params.clearance == clearance && tasks[i].direction == d &&
           tasks[i].settings.samples_per_rev == grid_settings.samples_per_rev && tasks[i].settings.params.mu == paper.mu)
         return branches[i];
     throw numerical_error("reproduce: missing branch");
@@ -396,27 +396,27 @@ void reproduce(const reproduce_settings& s) {
     }
   }
   for (std::size_t c = 0; c < kClearances.size(); ++c) {
-    const double delta = kClearances[c];
-    const auto& up = branch_of("identified", delta, sweep_direction::up);
-    const auto& down = branch_of("identified", delta, sweep_direction::down);
-    const std::string tag = "identified_" + mm_label(delta);
-    const sweep_settings settings = paper_sweep("identified", delta, from_rpm, to_rpm);
+    const double clearance = kClearances[c];
+    const auto& up = branch_of("identified", clearance, sweep_direction::up);
+    const auto& down = branch_of("identified", clearance, sweep_direction::down);
+    const std::string tag = "identified_" + mm_label(clearance);
+    const sweep_settings settings = paper_sweep("identified", clearance, from_rpm, to_rpm);
     dir.write("data/sweep_" + tag + ".csv", to_csv(sweep_table(settings, {up, down})));
     dir.write("data/branch_" + tag + ".csv", to_csv(branch_table(traced[c].request, traced[c].result)));
     dir.write("data/branch_" + tag + ".json", branch_summary_json(traced[c].request, traced[c].result).dump(2) + "\n");
-    manifest["sweeps"].push_back({{"file", "data/sweep_" + tag + ".csv"}, {"variant", "identified"}, {"clearance_mm", delta * 1e3}});
+    manifest["sweeps"].push_back({{"file", "data/sweep_" + tag + ".csv"}, {"variant", "identified"}, {"clearance_mm", clearance * 1e3}});
     manifest["branches"].push_back({{"file", "data/branch_" + tag + ".csv"}, {"summary", "data/branch_" + tag + ".json"},
-                                    {"clearance_mm", delta * 1e3}});
-    if (delta == kPaperClearance)
+                                    {"clearance_mm", clearance * 1e3}});
+    if (clearance == kPaperClearance)
       for (const auto* b : {&up, &down}) {
         const std::string f = "data/waterfall_" + tag + "_" + std::string(to_string(b->direction)) + ".csv";
         dir.write(f, to_csv(waterfall_table(settings, *b)));
         manifest["waterfall"][std::string(to_string(b->direction))] = f;
       }
     for (const double rpm : kFig12Speeds) {
-      const std::string f = "data/orbits/fig12_" + mm_label(delta) + "_" + rpm_label(rpm) + ".csv";
+      const std::string f = "data/orbits/fig12_" + mm_label(clearance) + "_" + rpm_label(rpm) + ".csv";
       dir.write(f, to_csv(orbit_record(settings, point_at(up, rpm))));
-      manifest["fig12"].push_back({{"file", f}, {"clearance_mm", delta * 1e3}, {"rpm", rpm}, {"period_revs", point_at(up, rpm).summary.period_revs}});
+      manifest["fig12"].push_back({{"file", f}, {"clearance_mm", clearance * 1e3}, {"rpm", rpm}, {"period_revs", point_at(up, rpm).summary.period_revs}});
     }
   }
   numbers["other_laws"] = json::object();
@@ -496,12 +496,12 @@ void reproduce(const reproduce_settings& s) {
   }
   // Per clearance: where the contact-free orbit reaches the stator, rub, whirl, periods, jumps, branch.
   for (std::size_t ci = 0; ci < kClearances.size(); ++ci) {
-    const double delta = kClearances[ci];
-    const auto& up = branch_of("identified", delta, sweep_direction::up);
-    const auto& down = branch_of("identified", delta, sweep_direction::down);
+    const double clearance = kClearances[ci];
+    const auto& up = branch_of("identified", clearance, sweep_direction::up);
+    const auto& down = branch_of("identified", clearance, sweep_direction::down);
     const jump_report jr = detect_jumps(up, down, kSweepStepRpm);
     json c;
-    c["clearance_mm"] = delta * 1e3;
+    c["clearance_mm"] = clearance * 1e3;
     c["contact_free_orbit_reaches_stator_rpm"] = ranges_json(touching[ci]);
     c["rub_up_rpm"] = ranges_json(rub_ranges(up));
     c["rub_down_rpm"] = ranges_json(rub_ranges(down));

@@ -16,7 +16,7 @@ namespace rubref {
 namespace {
 // Derivatives with windows split at y = delta; a periodic cycle is tiled three times so that its
 // windows wrap around, and the middle copy is kept.
-std::pair<derivatives, derivatives> differentiate_xy(const dwell& d, double delta, const derivative_settings& ds) {
+std::pair<derivatives, derivatives> differentiate_xy(const dwell& d, double clearance, const derivative_settings& ds) {
   const std::size_t n = d.size(), copies = d.periodic ? 3 : 1;
   std::vector<double> x, y;
   for (std::size_t c = 0; c < copies; ++c) {
@@ -25,7 +25,7 @@ std::pair<derivatives, derivatives> differentiate_xy(const dwell& d, double delt
   }
   // Segments: runs of samples on one side of y = delta (the force law switches between them).
   std::vector<int> side(y.size());
-  for (std::size_t i = 0; i < y.size(); ++i) side[i] = (i ? side[i - 1] : 0) + (i && (y[i] > delta) != (y[i - 1] > delta));
+  for (std::size_t i = 0; i < y.size(); ++i) side[i] = (i ? side[i - 1] : 0) + (i && (y[i] > clearance) != (y[i - 1] > clearance));
   derivatives dx = differentiate(x, d.dt, ds, side), dy = differentiate(y, d.dt, ds, side);
   if (d.periodic) {
     for (auto* v : {&dx.d1, &dx.d2, &dy.d1, &dy.d2, &dy.d1_gain}) *v = std::vector<double>(v->begin() + n, v->begin() + 2 * n);
@@ -34,9 +34,9 @@ std::pair<derivatives, derivatives> differentiate_xy(const dwell& d, double delt
 }
 }  // namespace
 
-dwell_forces contact_forces(const dwell& d, const linear_part& lin, double delta, const derivative_settings& ds) {
+dwell_forces contact_forces(const dwell& d, const linear_part& lin, double clearance, const derivative_settings& ds) {
   const std::size_t n = d.size();
-  const auto [dx, dy] = differentiate_xy(d, delta, ds);
+  const auto [dx, dy] = differentiate_xy(d, clearance, ds);
   dwell_forces f;
   f.source = &d;
   f.vx = dx.d1;
@@ -51,7 +51,7 @@ dwell_forces contact_forces(const dwell& d, const linear_part& lin, double delta
   const double w = d.omega(), unbalance = lin.m * lin.e * w * w;
   for (std::size_t i = 0; i < n; ++i) {
     const double phase = w * d.t[i] + lin.phase;
-    f.z[i] = d.y[i] - delta;
+    f.z[i] = d.y[i] - clearance;
     f.fx[i] = lin.m * f.ax[i] + lin.c_x * f.vx[i] + lin.k_x * d.x[i] - unbalance * std::cos(phase);
     f.fn[i] = -(lin.m * f.ay[i] + lin.c_y * f.vy[i] + lin.k_y * d.y[i] - unbalance * std::sin(phase));
     f.contact[i] = f.z[i] > 0.0 && std::isfinite(f.fx[i]) && std::isfinite(f.fn[i]);

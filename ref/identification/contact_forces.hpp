@@ -27,7 +27,7 @@ struct dwell_forces {
   std::vector<bool> contact;           // y > delta and every derivative available
 };
 
-dwell_forces contact_forces(const dwell& d, const linear_part& lin, double delta, const derivative_settings& ds);
+dwell_forces contact_forces(const dwell& d, const linear_part& lin, double clearance, const derivative_settings& ds);
 
 // Samples used for the friction ratio: in contact, with f_N at least this share of the dwell's
 // peak, so that f_x / f_N never divides by the noise around onset and separation.

@@ -130,6 +130,20 @@ inline constexpr auto settings_registry = std::to_array<setting_info>({
     {"rig", "noise", "noise", "noise_m", "m", 0.5e-6, range::non_negative, "probe white noise, standard deviation", "a standard deviation"},
     {"rig", "quantisation", "quantisation", "quantisation_m", "m", 61e-9, range::non_negative, "probe quantisation step (16 bits over +-2 mm)",
      "a step size (0: none)"},
+
+    // A study's job (ref/study/study.hpp; the SPEC's "job" object, docs/studies.md): what each point
+    // runs. Set in the SPEC only: settle_rounds and max_period have no command-line flag.
+    {"study", "settle_revs", "settle-revs", "settle_revs", "rev", 60, range::count_in(0, 100000),
+     "orbit: revolutions settled before a new shot where one fails or is unstable; simulate: before recording",
+     "a count, bounded so that no point of a study runs for hours"},
+    {"study", "settle_rounds", "", "settle_rounds", "-", 4, range::count_in(1, 64), "orbit: settle-and-shoot rounds at most",
+     "each round settles settle_revs more revolutions: beyond 64 rounds only lengthens a point that does not settle"},
+    {"study", "max_period", "", "max_period", "rev", 6, range::count_in(1, 32), "orbit: the longest period looked for",
+     "a period is read off the recorded revolutions and shot as an n-revolution map; the shooting itself stops at 64"},
+    {"study", "record_revs", "revs", "record_revs", "rev", 12, range::count_in(2, 10000),
+     "simulate (and orbit's non-periodic points): revolutions recorded", "a period is recognised when it repeats, so at least two"},
+    {"study", "samples_per_rev", "samples-per-rev", "samples_per_rev", "-", 128, range::count_in(8, 100000), "output samples per revolution",
+     "a point's summary needs its orbit's shape, and a study's files grow with it"},
 });
 // clang-format on
 

@@ -55,6 +55,14 @@ long long whole(const json& j, const std::string& source, const std::string& whe
   return static_cast<long long>(v);
 }
 
+// A job's value checked by its registry row; the message names the SPEC's key.
+double job_value(const json& j, const std::string& source, const std::string& key, setting_key row) {
+  const std::string where = "job." + key;
+  const double v = number(j, source, where);
+  if (const std::string why = violation(*row.row, v, "key '" + where + "'"); !why.empty()) throw input_error("SPEC " + source + ": " + why);
+  return v;
+}
+
 std::string text(const json& j, const std::string& source, const std::string& where) {
   if (!j.is_string()) bad(source, where, "must be a string (got " + j.dump() + ")");
   return j.get<std::string>();
@@ -220,9 +228,9 @@ job_settings parse_job(const json& given, study_kind kind, const std::string& so
   if (j.contains("speeds_rpm")) {
     if (!j["speeds_rpm"].is_array() || j["speeds_rpm"].empty()) bad(source, "job.speeds_rpm", "must be a non-empty array of speeds");
     for (std::size_t i = 0; i < j["speeds_rpm"].size(); ++i)
-      job.speeds_rpm.push_back(number(j["speeds_rpm"][i], source, "job.speeds_rpm[" + std::to_string(i) + "]"));
+      job.speeds_rpm.push_back(job_value(j["speeds_rpm"][i], source, "speeds_rpm[" + std::to_string(i) + "]", {"", "rpm"}));
   }
-  if (j.contains("noise_m")) job.noise = number(j["noise_m"], source, "job.noise_m");
+  if (j.contains("noise_m")) job.noise = job_value(j["noise_m"], source, "noise_m", {"rig", "noise"});
   if (j.contains("keyphasor")) {
     if (!j["keyphasor"].is_boolean()) bad(source, "job.keyphasor", "must be true or false");
     job.keyphasor = j["keyphasor"].get<bool>();
@@ -232,11 +240,14 @@ job_settings parse_job(const json& given, study_kind kind, const std::string& so
     if (std::find(kStarts.begin(), kStarts.end(), job.start) == kStarts.end())
       bad(source, "job.start", "unknown start '" + job.start + "'" + did_you_mean(job.start, kStarts) + " (contact_free, state or rest)");
   }
-  if (j.contains("settle_revs")) job.settle_revs = static_cast<int>(whole(j["settle_revs"], source, "job.settle_revs", 0, 100000));
-  if (j.contains("settle_rounds")) job.settle_rounds = static_cast<int>(whole(j["settle_rounds"], source, "job.settle_rounds", 1, 64));
-  if (j.contains("record_revs")) job.record_revs = static_cast<int>(whole(j["record_revs"], source, "job.record_revs", 2, 10000));
-  if (j.contains("max_period")) job.max_period = static_cast<int>(whole(j["max_period"], source, "job.max_period", 1, 32));
-  if (j.contains("samples_per_rev")) job.samples_per_rev = static_cast<int>(whole(j["samples_per_rev"], source, "job.samples_per_rev", 8, 100000));
+  const auto count = [&](const char* key, setting_key row, int& field) {
+    if (j.contains(key)) field = static_cast<int>(job_value(j[key], source, key, row));
+  };
+  count("settle_revs", {"study", "settle_revs"}, job.settle_revs);
+  count("settle_rounds", {"study", "settle_rounds"}, job.settle_rounds);
+  count("record_revs", {"study", "record_revs"}, job.record_revs);
+  count("max_period", {"study", "max_period"}, job.max_period);
+  count("samples_per_rev", {"study", "samples_per_rev"}, job.samples_per_rev);
   if (j.contains("from_rpm")) job.from_rpm = number(j["from_rpm"], source, "job.from_rpm");
   if (j.contains("to_rpm")) job.to_rpm = number(j["to_rpm"], source, "job.to_rpm");
   // A period is detected in the recorded revolutions: it must fit twice.

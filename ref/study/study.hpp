@@ -12,6 +12,7 @@
 
 #include "ref/model/effects.hpp"
 #include "ref/model/parameters.hpp"
+#include "ref/model/settings.hpp"
 #include "ref/model/state.hpp"
 #include "ref/rig/rig.hpp"
 
@@ -59,12 +60,12 @@ struct job_settings {
   // t = 0; orbit shoots from it first), "state" (x0_m, y0_m, vx0_m_s, vy0_m_s: the point's
   // values, else 0), "rest".
   std::string start = "contact_free";
-  int settle_revs = 60;      // orbit: revolutions settled before each new shot where a shot fails
-                             // or is unstable; simulate: before recording
-  int settle_rounds = 4;     // orbit: at most this many settle-and-shoot rounds
-  int max_period = 6;        // orbit: longest period (revolutions) looked for
-  int record_revs = 12;      // simulate (and orbit's non-periodic points): recorded revolutions
-  int samples_per_rev = 128;
+  // The counts' meanings and ranges: the registry's "study" rows (ref/model/settings.hpp).
+  int settle_revs = default_count_of("study", "settle_revs");
+  int settle_rounds = default_count_of("study", "settle_rounds");
+  int max_period = default_count_of("study", "max_period");
+  int record_revs = default_count_of("study", "record_revs");
+  int samples_per_rev = default_count_of("study", "samples_per_rev");
   double from_rpm = 0.0, to_rpm = 0.0;  // run_up: the speed range traced (from < to)
   // loop: the rig's dwells (default: the rig's, three below the rub and six with it), its
   // revolutions per dwell, the probes' noise and whether a keyphasor is recorded. The noise's

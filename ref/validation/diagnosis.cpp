@@ -856,10 +856,10 @@ void diagnosis::refit_stage(const std::optional<transform_fit>& transform) {
 }
 
 // Upward crossings of the clearance: contact episodes seen on the samples.
-int episodes(const std::vector<double>& y, double delta) {
+int episodes(const std::vector<double>& y, double clearance) {
   int count = 0;
   for (std::size_t i = 1; i < y.size(); ++i)
-    if (y[i - 1] <= delta && y[i] > delta) ++count;
+    if (y[i - 1] <= clearance && y[i] > clearance) ++count;
   return count;
 }
 
@@ -921,15 +921,15 @@ double rms_of(const std::vector<std::array<double, 2>>& run, const candidate_dat
 
 void diagnosis::event_stage() {
   const parameters& p = g.request.params;
-  const double delta = p.clearance, scale = kGoldenOrbitRelTol * g.statistics.max_radius;
+  const double clearance = p.clearance, scale = kGoldenOrbitRelTol * g.statistics.max_radius;
   const bool rigid = visit_variant(g.request.variant, []<class V>() { return impact_law<V>; });
 
   std::size_t deepest = 0;
   for (std::size_t i = 1; i < c.y.size(); ++i)
     if (c.y[i] > c.y[deepest]) deepest = i;
-  const double depth = c.y[deepest] - delta;
+  const double depth = c.y[deepest] - clearance;
   double golden_depth = 0.0;
-  for (const double y : g.y) golden_depth = std::max(golden_depth, y - delta);
+  for (const double y : g.y) golden_depth = std::max(golden_depth, y - clearance);
   if (rigid && depth > scale)
     add(cause_code::missed_events, false,
         "the candidate goes " + format_digits(depth) + " m into the stator at t = " + format_digits(c.t[deepest], 10) +
@@ -941,7 +941,7 @@ void diagnosis::event_stage() {
             " m: contact onsets are detected late or missed between steps",
         {{"max_penetration_m", depth}, {"golden_max_penetration_m", golden_depth}}, 2);
   if (pts) {
-    const int want = episodes(pts->gy, delta), got = episodes(pts->y, delta);
+    const int want = episodes(pts->gy, clearance), got = episodes(pts->y, clearance);
     if (got < want)
       add(cause_code::missed_events, false,
           std::to_string(got) + " contact episodes on the compared samples where the golden has " + std::to_string(want) +

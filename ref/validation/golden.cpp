@@ -21,7 +21,7 @@
 namespace rubref {
 
 orbit_statistics statistics_of(std::span<const double> t, std::span<const double> x, std::span<const double> y,
-                               double omega, double delta) {
+                               double omega, double clearance) {
   orbit_statistics s;
   const std::size_t n = t.size();
   if (n == 0) return s;
@@ -34,7 +34,7 @@ orbit_statistics statistics_of(std::span<const double> t, std::span<const double
   Eigen::VectorXcd r(static_cast<Eigen::Index>(n));
   for (std::size_t i = 0; i < n; ++i) {
     s.max_radius = std::max(s.max_radius, std::hypot(x[i], y[i]));
-    if (y[i] > delta) ++in_contact;
+    if (y[i] > clearance) ++in_contact;
     const auto k = static_cast<Eigen::Index>(i);
     const std::complex<double> rot = std::polar(1.0, omega * t[i]);
     A(k, 0) = 1.0;
@@ -177,7 +177,7 @@ struct scan_start {
 std::string mm_text(double metres) { return format_digits(metres * 1e3, 6); }
 
 std::vector<scan_start> scan_starts(const run_request& req) {
-  const double omega = rpm_to_rad_s(req.rpm), period = 2.0 * std::numbers::pi / omega, delta = req.params.clearance;
+  const double omega = rpm_to_rad_s(req.rpm), period = 2.0 * std::numbers::pi / omega, clearance = req.params.clearance;
   std::vector<scan_start> out;
   // Another unbalance phase phi from t' = 0 is, in the file's frame (phi = 0), rest at t = phi / w.
   for (int k = 1; k <= 7; ++k)
@@ -191,15 +191,15 @@ std::vector<scan_start> scan_starts(const run_request& req) {
     state_type s = free_flight<4>(*rotor_system<Law>(free, omega).free_dynamics()).particular(0.0);
     std::string what = "contact-free steady response at t = 0";
     if constexpr (!compliant_law<Law>) {
-      if (s[idx::y] > delta) {
-        s[idx::y] = delta;
+      if (s[idx::y] > clearance) {
+        s[idx::y] = clearance;
         what += ", y clipped to the clearance";
       }
     }
     out.push_back({what, s, 0.0});
   });
   // Displaced at rest: near the stator, below it, and to either side.
-  for (const auto& [x, y] : {std::pair{0.0, 0.9 * delta}, {0.0, -0.9 * delta}, {0.9 * delta, 0.0}, {-0.9 * delta, 0.0}})
+  for (const auto& [x, y] : {std::pair{0.0, 0.9 * clearance}, {0.0, -0.9 * clearance}, {0.9 * clearance, 0.0}, {-0.9 * clearance, 0.0}})
     out.push_back({"rest at (x, y) = (" + mm_text(x) + ", " + mm_text(y) + ") mm at t = 0", state_type{x, y, 0.0, 0.0}, 0.0});
   return out;
 }

@@ -52,7 +52,7 @@ inline constexpr std::array<statistic_info, 6> statistic_table{{
 // components are the least-squares fit of a + b e^{jwt} + c e^{-jwt} to x + j y: on whole
 // revolutions sampled uniformly that is the DFT bin, and it needs neither.
 orbit_statistics statistics_of(std::span<const double> t, std::span<const double> x, std::span<const double> y,
-                               double omega, double delta);
+                               double omega, double clearance);
 
 enum class comparison_kind { orbit, statistics };
 std::string_view to_string(comparison_kind k);
