@@ -9,16 +9,26 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include <atomic>
+#include <chrono>
+#include <condition_variable>
+#include <deque>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <map>
+#include <mutex>
 #include <optional>
+#include <set>
+#include <streambuf>
 #include <string>
 #include <string_view>
+#include <thread>
 #include <vector>
 
 #include "ref/analysis/orbit_io.hpp"
 #include "ref/analysis/orbit_summary.hpp"
+#include "ref/base/cancel.hpp"
 #include "ref/base/errors.hpp"
 #include "ref/base/parallel.hpp"
 #include "ref/base/setting_names.hpp"
@@ -30,6 +40,7 @@
 #include "ref/identification/identify_io.hpp"
 #include "ref/loop/loop.hpp"
 #include "ref/loop/report.hpp"
+#include "ref/base/number_text.hpp"
 #include "ref/model/parameter_io.hpp"
 #include "ref/orbits/continuation.hpp"
 #include "ref/orbits/continuation_io.hpp"
@@ -49,12 +60,121 @@ using namespace rubref;
 namespace {
 
 // A library message with its settings (`field`, ref/base/errors.hpp) as this module's keyword
-// arguments: 'start' and 'end' for a continuation's range, 'revs' for the recorded revolutions
-// (as on the command line), else the field's own name.
+// arguments: 'from_' for a continuation's range start (`from` is a Python keyword; 'to' is its
+// own name), 'revs' for the recorded revolutions (as on the command line), else the field's name.
 std::string with_keywords(std::string_view message) {
   return spell_settings(message, [](std::string_view field) {
-    return "'" + std::string(field == "from" ? "start" : field == "to" ? "end" : field == "record_revs" ? "revs" : field) + "'";
+    return "'" + std::string(field == "from" ? "from_" : field == "record_revs" ? "revs" : field) + "'";
   });
+}
+
+// A Python warning at the user's line: stacklevel 3 skips the package's function and its checking
+// wrapper (python/rubref/__init__.py), which every call comes through.
+void warn(const std::string& text) {
+  py::module_::import("warnings").attr("warn")(with_keywords(text), py::module_::import("builtins").attr("UserWarning"), 3);
+}
+
+// Progress lines from any thread of a long call, delivered to Python on its own thread.
+class line_queue {
+ public:
+  void push(std::string line) {
+    const std::lock_guard lock(mutex_);
+    lines_.push_back(std::move(line));
+  }
+  std::deque<std::string> take() {
+    const std::lock_guard lock(mutex_);
+    return std::exchange(lines_, {});
+  }
+
+ private:
+  std::mutex mutex_;
+  std::deque<std::string> lines_;
+};
+
+// A stream whose complete lines go to `to` (the study's progress meter writes to a stream; it
+// writes under the study's own lock, one line at a time).
+class line_streambuf : public std::streambuf {
+ public:
+  explicit line_streambuf(std::function<void(std::string)> to) : to_(std::move(to)) {}
+
+ protected:
+  int_type overflow(int_type c) override {
+    if (c == traits_type::eof()) return c;
+    if (c == '\n' || c == '\r') {
+      if (!line_.empty()) to_(std::exchange(line_, {}));
+    } else {
+      line_ += static_cast<char>(c);
+    }
+    return c;
+  }
+
+ private:
+  std::function<void(std::string)> to_;
+  std::string line_;
+};
+
+// Runs work(report) on a thread of its own while the caller's (Python's) thread waits with the
+// GIL released. Every 50 ms that thread takes the GIL back to hand the lines given to `report`
+// to `progress` (a Python callable, or None) and to run Python's signal handlers: Ctrl-C raises
+// KeyboardInterrupt there. Then the work's stop is requested (ref/base/cancel.hpp: every
+// integration step and every parallel task checks it), its unwinding removes what it staged, and
+// the Python exception is raised once it has ended: nothing partial, within a step of the poll.
+template <class Work>
+auto interruptible(const py::object& progress, Work&& work) {
+  using result = decltype(work(std::function<void(std::string)>{}));
+  line_queue lines;
+  const std::function<void(std::string)> report = [&lines](std::string line) { lines.push(std::move(line)); };
+  stop_source stop;
+  std::mutex mutex;
+  std::condition_variable finished;
+  bool done = false;
+  std::optional<result> out;
+  std::exception_ptr error;
+  const auto deliver = [&] {
+    for (auto& line : lines.take())
+      if (!progress.is_none()) progress(line);
+  };
+  std::optional<py::error_already_set> raised;
+  {
+    py::gil_scoped_release free;
+    std::thread worker([&] {
+      const stop_scope scope(&stop);
+      try {
+        out.emplace(work(report));
+      } catch (...) {
+        error = std::current_exception();
+      }
+      const std::lock_guard lock(mutex);
+      done = true;
+      finished.notify_one();
+    });
+    for (;;) {
+      bool ended = false;
+      {
+        std::unique_lock lock(mutex);
+        ended = finished.wait_for(lock, std::chrono::milliseconds(50), [&] { return done; });
+      }
+      {
+        py::gil_scoped_acquire hold;
+        try {
+          deliver();
+          if (PyErr_CheckSignals() != 0) throw py::error_already_set();
+        } catch (py::error_already_set& e) {
+          raised.emplace(std::move(e));
+        }
+      }
+      if (raised) {
+        stop.request_stop();
+        break;
+      }
+      if (ended) break;
+    }
+    worker.join();
+  }
+  if (raised) throw std::move(*raised);  // KeyboardInterrupt, or the progress callable's own error
+  deliver();
+  if (error) std::rethrow_exception(error);
+  return std::move(*out);
 }
 
 py::array_t<double> to_array(const std::vector<double>& v) { return py::array_t<double>(static_cast<py::ssize_t>(v.size()), v.data()); }
@@ -79,6 +199,7 @@ parameters parameters_from(std::optional<double> clearance, const py::dict& kw) 
   }
   apply_json(p, j, "keyword arguments");
   validate(p);
+  for (const auto& w : unit_warnings(p)) warn(w);  // the command line's warning (ref/model/parameter_io.hpp)
   return p;
 }
 
@@ -139,7 +260,9 @@ run_request run_from(const std::string& variant, double rpm, int settle_revs, in
 }  // namespace
 
 PYBIND11_MODULE(_rubref, m) {
-  m.doc() = "rubref: numerical reference for partial rotor-stator rub (docs/python.md)";
+  // The public functions are python/rubref/__init__.py's: they check keywords and types, carry the
+  // docstrings and the defaults, and call these with every argument given.
+  m.doc() = "rubref's compiled core (docs/python.md); use the functions of the rubref package";
   m.attr("__version__") = std::string(version());
   m.attr("commit") = std::string(commit());
   static py::exception<input_error> input_exc(m, "InputError", PyExc_ValueError);
@@ -154,277 +277,249 @@ PYBIND11_MODULE(_rubref, m) {
     }
   });
 
-  m.def("default_parameters", [] { return to_python(to_json(parameters{})); }, "The paper's parameters, as a parameter file has them.");
-  m.def("variants", [] { return variant_name_list(); }, "The contact laws' names.");
+  m.def("default_parameters", [] { return to_python(to_json(parameters{})); });
+  m.def("variants", [] { return variant_name_list(); });
+  m.def("steppers", [] { return std::vector<std::string>{"rk4", "dopri5", "rkf78", "bulirsch-stoer"}; });
+  m.def("_did_you_mean", [](const std::string& word, const std::vector<std::string>& candidates) { return did_you_mean(word, candidates); });
 
-  m.def(
-      "simulate",
-      [](const std::string& variant, double rpm, std::optional<double> clearance, int settle_revs, int revs, int samples_per_rev,
-         const std::string& stepper, std::optional<double> rtol, std::optional<double> atol, std::optional<double> dt,
-         std::optional<std::vector<double>> initial, const py::kwargs& params) {
-        const run_request req = run_from(variant, rpm, settle_revs, revs, samples_per_rev, parameters_from(clearance, params),
-                                         integration_from(stepper, rtol, atol, dt), initial);
-        orbit o;
-        {
-          py::gil_scoped_release free;
-          o = simulate(req);
-        }
-        py::dict d = samples_of(o);
-        d["summary"] = to_python(to_json(summarize(o), o));
-        const std::string warn = coarse_contact_warning(o.counts);
-        if (!warn.empty()) py::module_::import("warnings").attr("warn")(with_keywords(warn));
-        return d;
-      },
-      py::arg("variant") = "identified", py::arg("rpm") = default_of("run", "rpm"), py::arg("clearance") = py::none(),
-      py::arg("settle_revs") = default_count_of("run", "settle_revs"), py::arg("revs") = default_count_of("run", "record_revs"),
-      py::arg("samples_per_rev") = default_count_of("run", "samples_per_rev"), py::arg("stepper") = "dopri5", py::arg("rtol") = py::none(),
-      py::arg("atol") = py::none(), py::arg("dt") = py::none(), py::arg("initial") = py::none());
+  // The settings registry (ref/model/settings.hpp), for the docstrings and the defaults.
+  m.def("_settings", [] {
+    py::list rows;
+    for (const auto& r : settings_registry) {
+      py::dict d;
+      d["scope"] = std::string(r.scope), d["name"] = std::string(r.name), d["flag"] = std::string(r.flag);
+      d["key"] = std::string(r.key), d["unit"] = std::string(r.unit), d["default"] = r.default_value;
+      d["whole"] = r.range.integer, d["range"] = describe(r.range), d["description"] = std::string(r.description);
+      rows.append(d);
+    }
+    return rows;
+  });
+  // Defaults that live in the library's request structs rather than in the registry.
+  m.def("_defaults", [] {
+    py::dict d;
+    d["shooting_tolerance"] = kShootingTolerance;
+    d["identify_library"] = identify_settings{}.library, d["identify_rho"] = identify_settings{}.frols.rho;
+    d["identify_bootstrap"] = identify_settings{}.bootstrap;
+    d["loop_max_effects"] = loop_settings{}.max_effects;
+    d["rig_seed"] = probe_settings{}.seed, d["rig_speeds"] = rig_request{}.speeds_rpm;
+    return d;
+  });
 
-  // One steady run per row of `rpm` and `params` (columns of equal length, made by the Python
-  // wrapper from scalars and arrays); the runs share the thread pool, results in row order.
-  m.def(
-      "_simulate_batch",
-      [](const std::string& variant, const std::vector<double>& rpm, const std::map<std::string, std::vector<double>>& columns,
-         int settle_revs, int revs, int samples_per_rev, const std::string& stepper, unsigned threads) {
-        const integration_options integration = integration_from(stepper, std::nullopt, std::nullopt, std::nullopt);
-        std::vector<run_request> runs;
-        for (std::size_t i = 0; i < rpm.size(); ++i) {
-          parameters p;
-          nlohmann::json j = nlohmann::json::object();
-          for (const auto& [k, v] : columns) j[k] = v.at(i);
-          apply_json(p, j, "keyword arguments (row " + std::to_string(i) + ")");
-          validate(p);
-          runs.push_back(run_from(variant, rpm[i], settle_revs, revs, samples_per_rev, p, integration, std::nullopt));
-          validate(runs.back());
-        }
-        std::vector<orbit_summary> out(runs.size());
-        {
-          py::gil_scoped_release free;
-          parallel_for(runs.size(), threads, [&](std::size_t i) { out[i] = summarize(simulate(runs[i])); });
-        }
-        std::vector<double> max_radius, max_y, ppx, ppy, force, penetration, per_rev, fraction, period;
-        std::vector<std::string> regime;
-        std::vector<bool> backward;
-        for (const auto& s : out) {
-          max_radius.push_back(s.max_radius), max_y.push_back(s.max_y), ppx.push_back(s.peak_to_peak_x), ppy.push_back(s.peak_to_peak_y);
-          force.push_back(s.max_normal_force), penetration.push_back(s.max_penetration), per_rev.push_back(s.contact_episodes_per_rev);
-          fraction.push_back(s.contact_fraction), period.push_back(s.period_revs);
-          regime.emplace_back(to_string(s.regime));
-          backward.push_back(s.backward_whirl());
-        }
-        py::dict d;
-        d["max_radius_m"] = to_array(max_radius), d["max_y_m"] = to_array(max_y);
-        d["peak_to_peak_x_m"] = to_array(ppx), d["peak_to_peak_y_m"] = to_array(ppy);
-        d["max_normal_force_N"] = to_array(force), d["max_penetration_m"] = to_array(penetration);
-        d["contact_episodes_per_rev"] = to_array(per_rev), d["contact_fraction"] = to_array(fraction);
-        d["period_revs"] = to_array(period);
-        d["regime"] = regime;
-        d["backward_whirl"] = py::array(py::cast(backward));
-        return d;
-      },
-      py::arg("variant"), py::arg("rpm"), py::arg("columns"), py::arg("settle_revs"), py::arg("revs"), py::arg("samples_per_rev"),
-      py::arg("stepper"), py::arg("threads"));
+  m.def("_simulate", [](const std::string& variant, double rpm, std::optional<double> clearance, int settle_revs, int revs,
+                        int samples_per_rev, const std::string& stepper, std::optional<double> rtol, std::optional<double> atol,
+                        std::optional<double> dt, std::optional<std::vector<double>> initial, const py::dict& params) {
+    const run_request req = run_from(variant, rpm, settle_revs, revs, samples_per_rev, parameters_from(clearance, params),
+                                     integration_from(stepper, rtol, atol, dt), initial);
+    validate(req);
+    const orbit o = interruptible(py::none(), [&](const auto&) { return simulate(req); });
+    py::dict d = samples_of(o);
+    d["summary"] = to_python(to_json(summarize(o), o));
+    if (const std::string w = coarse_contact_warning(o.counts); !w.empty()) warn(w);
+    return d;
+  });
 
-  m.def(
-      "orbit",
-      [](const std::string& variant, double rpm, std::optional<double> clearance, int periods, double tolerance, int samples_per_rev,
-         std::optional<std::vector<double>> initial, const py::kwargs& params) {
-        periodic_orbit_request req;
-        req.run = run_from(variant, rpm, req.run.settle_revs, req.run.record_revs, samples_per_rev, parameters_from(clearance, params),
-                           integration_options{}, std::nullopt);
-        req.periods = periods;
-        req.tolerance = tolerance;
-        if (initial) {
-          if (initial->size() != 4) throw input_error("initial must be 4 numbers: x, y, vx, vy (m, m, m/s, m/s)");
-          req.initial_guess = state_type{(*initial)[0], (*initial)[1], (*initial)[2], (*initial)[3]};
-        }
-        periodic_orbit_result r;
-        {
-          py::gil_scoped_release free;
-          r = find_periodic_orbit(req);
-        }
-        if (!r.converged)
-          py::module_::import("warnings").attr("warn")("Newton shooting did not converge (" + r.failure +
-                                                        "); the orbit is the end of a transient, with no Floquet multipliers");
-        py::dict d = samples_of(r.samples);
-        d["summary"] = to_python(periodic_orbit_json(req, r));
-        return d;
-      },
-      py::arg("variant") = "identified", py::arg("rpm") = default_of("run", "rpm"), py::arg("clearance") = py::none(),
-      py::arg("periods") = default_count_of("shooting", "periods"), py::arg("tolerance") = kShootingTolerance,
-      py::arg("samples_per_rev") = default_count_of("run", "samples_per_rev"), py::arg("initial") = py::none());
+  // One steady run per row of `rpm` and `columns` (equal lengths, made by the Python wrapper from
+  // scalars and arrays); the runs share the thread pool, results in row order. Progress: a line
+  // at every twentieth of the runs, to `progress` (None: none).
+  m.def("_simulate_batch", [](const std::string& variant, const std::vector<double>& rpm, const std::map<std::string, std::vector<double>>& columns,
+                              int settle_revs, int revs, int samples_per_rev, const std::string& stepper, unsigned threads,
+                              const py::object& progress) {
+    const integration_options integration = integration_from(stepper, std::nullopt, std::nullopt, std::nullopt);
+    std::vector<run_request> runs;
+    std::set<std::string> warned;
+    for (std::size_t i = 0; i < rpm.size(); ++i) {
+      parameters p;
+      nlohmann::json j = nlohmann::json::object();
+      for (const auto& [k, v] : columns) j[k] = v.at(i);
+      apply_json(p, j, "keyword arguments (row " + std::to_string(i) + ")");
+      validate(p);
+      for (const auto& w : unit_warnings(p))
+        if (warned.insert(w).second) warn(w);
+      runs.push_back(run_from(variant, rpm[i], settle_revs, revs, samples_per_rev, p, integration, std::nullopt));
+      validate(runs.back());
+    }
+    const auto out = interruptible(progress, [&](const auto& report) {
+      std::vector<orbit_summary> sums(runs.size());
+      std::atomic<std::size_t> finished{0};
+      const std::size_t every = std::max<std::size_t>(1, runs.size() / 20);
+      parallel_for(runs.size(), threads, [&](std::size_t i) {
+        sums[i] = summarize(simulate(runs[i]));
+        if (const std::size_t n = ++finished; n % every == 0 || n == runs.size())
+          report("simulate_batch: " + std::to_string(n) + " of " + std::to_string(runs.size()) + " runs");
+      });
+      return sums;
+    });
+    std::vector<double> max_radius, max_y, ppx, ppy, force, penetration, per_rev, fraction, period;
+    std::vector<std::string> regime;
+    std::vector<bool> backward;
+    for (const auto& s : out) {
+      max_radius.push_back(s.max_radius), max_y.push_back(s.max_y), ppx.push_back(s.peak_to_peak_x), ppy.push_back(s.peak_to_peak_y);
+      force.push_back(s.max_normal_force), penetration.push_back(s.max_penetration), per_rev.push_back(s.contact_episodes_per_rev);
+      fraction.push_back(s.contact_fraction), period.push_back(s.period_revs);
+      regime.emplace_back(to_string(s.regime));
+      backward.push_back(s.backward_whirl());
+    }
+    py::dict d;
+    d["max_radius_m"] = to_array(max_radius), d["max_y_m"] = to_array(max_y);
+    d["peak_to_peak_x_m"] = to_array(ppx), d["peak_to_peak_y_m"] = to_array(ppy);
+    d["max_normal_force_N"] = to_array(force), d["max_penetration_m"] = to_array(penetration);
+    d["contact_episodes_per_rev"] = to_array(per_rev), d["contact_fraction"] = to_array(fraction);
+    d["period_revs"] = to_array(period);
+    d["regime"] = regime;
+    d["backward_whirl"] = py::array(py::cast(backward));
+    return d;
+  });
 
-  m.def(
-      "continuation",
-      [](const std::string& variant, const std::string& parameter, std::optional<double> from, std::optional<double> to,
-         const std::string& direction, double rpm, std::optional<double> clearance, int periods, double max_step, int max_points,
-         double tolerance, const py::kwargs& params) {
-        continuation_request req;
-        req.variant = variant;
-        req.parameter = parse_continuation_parameter(parameter);
-        if (req.parameter != continuation_parameter::speed && (!from || !to))
-          throw input_error("parameter '" + parameter + "' needs start and end (in " + std::string(column_name(req.parameter)) + "'s unit)");
-        if (from) req.from = *from;
-        if (to) req.to = *to;
-        if (direction != "up" && direction != "down") throw input_error("direction must be up or down (got '" + direction + "')");
-        req.downward = direction == "down";
-        req.rpm = rpm;
-        req.periods = periods;
-        req.max_step = max_step;
-        req.initial_step = std::min(req.initial_step, req.max_step);
-        req.max_points = max_points;
-        req.tolerance = tolerance;
-        req.params = parameters_from(clearance, params);
-        validate(req);
-        continuation_result res;
-        {
-          py::gil_scoped_release free;
-          res = continue_branch(req);
-        }
-        const table t = branch_table(req, res);
-        py::dict branch;
-        for (std::size_t c = 0; c < t.columns.size(); ++c) {
-          std::vector<double> v;
-          py::list text;
-          bool numeric = true;
-          for (const auto& row : t.rows) {
-            try {
-              std::size_t used = 0;
-              v.push_back(std::stod(row[c], &used));
-              numeric = numeric && used == row[c].size();
-            } catch (const std::exception&) {
-              numeric = false;
-            }
-            text.append(row[c]);
-          }
-          branch[py::str(t.columns[c])] = numeric ? py::object(to_array(v)) : py::object(text);
-        }
-        py::dict d;
-        d["branch"] = branch;
-        d["summary"] = to_python(branch_summary_json(req, res));
-        return d;
-      },
-      py::arg("variant") = "identified", py::arg("parameter") = "speed", py::arg("start") = py::none(), py::arg("end") = py::none(),
-      py::arg("direction") = "up", py::arg("rpm") = default_of("continuation", "rpm"), py::arg("clearance") = py::none(),
-      py::arg("periods") = default_count_of("continuation", "periods"), py::arg("max_step") = default_of("continuation", "max_step"),
-      py::arg("max_points") = default_count_of("continuation", "max_points"), py::arg("tolerance") = kShootingTolerance);
+  m.def("_orbit", [](const std::string& variant, double rpm, std::optional<double> clearance, int periods, double tolerance,
+                     int samples_per_rev, const std::string& stepper, std::optional<double> rtol, std::optional<double> atol,
+                     std::optional<double> dt, std::optional<std::vector<double>> initial, const py::dict& params) {
+    periodic_orbit_request req;
+    req.run = run_from(variant, rpm, req.run.settle_revs, req.run.record_revs, samples_per_rev, parameters_from(clearance, params),
+                       integration_from(stepper, rtol, atol, dt), std::nullopt);
+    req.periods = periods;
+    req.tolerance = tolerance;
+    if (initial) {
+      if (initial->size() != 4) throw input_error("initial must be 4 numbers: x, y, vx, vy (m, m, m/s, m/s)");
+      req.initial_guess = state_type{(*initial)[0], (*initial)[1], (*initial)[2], (*initial)[3]};
+    }
+    const periodic_orbit_result r = interruptible(py::none(), [&](const auto&) { return find_periodic_orbit(req); });
+    if (!r.converged)
+      warn("Newton shooting did not converge (" + r.failure + "); the orbit is the end of a transient, with no Floquet multipliers");
+    py::dict d = samples_of(r.samples);
+    d["summary"] = to_python(periodic_orbit_json(req, r));
+    return d;
+  });
 
-  m.def(
-      "read_record", [](const std::string& path) { return record_to_python(read_record(path)); }, py::arg("path"),
-      "A record file (docs/data-format.md) as {'columns': {name: array}, 'metadata': {key: text}}.");
-
-  m.def(
-      "write_record",
-      [](const std::string& path, const std::map<std::string, std::vector<double>>& columns,
-         const std::map<std::string, std::string>& metadata, const std::vector<std::string>& order) {
-        record r;
-        for (const auto& [k, v] : metadata) r.set(k, v);
-        for (const auto& name : order) {
-          const auto it = columns.find(name);
-          if (it == columns.end()) throw input_error("column '" + name + "' is in the order but has no values");
-          r.add_column(name, it->second);
+  m.def("_continuation", [](const std::string& variant, const std::string& parameter, std::optional<double> from, std::optional<double> to,
+                            const std::string& direction, double rpm, std::optional<double> clearance, int periods, double max_step,
+                            int max_points, double tolerance, const py::dict& params) {
+    continuation_request req;
+    req.variant = variant;
+    req.parameter = parse_continuation_parameter(parameter);
+    if (req.parameter != continuation_parameter::speed && (!from || !to))
+      throw input_error("parameter '" + parameter + "' needs from_ and to (in " + std::string(column_name(req.parameter)) + "'s unit)");
+    if (from) req.from = *from;
+    if (to) req.to = *to;
+    if (direction != "up" && direction != "down") throw input_error("direction must be up or down (got '" + direction + "')");
+    req.downward = direction == "down";
+    req.rpm = rpm;
+    req.periods = periods;
+    req.max_step = max_step;
+    req.initial_step = std::min(req.initial_step, req.max_step);
+    req.max_points = max_points;
+    req.tolerance = tolerance;
+    req.params = parameters_from(clearance, params);
+    validate(req);
+    const continuation_result res = interruptible(py::none(), [&](const auto&) { return continue_branch(req); });
+    const table t = branch_table(req, res);
+    py::dict branch;
+    for (std::size_t c = 0; c < t.columns.size(); ++c) {
+      std::vector<double> v;
+      py::list text;
+      bool numeric = true;
+      for (const auto& row : t.rows) {
+        try {
+          std::size_t used = 0;
+          v.push_back(std::stod(row[c], &used));
+          numeric = numeric && used == row[c].size();
+        } catch (const std::exception&) {
+          numeric = false;
         }
-        const std::string text = to_csv(r);
-        parse_record(text, path);  // what is written must read back (required columns, lengths, finite numbers)
-        atomic_output out;
-        out.stage(path, text);
-        out.commit();
-      },
-      py::arg("path"), py::arg("columns"), py::arg("metadata"), py::arg("order"));
+        text.append(row[c]);
+      }
+      branch[py::str(t.columns[c])] = numeric ? py::object(to_array(v)) : py::object(text);
+    }
+    py::dict d;
+    d["branch"] = branch;
+    d["summary"] = to_python(branch_summary_json(req, res));
+    return d;
+  });
 
-  m.def(
-      "identify",
-      [](const std::vector<std::string>& paths, std::optional<double> clearance, std::optional<py::dict> linear, const std::string& averaging,
-         const std::string& law_method, const std::string& library, double rho, bool orbit_fit, bool reidentify, int bootstrap) {
-        identify_settings s;
-        if (linear) s.linear = parameters_from(std::nullopt, *linear);  // the linear part known: the parameter file's keys
-        if (clearance) s.clearance = *clearance;
-        s.average = parse_averaging(averaging);
-        s.law_route = parse_law_method(law_method);
-        s.library = library;
-        if (!(rho >= 0.0 && rho < 1.0)) throw input_error("rho must be in [0, 1)");
-        s.frols.rho = rho;
-        s.orbit_fit = orbit_fit;
-        s.reidentify = reidentify;
-        if (bootstrap < 0) throw input_error("bootstrap must be >= 0");
-        s.bootstrap = bootstrap;
-        const auto records = read_records(paths);
-        identification id;
-        {
-          py::gil_scoped_release free;
-          id = identify(records, s);
-        }
-        for (const auto& w : id.warnings) py::module_::import("warnings").attr("warn")(w);
-        return to_python(to_json(id, s));
-      },
-      py::arg("paths"), py::arg("clearance") = py::none(), py::arg("linear") = py::none(), py::arg("averaging") = "auto", py::arg("law_method") = "auto",
-      py::arg("library") = identify_settings{}.library, py::arg("rho") = identify_settings{}.frols.rho, py::arg("orbit_fit") = true,
-      py::arg("reidentify") = false, py::arg("bootstrap") = identify_settings{}.bootstrap);
+  m.def("_read_record", [](const std::string& path) { return record_to_python(read_record(path)); });
 
-  m.def(
-      "validate",
-      [](const std::string& case_path, const std::string& candidate_path) {
-        const golden_case g = read_golden_case(read_record(case_path), case_path);
-        const record candidate = read_record(candidate_path);
-        validation_result r;
-        {
-          py::gil_scoped_release free;
-          r = validate_candidate(g, candidate, candidate_path);
-        }
-        return to_python(to_json(r));
-      },
-      py::arg("case"), py::arg("candidate"));
+  m.def("_write_record", [](const std::string& path, const std::map<std::string, std::vector<double>>& columns,
+                            const std::map<std::string, std::string>& metadata, const std::vector<std::string>& order, bool force) {
+    check_output_file(path, {}, force);  // the command line's rule: never replace a file rubref did not write
+    record r;
+    for (const auto& [k, v] : metadata) r.set(k, v);
+    for (const auto& name : order) {
+      const auto it = columns.find(name);
+      if (it == columns.end()) throw input_error("column '" + name + "' is in the order but has no values");
+      r.add_column(name, it->second);
+    }
+    const std::string text = to_csv(r);
+    parse_record(text, path);  // what is written must read back (required columns, lengths, finite numbers)
+    atomic_output out;
+    out.stage(path, text);
+    out.commit();
+  });
 
-  m.def(
-      "rig",
-      [](const std::vector<std::string>& effects, std::optional<std::vector<double>> speeds, std::optional<double> noise, bool keyphasor,
-         bool carry_over, int settle_revs, int revs, unsigned seed, const std::string& variant, std::optional<double> clearance,
-         const py::kwargs& params) {
-        rig_request req;
-        req.variant = variant;
-        req.params = parameters_from(clearance, params);
-        for (const auto& e : effects) apply_effect(req.effects, e);
-        if (speeds) req.speeds_rpm = *speeds;
-        if (noise) req.probes.noise = *noise;
-        req.probes.keyphasor = keyphasor;
-        req.probes.seed = seed;
-        req.time_base = keyphasor ? rig_time_base::acquisition : rig_time_base::shaft;
-        req.carry_over = carry_over;
-        req.settle_revs = settle_revs;
-        req.record_revs = revs;
-        validate(req);
-        rig_output o;
-        {
-          py::gil_scoped_release free;
-          o = run_rig(req);
-        }
-        py::dict d = record_to_python(o.measurement);
-        d["truth"] = to_python(o.truth);
-        return d;
-      },
-      py::arg("effects") = std::vector<std::string>{}, py::arg("speeds") = py::none(), py::arg("noise") = py::none(),
-      py::arg("keyphasor") = true, py::arg("carry_over") = false, py::arg("settle_revs") = rig_request{}.settle_revs,
-      py::arg("revs") = rig_request{}.record_revs, py::arg("seed") = probe_settings{}.seed, py::arg("variant") = "identified",
-      py::arg("clearance") = py::none());
+  m.def("_identify", [](const std::vector<std::string>& paths, std::optional<double> clearance, std::optional<py::dict> linear,
+                        const std::string& averaging, const std::string& law_method, const std::string& library, double rho, bool orbit_fit,
+                        bool reidentify, int bootstrap) {
+    identify_settings s;
+    if (linear) s.linear = parameters_from(std::nullopt, *linear);  // the linear part known: the parameter file's keys
+    if (clearance) s.clearance = *clearance;
+    s.average = parse_averaging(averaging);
+    s.law_route = parse_law_method(law_method);
+    s.library = library;
+    if (!(rho >= 0.0 && rho < 1.0)) throw input_error("rho must be in [0, 1) (got " + format_digits(rho) + ")");
+    s.frols.rho = rho;
+    s.orbit_fit = orbit_fit;
+    s.reidentify = reidentify;
+    if (bootstrap < 0) throw input_error("bootstrap must be >= 0 (got " + std::to_string(bootstrap) + ")");
+    s.bootstrap = bootstrap;
+    const auto records = read_records(paths);
+    const identification id = interruptible(py::none(), [&](const auto&) { return identify(records, s); });
+    for (const auto& w : id.warnings) warn(w);
+    return to_python(to_json(id, s));
+  });
 
-  m.def(
-      "loop",
-      [](const std::vector<std::string>& paths, std::optional<double> clearance, std::optional<double> mass, int max_effects) {
-        loop_settings s;
-        if (clearance) s.clearance = *clearance;
-        if (mass) s.mass = *mass;
-        if (max_effects < 0) throw input_error("max_effects must be >= 0");
-        s.max_effects = max_effects;
-        const auto records = read_records(paths);
-        loop_result r;
-        {
-          py::gil_scoped_release free;
-          r = run_loop(records, s);
-        }
-        for (const auto& w : r.warnings) py::module_::import("warnings").attr("warn")(w);
-        return to_python(to_json(r));
-      },
-      py::arg("paths"), py::arg("clearance") = py::none(), py::arg("mass") = py::none(), py::arg("max_effects") = loop_settings{}.max_effects);
+  m.def("_validate", [](const std::string& case_path, const std::string& candidate_path) {
+    const golden_case g = read_golden_case(read_record(case_path), case_path);
+    const record candidate = read_record(candidate_path);
+    const validation_result r = interruptible(py::none(), [&](const auto&) { return validate_candidate(g, candidate, candidate_path); });
+    return to_python(to_json(r));
+  });
+
+  m.def("_rig", [](const std::vector<std::string>& effects, std::optional<std::vector<double>> speeds, std::optional<double> noise, bool keyphasor,
+                   bool carry_over, int settle_revs, int revs, unsigned seed, const std::string& variant, std::optional<double> clearance,
+                   const py::dict& params) {
+    rig_request req;
+    req.variant = variant;
+    req.params = parameters_from(clearance, params);
+    for (const auto& e : effects) apply_effect(req.effects, e);
+    if (speeds) req.speeds_rpm = *speeds;
+    if (noise) req.probes.noise = *noise;
+    req.probes.keyphasor = keyphasor;
+    req.probes.seed = seed;
+    req.time_base = keyphasor ? rig_time_base::acquisition : rig_time_base::shaft;
+    req.carry_over = carry_over;
+    req.settle_revs = settle_revs;
+    req.record_revs = revs;
+    validate(req);
+    const rig_output o = interruptible(py::none(), [&](const auto&) { return run_rig(req); });
+    py::dict d = record_to_python(o.measurement);
+    d["truth"] = to_python(o.truth);
+    return d;
+  });
+
+  m.def("_loop", [](const std::vector<std::string>& paths, std::optional<double> clearance, std::optional<double> mass, int max_effects,
+                    const py::object& progress) {
+    loop_settings s;
+    if (clearance) s.clearance = *clearance;
+    if (mass) s.mass = *mass;
+    if (max_effects < 0) throw input_error("max_effects must be >= 0 (got " + std::to_string(max_effects) + ")");
+    s.max_effects = max_effects;
+    const auto records = read_records(paths);
+    const loop_result r = interruptible(progress, [&](const auto& report) {
+      loop_settings with_progress = s;
+      with_progress.progress = [&report](const std::string& line) { report(line); };
+      return run_loop(records, with_progress);
+    });
+    for (const auto& w : r.warnings) warn(w);
+    return to_python(to_json(r));
+  });
 
   // Order-tracked tables (docs/real-data.md): the conventions a file does not declare, as keyword
   // arguments; probe angles as {name: degrees} ("" for a table's only probe).
@@ -435,45 +530,36 @@ PYBIND11_MODULE(_rubref, m) {
     for (const auto& [name, deg] : probe_angles) c.probe_angles_deg.emplace_back(name, deg);
     return c;
   };
-  m.def(
-      "read_order_table",
-      [conventions_of](const std::string& path, const std::string& amplitude, const std::string& amplitude_unit, const std::string& phase,
-                       const std::string& phase_unit, std::optional<double> scale, const std::map<std::string, double>& probe_angles) {
-        const order_table t = read_order_table(path, conventions_of(amplitude, amplitude_unit, phase, phase_unit, scale, probe_angles));
-        py::list orders;
-        for (const auto& o : t.orders) {
-          py::array_t<std::complex<double>> v(static_cast<py::ssize_t>(o.vector.size()), o.vector.data());
-          py::dict d;
-          d["probe"] = o.probe, d["order"] = o.order, d["vector_m"] = v;
-          d["probe_angle_deg"] = o.probe_angle ? py::object(py::float_(*o.probe_angle * 180.0 / 3.141592653589793)) : py::object(py::none());
-          d["amplitude_column"] = o.amplitude_column, d["phase_column"] = o.phase_column;
-          orders.append(d);
-        }
-        py::dict out;
-        out["rpm"] = to_array(t.rpm);
-        out["orders"] = orders;
-        out["notes"] = t.notes;
-        out["conventions"] = t.conventions;
-        return out;
-      },
-      py::arg("path"), py::arg("amplitude") = "", py::arg("amplitude_unit") = "", py::arg("phase") = "", py::arg("phase_unit") = "",
-      py::arg("scale") = py::none(), py::arg("probe_angles") = std::map<std::string, double>{});
-  m.def(
-      "loop_table",
-      [conventions_of](const std::string& path, const std::string& amplitude, const std::string& amplitude_unit, const std::string& phase,
-                       const std::string& phase_unit, std::optional<double> scale, const std::map<std::string, double>& probe_angles) {
-        const order_table t = read_order_table(path, conventions_of(amplitude, amplitude_unit, phase, phase_unit, scale, probe_angles));
-        tracking_result r;
-        {
-          py::gil_scoped_release free;
-          r = run_tracking_loop(t);
-        }
-        return to_python(to_json(r));
-      },
-      py::arg("path"), py::arg("amplitude") = "", py::arg("amplitude_unit") = "", py::arg("phase") = "", py::arg("phase_unit") = "",
-      py::arg("scale") = py::none(), py::arg("probe_angles") = std::map<std::string, double>{});
-  m.def(
-      "is_order_table", [](const std::string& path) { return is_order_table_header(header_of(path)); }, py::arg("path"));
+  m.def("_read_order_table", [conventions_of](const std::string& path, const std::string& amplitude, const std::string& amplitude_unit,
+                                              const std::string& phase, const std::string& phase_unit, std::optional<double> scale,
+                                              const std::map<std::string, double>& probe_angles) {
+    const order_table t = read_order_table(path, conventions_of(amplitude, amplitude_unit, phase, phase_unit, scale, probe_angles));
+    py::list orders;
+    for (const auto& o : t.orders) {
+      py::array_t<std::complex<double>> v(static_cast<py::ssize_t>(o.vector.size()), o.vector.data());
+      py::dict d;
+      d["probe"] = o.probe, d["order"] = o.order, d["vector_m"] = v;
+      d["probe_angle_deg"] = o.probe_angle ? py::object(py::float_(*o.probe_angle * 180.0 / 3.141592653589793)) : py::object(py::none());
+      d["amplitude_column"] = o.amplitude_column, d["phase_column"] = o.phase_column;
+      orders.append(d);
+    }
+    py::dict out;
+    out["rpm"] = to_array(t.rpm);
+    out["orders"] = orders;
+    out["notes"] = t.notes;
+    out["conventions"] = t.conventions;
+    return out;
+  });
+  m.def("_loop_table", [conventions_of](const std::string& path, const std::string& amplitude, const std::string& amplitude_unit,
+                                        const std::string& phase, const std::string& phase_unit, std::optional<double> scale,
+                                        const std::map<std::string, double>& probe_angles, const py::object& progress) {
+    const order_table t = read_order_table(path, conventions_of(amplitude, amplitude_unit, phase, phase_unit, scale, probe_angles));
+    const tracking_result r = interruptible(progress, [&](const auto& report) {
+      return run_tracking_loop(t, [&report](const std::string& line) { report(line); });
+    });
+    return to_python(to_json(r));
+  });
+  m.def("_is_order_table", [](const std::string& path) { return is_order_table_header(header_of(path)); });
 
   // A parameter study into the folder `out` (docs/studies.md): the points of `shard` not yet
   // there, then the results when that completes the study. No figures (the command line draws
@@ -482,37 +568,33 @@ PYBIND11_MODULE(_rubref, m) {
     std::ifstream in(std::filesystem::path(dir) / "summary.json");
     return to_python(nlohmann::ordered_json::parse(in));
   };
-  m.def(
-      "_study",
-      [summary_of](const std::string& spec_text, const std::string& source, const std::string& out, const std::string& shard, unsigned threads) {
-        const study::spec s = study::parse_spec(spec_text, source);
-        study::run_settings rs;
-        rs.part = study::parse_shard(shard);
-        rs.threads = threads;
-        study::run_outcome o;
-        {
-          py::gil_scoped_release free;
-          o = study::run_study(out, s, rs);
-        }
-        py::dict d;
-        d["computed"] = o.computed;
-        d["already"] = o.already;
-        d["complete"] = o.complete;
-        d["summary"] = o.complete && rs.part.of == 1 ? summary_of(out) : py::none();
-        if (o.results.problems > 0)
-          py::module_::import("warnings").attr("warn")(std::to_string(o.results.problems) + " point(s) have no steady result (see summary['problems'])");
-        return d;
-      },
-      py::arg("spec_text"), py::arg("source"), py::arg("out"), py::arg("shard"), py::arg("threads"));
-  m.def(
-      "_study_merge",
-      [summary_of](const std::vector<std::string>& dirs, const std::string& out, unsigned threads) {
-        std::vector<std::filesystem::path> paths(dirs.begin(), dirs.end());
-        {
-          py::gil_scoped_release free;
-          study::merge_study(paths, out, threads);
-        }
-        return summary_of(out);
-      },
-      py::arg("dirs"), py::arg("out"), py::arg("threads"));
+  m.def("_study", [summary_of](const std::string& spec_text, const std::string& source, const std::string& out, const std::string& shard,
+                               unsigned threads, const py::object& progress) {
+    const study::spec s = study::parse_spec(spec_text, source);
+    study::run_settings rs;
+    rs.part = study::parse_shard(shard);
+    rs.threads = threads;
+    const study::run_outcome o = interruptible(progress, [&](const auto& report) {
+      line_streambuf buffer(report);
+      std::ostream stream(&buffer);
+      study::run_settings with_progress = rs;
+      with_progress.progress = progress.is_none() ? nullptr : &stream;
+      return study::run_study(out, s, with_progress);
+    });
+    py::dict d;
+    d["computed"] = o.computed;
+    d["already"] = o.already;
+    d["complete"] = o.complete;
+    d["summary"] = o.complete && rs.part.of == 1 ? summary_of(out) : py::none();
+    if (o.results.problems > 0) warn(std::to_string(o.results.problems) + " point(s) have no steady result (see summary['problems'])");
+    return d;
+  });
+  m.def("_study_merge", [summary_of](const std::vector<std::string>& dirs, const std::string& out, unsigned threads) {
+    std::vector<std::filesystem::path> paths(dirs.begin(), dirs.end());
+    interruptible(py::none(), [&](const auto&) {
+      study::merge_study(paths, out, threads);
+      return true;
+    });
+    return summary_of(out);
+  });
 }

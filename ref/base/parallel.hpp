@@ -12,6 +12,7 @@
 #include <thread>
 #include <vector>
 
+#include "ref/base/cancel.hpp"
 #include "ref/base/errors.hpp"
 
 namespace rubref {
@@ -51,16 +52,20 @@ inline unsigned thread_count(unsigned requested, std::size_t tasks) {
 // Runs task(i) for i in [0, n). If tasks fail, the exception of the lowest failing index is
 // rethrown after all threads have stopped (the one a single thread would meet first: indices are
 // handed out in order, so every lower one has run); remaining tasks are skipped once one failed.
+// The workers share the caller's stop source (ref/base/cancel.hpp), checked before each task.
 template <class Task>
 void parallel_for(std::size_t n, unsigned threads, Task&& task) {
+  const stop_source* stop = current_stop_source();
   std::atomic<std::size_t> next{0};
   std::atomic<bool> failed{false};
   std::exception_ptr error;
   std::size_t error_index = n;
   std::mutex error_mutex;
   const auto worker = [&] {
+    const stop_scope scope(stop);
     for (std::size_t i; !failed && (i = next++) < n;) {
       try {
+        throw_if_stop_requested();
         task(i);
       } catch (...) {
         const std::lock_guard lock(error_mutex);

@@ -56,12 +56,7 @@ parameters parameter_options::resolve() const {
   if (!file_.empty()) apply_parameter_file(p, file_);
   for (std::size_t i = 0; i < parameter_table.size(); ++i)
     if (options_[i]->count() > 0) p.*parameter_table[i].member = values_[i];
-  // Lengths are in metres: a clearance or unbalance of centimetres or more is no rotor kit's and
-  // most likely millimetres typed as metres. It still runs (a large clearance means no contact).
-  for (const auto& [value, key] : {std::pair{p.clearance, "clearance_m"}, std::pair{p.e, "e_m"}})
-    if (value >= kImplausibleLength)
-      std::cerr << "warning: " << key << " = " << value << " m is larger than any rotor kit's; if millimetres were meant, " << value
-                << " mm is " << value * 1e-3 << " m\n";
+  for (const auto& w : unit_warnings(p)) std::cerr << "warning: " << w << "\n";
   return p;
 }
 

@@ -17,8 +17,7 @@ std::string variant_names();  // "restitution, piecewise-linear, ..."
 std::string with_flags(std::string_view message);
 
 // --params FILE and one --<flag> per row of parameter_table; the file first, flags override it.
-// A length parameter (clearance, unbalance) at or above this gets a warning (options.cpp).
-inline constexpr double kImplausibleLength = 0.01;  // m
+// A length parameter of a rotor kit's implausible size gets a warning (unit_warnings).
 
 class parameter_options {
  public:

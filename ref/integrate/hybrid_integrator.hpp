@@ -23,6 +23,7 @@
 #include <sstream>
 #include <string>
 
+#include "ref/base/cancel.hpp"
 #include "ref/base/errors.hpp"
 #include "ref/base/number_text.hpp"
 #include "ref/integrate/steppers.hpp"
@@ -473,6 +474,7 @@ basic_hybrid_state<state_of<System>> hybrid_loop(const System& base, Stepper& st
   };
 
   while (hs.t < t_end) {
+    throw_if_stop_requested();  // a front end's interrupt (ref/base/cancel.hpp), once per step or arc
     if constexpr (!std::is_same_v<decltype(exact), std::optional<no_free_flight>>) {
     if (exact && sys.phase() == contact_phase::free) {
       // A whole free flight at once: to the first onset (or impact), or to t_end.

@@ -5,6 +5,7 @@
 #include <sstream>
 
 #include "ref/base/errors.hpp"
+#include "ref/base/number_text.hpp"
 
 namespace rubref {
 
@@ -49,6 +50,15 @@ void apply_json(parameters& p, const nlohmann::json& j, std::string_view source,
 }  // namespace
 
 void apply_json(parameters& p, const nlohmann::json& j, std::string_view source) { apply_json(p, j, source, {}); }
+
+std::vector<std::string> unit_warnings(const parameters& p) {
+  std::vector<std::string> out;
+  for (const auto& [value, key] : {std::pair{p.clearance, "clearance_m"}, std::pair{p.e, "e_m"}})
+    if (value >= kImplausibleLength)
+      out.push_back(std::string(key) + " = " + format_digits(value) + " m is larger than any rotor kit's; if millimetres were meant, " +
+                    format_digits(value) + " mm is " + format_digits(value * 1e-3) + " m");
+  return out;
+}
 
 void apply_parameter_text(parameters& p, std::string_view text, std::string_view source) {
   nlohmann::json j;
