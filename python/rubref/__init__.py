@@ -196,7 +196,7 @@ def _front_door(args, params=None, returns="", renamed=None):
                     bound.arguments[name] = _convert(where, name, spec.kind, value, spec.optional or sig.parameters[name].default is None)
             return f(*bound.args, **bound.kwargs)
 
-        lines = [(f.__doc__ or "").strip(), "", "Arguments:"]
+        lines = [_inspect.cleandoc(f.__doc__ or ""), "", "Arguments:"]
         for name in named:
             lines.append(args[name].doc(name, sig.parameters[name].default))
         if params is not None:
@@ -238,6 +238,7 @@ def _progress_sink(progress, default_on):
 # The arguments several functions share, documented from the registry.
 _VARIANT = _Arg("text", "contact law: one of " + ", ".join(variants()))
 _CLEARANCE = _Arg("number", row=("model", "clearance"), optional=True)
+_RECORDS_CLEARANCE = _Arg("number", "the clearance, for records whose metadata has no clearance_m (None: theirs)", unit="m", optional=True)
 _STEPPER = _Arg("text", "integrator: one of " + ", ".join(steppers()))
 _INTEGRATION = {"rtol": _Arg("number", row=("integration", "rtol"), optional=True),
                 "atol": _Arg("number", row=("integration", "atol"), optional=True),
@@ -253,7 +254,7 @@ _SUMMARY_KEYS = ("max_radius_m, max_y_m, peak_to_peak_x_m, peak_to_peak_y_m, max
               "samples_per_rev": _Arg("count", row=("run", "samples_per_rev")), "stepper": _STEPPER, **_INTEGRATION, "initial": _INITIAL},
              params="number",
              returns="dict: t (s), x, y (m), vx, vy (m/s), fn (N) as arrays at the recorded samples, and summary (the dict of "
-                     "`rubref simulate --summary`: regime, " + _SUMMARY_KEYS + ", ...)")
+                     "`rubref simulate --summary`: " + _SUMMARY_KEYS + ", ...)")
 def simulate(variant="identified", rpm=_default("run", "rpm"), clearance=None, settle_revs=_default("run", "settle_revs"),
              revs=_default("run", "record_revs"), samples_per_rev=_default("run", "samples_per_rev"), stepper="dopri5", rtol=None,
              atol=None, dt=None, initial=None, **params):
@@ -367,7 +368,7 @@ def rig(effects=(), speeds=None, noise=None, keyphasor=True, carry_over=False, s
     return _rubref._rig(effects, speeds, noise, keyphasor, carry_over, settle_revs, revs, seed, variant, clearance, params)
 
 
-@_front_door({"paths": _Arg("paths", "record files"), "clearance": _CLEARANCE,
+@_front_door({"paths": _Arg("paths", "record files"), "clearance": _RECORDS_CLEARANCE,
               "linear": _Arg("dict", "the linear part when it is known, as a parameter file's keys", optional=True),
               "averaging": _Arg("text", "'auto', 'on' or 'off'"), "law_method": _Arg("text", "'auto', 'samples' or 'weak-form'"),
               "library": _Arg("text", "candidate terms (Eq. 4)"), "rho": _Arg("number", "ERR stop threshold, in [0, 1)"),
@@ -408,10 +409,10 @@ def read_order_table(path, amplitude=None, amplitude_unit=None, phase=None, phas
     return _rubref._read_order_table(path, *_conventions("read_order_table", amplitude, amplitude_unit, phase, phase_unit, scale, probe_angle))
 
 
-@_front_door({"paths": _Arg("paths", "record files, or one order-tracked table"), "clearance": _CLEARANCE,
+@_front_door({"paths": _Arg("paths", "record files, or one order-tracked table"), "clearance": _RECORDS_CLEARANCE,
               "mass": _Arg("number", "rotor mass (None: the records' m_kg, else the paper's)", unit="kg", optional=True),
               "max_effects": _Arg("count", "effects in the model at most"), **_TABLE_ARGS, "progress": _PROGRESS},
-             returns="dict: report.json's (error_before, error_after (m), effects [{name, ...}], claim, errors, notes, warnings, ...)")
+             returns="dict: report.json's (error_before, error_after (the orbit's NRMSE), effects [{name, ...}], claim, errors, notes, warnings, ...)")
 def loop(paths, clearance=None, mass=None, max_effects=_DEFAULTS["loop_max_effects"], amplitude=None, amplitude_unit=None, phase=None,
          phase_unit=None, scale=None, probe_angle=None, progress=None):
     """The loop (docs/loop.md): fit the paper's model to the records, trace the residual to the
