@@ -94,6 +94,16 @@ done
 "$rubref" effects >/dev/null || fail "effects (added with rig)"
 "$rubref" study-merge --help >/dev/null || fail "study-merge --help (added with study)"
 expect_error "did you mean 'simulate'" simluate --out "$work/o.csv"
+# A mistyped command is named as such, whatever options and files follow it.
+expect_error "unknown command 'simluate'; did you mean 'simulate'?" simluate --rpm 1600 --out "$work/o.csv"
+expect_error "unknown command 'idnetify'; did you mean 'identify'?" idnetify "$work/x.csv" --out "$work/d"
+# Help shows a flag as itself, not CLI11's default of a negated flag ("--no-figures{false}").
+for cmd in loop reproduce identify; do
+  "$rubref" $cmd --help >"$work/stdout" || fail "$cmd --help"
+  grep -qE '\{(false|true)\}' "$work/stdout" && fail "$cmd --help shows a flag's default: $(grep -E '\{(false|true)\}' "$work/stdout")"
+done
+"$rubref" loop --help | grep -qE -- '^  --no-figures +write the report without drawing figures$' || fail "loop --help lacks --no-figures and its text"
+"$rubref" reproduce --help | grep -qE -- '^  --no-figures +write data and report only' || fail "reproduce --help lacks --no-figures and its text"
 "$rubref" simulate --help | grep -q -- "--k1" || fail "simulate --help lists parameters"
 
 # sweep: tables, waterfalls, summary; a folder rubref made is replaced, any other is refused.
@@ -110,6 +120,16 @@ mkdir "$work/mine" && echo precious >"$work/mine/notes.txt"
 expect_error "was not made by rubref" "${sw[@]}" --out "$work/mine"
 [ "$(cat "$work/mine/notes.txt")" = precious ] || fail "sweep touched a folder it did not make"
 rm -rf "$work/mine"
+# An empty folder made for the output is filled; the current folder is never replaced (the shell
+# would be left in a deleted one).
+mkdir "$work/empty"
+"$rubref" "${sw[@]}" --direction up --out "$work/empty" >/dev/null || fail "sweep refused an empty folder"
+[ -s "$work/empty/sweep.csv" ] && [ -e "$work/empty/.rubref-output" ] || fail "sweep did not fill the empty folder"
+mkdir "$work/here"
+(cd "$work/here" && "$rubref" "${sw[@]}" --out . >/dev/null 2>"$work/stderr") && fail "sweep replaced the current folder"
+grep -q "holds the current folder" "$work/stderr" || fail "--out . not refused as the current folder: $(cat "$work/stderr")"
+[ -d "$work/here" ] || fail "--out . removed the current folder"
+rm -rf "$work/empty" "$work/here"
 expect_error "multiple of 6" "${sw[@]}" --revs 10 --out "$work/sw2"
 
 # An interrupted run (killed mid-sweep, no chance to clean up) leaves the earlier result whole.
@@ -139,6 +159,22 @@ printf 't_s,x_m,y_m,speed_rpm\n0,0,0,1500\n1,0,0,1500\n' >"$work/short.csv"
 expect_error "short.csv" identify "$work/short.csv" --clearance 3e-4 --out "$work/id2"
 printf 't_s,x_m,y_m,speed_rpm\n0,0,zero,1500\n' >"$work/bad.csv"
 expect_error "bad.csv:2: column 'y_m'" identify "$work/bad.csv" --out "$work/id2"
+printf 'time,x,y,rpm\n0,0,0,1500\n' >"$work/header.csv"
+expect_error "header.csv:1: header 'time,x,y,rpm' must start with t_s,x_m,y_m,speed_rpm" identify "$work/header.csv" --out "$work/id2"
+printf 't_s,x_m,y_m,speed_rmp\n0,0,0,1500\n' >"$work/header.csv"
+expect_error "column 4 is 'speed_rmp'; did you mean 'speed_rpm'?" loop "$work/header.csv" --out "$work/id2"
+# Millimetres under metre columns (an orbit of tens of centimetres): identify and the loop refuse
+# the record with the conversion before any work, leave no output, and an empty folder as it was.
+"$rubref" rig --speeds 1500,1600 --revs 6 --settle-revs 30 --out "$work/rig_m.csv" >/dev/null || fail "rig (for a record in mm) failed"
+awk -F, -v OFS=, '/^#/ || /^t_s/ { print; next } { $2 *= 1000; $3 *= 1000; print }' "$work/rig_m.csv" >"$work/rig_mm.csv"
+expect_error "if the file holds millimetres, divide x_m and y_m by 1000" identify "$work/rig_mm.csv" --out "$work/id_mm"
+grep -qE "rig_mm.csv:[0-9]+: [xy]_m reaches -?[0-9.]+ m, and no rotor kit's shaft moves 10 mm or more" "$work/stderr" \
+  || fail "identify on a record in mm: $(cat "$work/stderr")"
+[ ! -e "$work/id_mm" ] || fail "identify on a record in mm left an output folder"
+mkdir "$work/loop_mm"
+expect_error "if the file holds millimetres, divide x_m and y_m by 1000" loop "$work/rig_mm.csv" --no-figures --out "$work/loop_mm"
+[ -d "$work/loop_mm" ] && [ -z "$(ls -A "$work/loop_mm")" ] || fail "a failed loop did not leave the empty folder as it was"
+rm -rf "$work/loop_mm" "$work"/rig_m*.csv "$work/rig_m.truth.json" "$work/header.csv"
 expect_error "library term 'w2'" identify "$work/id_sw/record_up.csv" --linear "$work/paper.json" --library z1,w2 --out "$work/id2"
 grep -v '^# clearance_m' "$work/id_sw/record_up.csv" >"$work/no_clearance.csv"
 expect_error "no clearance_m" identify "$work/no_clearance.csv" --linear "$work/paper.json" --out "$work/id2"
@@ -262,5 +298,16 @@ for sig in TERM INT; do
   ls -d "$work"/interrupted* >/dev/null 2>&1 && fail "SIG$sig left $(ls -d "$work"/interrupted*)"
   grep -q "interrupted" "$work/stderr" || fail "SIG$sig: no message: $(cat "$work/stderr")"
 done
+# Interrupted, a run into an empty folder leaves the folder, empty.
+mkdir "$work/interrupted"
+"$rubref" reproduce --no-figures --out "$work/interrupted" 2>"$work/stderr" >/dev/null &
+pid=$!
+for _ in $(seq 1 200); do ls -d "$work"/interrupted.tmp-* >/dev/null 2>&1 && break; sleep 0.05; done
+kill -TERM "$pid"
+wait "$pid"
+rc=$?
+[ "$rc" -eq 143 ] || fail "SIGTERM into an empty folder: exit $rc (want 143): $(cat "$work/stderr")"
+[ -d "$work/interrupted" ] && [ -z "$(ls -A "$work/interrupted")" ] || fail "SIGTERM: the empty folder was not left as it was"
+ls -d "$work"/interrupted.* >/dev/null 2>&1 && fail "SIGTERM into an empty folder left $(ls -d "$work"/interrupted.*)"
 
 finish "cli_test: all passed"

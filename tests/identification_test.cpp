@@ -502,6 +502,41 @@ TEST(identification, refuses_unusable_input) {
   EXPECT_THROW(identify({{unknown_clearance, "x.csv"}}, knowing(far)), input_error);
 }
 
+// Millimetres in columns that say metres (an orbit of tens of centimetres) are refused where every
+// record enters identify, the loop and the order tracker (split_dwells), with the conversion;
+// identify used to report a missing contact-free dwell instead.
+TEST(identification, refuses_displacements_that_are_not_metres) {
+  const auto circle = [](double radius) {
+    record r;
+    r.set("clearance_m", 3e-4);
+    std::vector<double> t, x, y, rpm;
+    for (int i = 0; i < 64; ++i) {
+      const double angle = 2.0 * std::numbers::pi * i / 64.0;
+      t.push_back(i * 1e-4);
+      x.push_back(radius * std::cos(angle));
+      y.push_back(radius * std::sin(angle));
+      rpm.push_back(1500.0);
+    }
+    for (auto& [name, v] : {std::pair{"t_s", t}, std::pair{"x_m", x}, std::pair{"y_m", y}, std::pair{"speed_rpm", rpm}}) r.add_column(name, v);
+    return r;
+  };
+  const auto refusal = [](const auto& call) {
+    try {
+      call();
+    } catch (const input_error& e) {
+      return std::string(e.what());
+    }
+    return std::string("accepted");
+  };
+  EXPECT_NO_THROW(split_dwells(circle(0.4e-3), "m.csv"));  // the paper's orbit, in metres
+  EXPECT_NO_THROW(split_dwells(circle(0.99 * kImplausibleDisplacement), "m.csv"));
+  // Row 0 is file line 3 of a record made in memory (one metadata line, the header).
+  const std::string mm = "mm.csv:3: x_m reaches 0.4 m, and no rotor kit's shaft moves 10 mm or more: if the file holds millimetres, divide x_m and y_m by 1000";
+  EXPECT_EQ(refusal([&] { split_dwells(circle(0.4), "mm.csv"); }), mm);
+  EXPECT_EQ(refusal([&] { identify({{circle(0.4), "mm.csv"}}, identify_settings{}); }), mm);
+  EXPECT_NE(refusal([&] { split_dwells(circle(400.0), "um.csv"); }).find("if the file holds micrometres, divide x_m and y_m by 1e6"), std::string::npos);
+}
+
 
 // ---------------------------------------------------------------- the weak form (§5, noisy data)
 

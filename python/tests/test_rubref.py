@@ -421,3 +421,19 @@ def test_progress_goes_to_a_callable_and_is_off_by_default_in_a_batch(caplog):
 
     with pytest.raises(RuntimeError, match="stop here: simulate_batch"):
         rubref.simulate_batch(np.linspace(1200, 1600, 40), settle_revs=4, revs=2, progress=fail)
+
+
+def test_records_in_millimetres_and_bad_headers_are_refused_with_a_hint(small_rig_records, tmp_path):
+    # The same intake as `rubref identify` and `rubref loop` (ref/identification/dwells.cpp).
+    rec = rubref.read_record(small_rig_records)
+    cols = dict(rec["columns"])
+    cols["x_m"], cols["y_m"] = cols["x_m"] * 1e3, cols["y_m"] * 1e3
+    rubref.write_record(tmp_path / "mm.csv", cols, rec["metadata"])
+    for call in (rubref.identify, rubref.loop):
+        with pytest.raises(rubref.InputError, match=r"mm.csv:\d+: [xy]_m reaches .* m, .*if the file holds millimetres, divide x_m and y_m by 1000") as e:
+            call(tmp_path / "mm.csv")
+        _one_line(e)
+    (tmp_path / "h.csv").write_text("time,x,y,rpm\n0,0,0,1600\n1,0,0,1600\n")
+    with pytest.raises(rubref.InputError, match="time,x,y,rpm") as e:
+        rubref.read_record(tmp_path / "h.csv")
+    _one_line(e)

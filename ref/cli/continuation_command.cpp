@@ -44,7 +44,7 @@ void add_continuation(CLI::App& app) {
   sub->add_option("--max-step", r.max_step, "largest arclength step (1 spans the range)")->capture_default_str();
   sub->add_option("--max-points", r.max_points, "most points on the branch")->capture_default_str();
   sub->add_option("--tolerance", r.tolerance, "shooting tolerance |P(s) - s| [m]")->capture_default_str();
-  sub->add_option("--out", st->out, "output directory (created; replaced if an earlier rubref run made it)")->required();
+  sub->add_option("--out", st->out, "output directory (created, or an empty one filled; replaced if an earlier rubref run made it)")->required();
   st->integration.add_to(*sub);
   st->params.add_to(*sub);
   sub->callback([st, sub] {

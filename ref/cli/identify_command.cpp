@@ -55,7 +55,8 @@ void add_identify(CLI::App& app) {
   sub->add_option("--averaging", st->averaging, "synchronous averaging of the dwells that touch: auto (each steady dwell, decided and reported per dwell), on (every dwell) or off")
       ->check(CLI::IsMember({"auto", "on", "off"}))
       ->capture_default_str();
-  sub->add_flag("!--no-orbit-fit", s.orbit_fit, "report the weak form's estimates without refining them by the averaged cycles' periodic orbits");
+  // A callback, not CLI11's negated flag "!--no-orbit-fit", whose help shows "--no-orbit-fit{false}".
+  sub->add_flag_callback("--no-orbit-fit", [st] { st->settings.orbit_fit = false; }, "report the weak form's estimates without refining them by the averaged cycles' periodic orbits");
   sub->add_option("--bootstrap", s.bootstrap, "episode-bootstrap resamples for the 95 % intervals (0: none)")->capture_default_str();
   sub->add_flag("--reidentify", s.reidentify, "refine by output error with NLopt (BOBYQA)");
   sub->add_option("--reid-fit", st->reid_fit, "parameters to re-identify: any of k1,k3,c2,mu,e,clearance")->capture_default_str();

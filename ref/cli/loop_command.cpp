@@ -84,7 +84,8 @@ void add_loop(CLI::App& app) {
   sub->add_option("--clearance", s.clearance, "clearance for records without clearance_m metadata [m]");
   sub->add_option("--max-effects", s.max_effects, "trace rounds (effects added at most)")->capture_default_str()->check(CLI::Range(0, 11));
   sub->add_option("--refit", s.refit_candidates, "effects refitted per round (best scores)")->capture_default_str()->check(CLI::Range(1, 11));
-  sub->add_flag("!--no-figures", st->figures, "write the report without drawing figures");
+  // A callback, not CLI11's negated flag "!--no-figures", whose help shows "--no-figures{false}".
+  sub->add_flag_callback("--no-figures", [st] { st->figures = false; }, "write the report without drawing figures");
   auto* table = sub->add_option_group("order-tracked tables", "conventions of a table the file does not declare (docs/data-format.md)");
   table->add_option("--amplitude", st->conventions.amplitude, "amplitude convention: 0-peak, pk-pk or rms");
   table->add_option("--amplitude-unit", st->conventions.amplitude_unit, "unit of amplitude columns without a unit suffix: m, mm, um, mil, V, mV");

@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <functional>
 #include <iostream>
+#include <string>
 #include <string_view>
 #include <utility>
 #include <vector>
@@ -100,7 +101,11 @@ int main(int argc, char** argv) {
   } catch (const CLI::CallForVersion& e) {
     return app.exit(e);
   } catch (const CLI::ParseError& e) {
-    std::cerr << "rubref: error: " << e.what() << cli::suggestion(app, e) << "\n";
+    // A mistyped command: CLI11 says "A subcommand is required"; name the word it did not know.
+    std::string what = e.what();
+    if (const auto rest = app.remaining(); app.get_subcommands().empty() && !rest.empty() && rest.front().rfind("-", 0) != 0)
+      what = "unknown command '" + one_line(rest.front()) + "'";
+    std::cerr << "rubref: error: " << what << cli::suggestion(app, e) << "\n";
     return 2;
   } catch (const input_error& e) {
     std::cerr << "rubref: error: " << cli::with_flags(e.what()) << "\n";

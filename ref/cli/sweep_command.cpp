@@ -45,7 +45,7 @@ void add_sweep(CLI::App& app) {
   sub->add_flag("--orbits", st->orbits,
                 "also write every recorded orbit (orbits/<direction>_<rpm>rpm.csv) and each branch as one "
                 "multi-dwell measurement record (record_<direction>.csv, input for `rubref identify`)");
-  sub->add_option("--out", st->out, "output directory (created; replaced if an earlier rubref run made it)")->required();
+  sub->add_option("--out", st->out, "output directory (created, or an empty one filled; replaced if an earlier rubref run made it)")->required();
   st->integration.add_to(*sub);
   st->params.add_to(*sub);
   sub->callback([st] {

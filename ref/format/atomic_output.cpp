@@ -89,8 +89,22 @@ staged_directory::staged_directory(fs::path target) : target_(std::move(target))
   if (target_.filename().empty()) target_ = target_.parent_path();
   if (fs::exists(target_, ec)) {
     if (!fs::is_directory(target_, ec)) throw input_error(target_.string() + ": exists and is not a directory");
-    if (!fs::exists(target_ / kOutputMarker, ec))
-      throw input_error(target_.string() + ": exists and was not made by rubref; choose another output folder or remove it");
+    // An empty folder (one made for the output) is replaced whole, as rubref's own output is:
+    // nothing in it can be lost. Anything else rubref did not make is refused.
+    if (!fs::exists(target_ / kOutputMarker, ec)) {
+      const bool empty = fs::is_empty(target_, ec) && !ec;
+      if (!empty)
+        throw input_error(target_.string() + ": exists, is not empty and was not made by rubref; choose another output folder, or empty or remove it");
+      // The final rename replaces an empty folder, not a link to one.
+      if (fs::is_symlink(fs::symlink_status(target_, ec)))
+        throw input_error(target_.string() + ": is a link to an empty folder; give the folder itself, or a new one");
+    }
+    // Replacing the folder the process runs in (or one holding it) would leave the shell in a
+    // deleted folder that looks empty: the output would seem lost.
+    const fs::path here = fs::current_path(ec);
+    const fs::path inside = ec ? fs::path() : here.lexically_relative(fs::weakly_canonical(target_, ec));
+    if (!ec && !inside.empty() && *inside.begin() != "..")
+      throw input_error(target_.string() + ": holds the current folder, which the output would replace; run from elsewhere, or give a new folder");
   }
   if (!fs::is_directory(target_.parent_path(), ec))
     throw input_error(target_.string() + ": parent directory " + target_.parent_path().string() + " does not exist");
@@ -127,7 +141,9 @@ void staged_directory::write(const std::string& relative, const std::string& con
 void staged_directory::commit() {
   std::error_code ec;
   fs::path old;
-  if (fs::exists(target_, ec)) {
+  // rubref's own output is moved aside first; an empty folder is replaced by the rename itself,
+  // atomically, and the rename fails (nothing replaced) if something was put in it meanwhile.
+  if (fs::exists(target_ / kOutputMarker, ec)) {
     old = target_;
     old += ".old-" + std::to_string(::getpid());
     fs::rename(target_, old, ec);
@@ -135,8 +151,9 @@ void staged_directory::commit() {
   }
   fs::rename(staging_, target_, ec);
   if (ec) {
+    const std::string why = ec.message();
     if (!old.empty()) fs::rename(old, target_, ec);
-    throw input_error(target_.string() + ": cannot move the new output into place");
+    throw input_error(target_.string() + ": cannot move the new output into place: " + why);
   }
   committed_ = true;
   unregister_staging(staging_);

@@ -42,7 +42,8 @@ namespace rubref {
 
 // An output directory that appears whole or not at all. Files are written under `path()`, a
 // fresh sibling of the target; commit() swaps it into place. An existing target is replaced only
-// if rubref made it (it holds the marker file kOutputMarker): `--out .` can never wipe a folder.
+// if rubref made it (it holds the marker file kOutputMarker) or it is empty, and never when it
+// holds the current folder (`--out .`). A failed run leaves an existing target as it was.
 class staged_directory {
  public:
   static constexpr const char* kOutputMarker = ".rubref-output";

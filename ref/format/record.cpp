@@ -1,6 +1,7 @@
 #include "ref/format/record.hpp"
 
 #include <algorithm>
+#include <cctype>
 #include <charconv>
 #include <cmath>
 #include <fstream>
@@ -127,6 +128,81 @@ std::string explain_header(std::string_view line) {
   if (first.empty() || first == "index" || first == "Unnamed: 0" || first == "i" || first == "n")
     if (has(",t_s,x_m,y_m,speed_rpm") || has(", t_s"))
       return "the first column ('" + std::string(first) + "') looks like a row index: write the file without it (pandas: to_csv(index=False))";
+  if (double v = 0.0; parse_double(first, v)) return "the first line holds numbers, not column names: the header line is missing";
+  return {};
+}
+
+// A header as found, for a message: its columns joined by ',', cut after the last whole column
+// within 60 characters (a rig's export can have dozens).
+std::string quoted_header(const std::vector<std::string>& columns) {
+  constexpr std::size_t kShown = 60;
+  std::string h;
+  for (const auto& c : columns) {
+    const std::string next = (h.empty() ? "" : ",") + c;
+    if (h.size() + next.size() > kShown) {
+      h += h.empty() ? c.substr(0, kShown) + "..." : ",...";
+      break;
+    }
+    h += next;
+  }
+  return "'" + h + "'";
+}
+
+// What to change in a record's header that does not start with t_s,x_m,y_m,speed_rpm (""
+// when nothing more specific than the rule applies): a required column out of place, a required
+// quantity in another unit (the names carry the unit, and rubref reads SI), or a misspelt name.
+// Nothing when the whole header is a spreadsheet's or pandas' habit (explain_header says which).
+std::string record_header_hint(const std::vector<std::string>& columns) {
+  std::string line;
+  for (const auto& c : columns) line += (line.empty() ? "" : ",") + c;
+  if (!explain_header(line).empty()) return {};
+  const std::vector<std::string> required(kRequiredColumns.begin(), kRequiredColumns.end());
+  // Units a rig's export uses for the four quantities, and how to convert each to rubref's.
+  struct other_unit {
+    std::string_view quantity, unit, conversion;
+  };
+  static constexpr std::array<other_unit, 11> others{{{"t", "ms", "divide by 1000"},
+                                                      {"t", "us", "divide by 1e6"},
+                                                      {"x", "mm", "divide by 1000"},
+                                                      {"x", "um", "divide by 1e6"},
+                                                      {"x", "mil", "multiply by 2.54e-5"},
+                                                      {"y", "mm", "divide by 1000"},
+                                                      {"y", "um", "divide by 1e6"},
+                                                      {"y", "mil", "multiply by 2.54e-5"},
+                                                      {"speed", "hz", "multiply by 60"},
+                                                      {"speed", "rps", "multiply by 60"},
+                                                      {"speed", "rad_s", "multiply by 30/pi"}}};
+  for (std::size_t i = 0; i < required.size() && i < columns.size(); ++i) {
+    const std::string& want = required[i];
+    const std::string& got = columns[i];
+    if (got == want) continue;
+    const auto at = std::find(columns.begin(), columns.end(), want);
+    if (at != columns.end())
+      return "'" + want + "' is column " + std::to_string(at - columns.begin() + 1) + ", not " + std::to_string(i + 1);
+    const std::string_view quantity = std::string_view(want).substr(0, want.find('_'));
+    std::string lowered = got;
+    for (char& c : lowered) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+    for (const auto& o : others)
+      if (o.quantity == quantity && lowered == std::string(quantity) + "_" + std::string(o.unit))
+        return "column '" + got + "' is in " + got.substr(quantity.size() + 1) + ": rubref reads " + want + " in " + want.substr(want.find('_') + 1) +
+               " (" + std::string(o.conversion) + ")";
+  }
+  // The quantities' everyday names, which lack the unit rubref's names carry.
+  static constexpr std::array<std::pair<std::string_view, std::string_view>, 7> plain{
+      {{"t", "t_s"}, {"time", "t_s"}, {"time_s", "t_s"}, {"x", "x_m"}, {"y", "y_m"}, {"rpm", "speed_rpm"}, {"speed", "speed_rpm"}}};
+  std::string renames;
+  for (std::size_t i = 0; i < required.size() && i < columns.size(); ++i) {
+    std::string lowered = columns[i];
+    for (char& c : lowered) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+    for (const auto& [name, is] : plain)
+      if (lowered == name && is == required[i]) renames += (renames.empty() ? "" : ", ") + columns[i] + " to " + required[i];
+  }
+  if (!renames.empty()) return "if the values are in these units, rename " + renames;
+  for (std::size_t i = 0; i < required.size() && i < columns.size(); ++i)
+    if (columns[i] != required[i])
+      if (const std::string hint = did_you_mean(columns[i], required); !hint.empty())
+        return "column " + std::to_string(i + 1) + " is '" + columns[i] + "'" + hint;
+  if (columns.size() > 1 && columns.size() < required.size()) return "it has " + std::to_string(columns.size()) + " columns";
   return {};
 }
 }  // namespace
@@ -174,8 +250,10 @@ record parse_numeric_table(std::string_view text, std::string_view source, std::
           const std::string why = explain_header(line);
           fail(source, line_no, "empty column name in header" + (why.empty() ? "" : ": " + why));
         }
-        if (std::find(r.columns.begin(), r.columns.end(), name) != r.columns.end())
-          fail(source, line_no, "column '" + name + "' appears twice");
+        if (std::find(r.columns.begin(), r.columns.end(), name) != r.columns.end()) {
+          const std::string why = explain_header(line);  // a first line of numbers repeats some
+          fail(source, line_no, "column '" + name + "' appears twice" + (why.empty() ? "" : ": " + why));
+        }
         r.columns.push_back(name);
         if (comma >= line.size()) break;
         cpos = comma + 1;
@@ -223,7 +301,11 @@ record parse_numeric_table(std::string_view text, std::string_view source, std::
 record parse_record(std::string_view text, std::string_view source) {
   record r = parse_numeric_table(text, source, kRecordFormat, "t_s,x_m,y_m,speed_rpm,...", [](const std::vector<std::string>& columns) {
     for (std::size_t i = 0; i < kRequiredColumns.size(); ++i)
-      if (columns.size() <= i || columns[i] != kRequiredColumns[i]) return std::string("header must start with t_s,x_m,y_m,speed_rpm");
+      if (columns.size() <= i || columns[i] != kRequiredColumns[i]) {
+        const std::string hint = record_header_hint(columns);
+        return "header " + quoted_header(columns) + " must start with t_s,x_m,y_m,speed_rpm (units s, m, m, rpm)" +
+               (hint.empty() ? "" : ": " + hint);
+      }
     return std::string();
   });
   const auto& t = r.data[0];

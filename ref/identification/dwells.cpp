@@ -3,13 +3,42 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <string>
+#include <tuple>
 
 #include "ref/base/errors.hpp"
+#include "ref/base/number_text.hpp"
 #include "ref/model/state.hpp"
 
 namespace rubref {
 
 double dwell::omega() const { return rpm_to_rad_s(rpm); }
+
+namespace {
+// Data row i sits on file line first_data_line(r) + i (for messages; a record made in memory
+// counts its metadata and header lines).
+std::size_t first_data_line(const record& r) { return r.first_data_line > 0 ? r.first_data_line : r.metadata.size() + 2; }
+}  // namespace
+
+void check_displacement_scale(const record& r, const std::string& source) {
+  std::string column;
+  double peak = 0.0;
+  std::size_t row = 0;
+  for (const char* name : {"x_m", "y_m"}) {
+    const auto& v = r.column(name);
+    for (std::size_t i = 0; i < v.size(); ++i)
+      if (std::abs(v[i]) > peak) peak = std::abs(v[i]), row = i, column = name;
+  }
+  if (peak < kImplausibleDisplacement) return;
+  std::string hint = "the displacements must be metres from the stator's centre";
+  for (const auto& [scale, unit, by] : {std::tuple{1e-3, "millimetres", "1000"}, std::tuple{1e-6, "micrometres", "1e6"}})
+    if (peak * scale < kImplausibleDisplacement) {
+      hint = "if the file holds " + std::string(unit) + ", divide x_m and y_m by " + by;
+      break;
+    }
+  throw input_error(source + ":" + std::to_string(first_data_line(r) + row) + ": " + column + " reaches " + format_digits(r.column(column)[row]) +
+                    " m, and no rotor kit's shaft moves " + format_digits(kImplausibleDisplacement * 1e3, 2) + " mm or more: " + hint);
+}
 
 std::vector<dwell> split_dwells(const record& r, const std::string& source, std::size_t min_samples) {
   const auto& t = r.column("t_s");
@@ -17,9 +46,8 @@ std::vector<dwell> split_dwells(const record& r, const std::string& source, std:
   const auto& y = r.column("y_m");
   const auto& rpm = r.column("speed_rpm");
   const bool has_keyphasor = std::find(r.columns.begin(), r.columns.end(), "keyphasor") != r.columns.end();
-  // Data row i sits on file line first_line + i (for messages; a record made in memory counts
-  // its metadata and header lines).
-  const std::size_t first_line = r.first_data_line > 0 ? r.first_data_line : r.metadata.size() + 2;
+  check_displacement_scale(r, source);
+  const std::size_t first_line = first_data_line(r);
   const std::string at_clearance = r.where("clearance_m").empty() ? source + ": " : r.where("clearance_m");
   double clearance = 0.0;
   if (r.find("clearance_m")) {

@@ -66,8 +66,21 @@ dwell_noise estimate_dwell_noise(const dwell& d);
 // what it cannot do.
 double align_by_keyphasor(dwell& d, std::vector<std::string>& notes);
 
-// Splits every record into its dwells. input_error (naming the file and line) if a dwell is
-// shorter than `min_samples`, its sampling is not uniform, or its speed is not positive.
+// Displacements are in metres (docs/data-format.md). A radial proximity probe reads a few
+// millimetres at most (the common 8 mm probe's linear range is 2 mm), a rig's shaft rubs a stator
+// well under a millimetre away, and the paper's rotor with no stator at all peaks at about 1 mm
+// at its critical speed: an |x| or |y| of a centimetre is no rotor's, but millimetres (or micrometres) in
+// columns that say metres. A fit to it would return numbers, all nonsense, so identify, the loop
+// and the order tracker refuse it. The same bound as the clearance's unit warning (parameter_io.hpp).
+inline constexpr double kImplausibleDisplacement = 0.01;  // m
+
+// input_error "<source>:<line>: x_m reaches 0.35 m, ...; if the file holds millimetres, divide
+// x_m and y_m by 1000" when |x_m| or |y_m| reaches kImplausibleDisplacement.
+void check_displacement_scale(const record& r, const std::string& source);
+
+// Splits every record into its dwells. input_error (naming the file and line) if its
+// displacements are not metres (check_displacement_scale), a dwell is shorter than
+// `min_samples`, its sampling is not uniform, or its speed is not positive.
 std::vector<dwell> split_dwells(const record& r, const std::string& source, std::size_t min_samples = 16);
 
 }  // namespace rubref
