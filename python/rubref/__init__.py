@@ -14,7 +14,6 @@ import functools as _functools
 import inspect as _inspect
 import json as _json
 import logging as _logging
-import math as _math
 import numbers as _numbers
 import os as _os
 
