@@ -299,7 +299,7 @@ PYBIND11_MODULE(_rubref, m) {
     py::dict d;
     d["shooting_tolerance"] = kShootingTolerance;
     d["identify_library"] = identify_settings{}.library, d["identify_rho"] = identify_settings{}.frols.rho;
-    d["identify_bootstrap"] = identify_settings{}.bootstrap;
+    d["identify_bootstrap"] = identify_settings{}.bootstrap, d["identify_reid_fit"] = identify_settings{}.reid.fit;
     d["loop_max_effects"] = loop_settings{}.max_effects;
     d["rig_seed"] = probe_settings{}.seed, d["rig_speeds"] = rig_request{}.speeds_rpm;
     return d;
@@ -456,7 +456,7 @@ PYBIND11_MODULE(_rubref, m) {
 
   m.def("_identify", [](const std::vector<std::string>& paths, std::optional<double> clearance, std::optional<py::dict> linear,
                         const std::string& averaging, const std::string& law_method, const std::string& library, double rho, bool orbit_fit,
-                        bool reidentify, int bootstrap) {
+                        bool reidentify, const std::vector<std::string>& reid_fit, int bootstrap) {
     identify_settings s;
     if (linear) s.linear = parameters_from(std::nullopt, *linear);  // the linear part known: the parameter file's keys
     if (clearance) s.clearance = *clearance;
@@ -467,6 +467,7 @@ PYBIND11_MODULE(_rubref, m) {
     s.frols.rho = rho;
     s.orbit_fit = orbit_fit;
     s.reidentify = reidentify;
+    s.reid.fit = reid_fit;
     if (bootstrap < 0) throw input_error("bootstrap must be >= 0 (got " + std::to_string(bootstrap) + ")");
     s.bootstrap = bootstrap;
     const auto records = read_records(paths);

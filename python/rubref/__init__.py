@@ -372,12 +372,14 @@ def rig(effects=(), speeds=None, noise=None, keyphasor=True, carry_over=False, s
               "averaging": _Arg("text", "'auto', 'on' or 'off'"), "law_method": _Arg("text", "'auto', 'samples' or 'weak-form'"),
               "library": _Arg("text", "candidate terms (Eq. 4)"), "rho": _Arg("number", "ERR stop threshold, in [0, 1)"),
               "orbit_fit": _Arg("flag", "refine by fitting the orbit"), "reidentify": _Arg("flag", "re-identify the law's parameters on the orbits"),
+              "reid_fit": _Arg("texts", "the parameters re-identified: any of k1, k3, c2, mu, e, clearance (the command line's --reid-fit)"),
               "bootstrap": _Arg("count", "episode bootstrap resamples (0: none)")},
              returns="dict: identification.json's (estimates [{term, value, ...}], linear, law, warnings, ...)")
 def identify(paths, clearance=None, linear=None, averaging="auto", law_method="auto", library=_DEFAULTS["identify_library"],
-             rho=_DEFAULTS["identify_rho"], orbit_fit=True, reidentify=False, bootstrap=_DEFAULTS["identify_bootstrap"]):
+             rho=_DEFAULTS["identify_rho"], orbit_fit=True, reidentify=False, reid_fit=tuple(_DEFAULTS["identify_reid_fit"]),
+             bootstrap=_DEFAULTS["identify_bootstrap"]):
     """The identification of paper section 4 (Eq. 3-5) on record files."""
-    return _rubref._identify(paths, clearance, linear, averaging, law_method, library, rho, orbit_fit, reidentify, bootstrap)
+    return _rubref._identify(paths, clearance, linear, averaging, law_method, library, rho, orbit_fit, reidentify, reid_fit, bootstrap)
 
 
 _TABLE_ARGS = {

@@ -245,7 +245,7 @@ def _one_line(excinfo):
     return text
 
 
-def test_mistyped_keywords_get_the_librarys_did_you_mean():
+def test_mistyped_keywords_get_the_librarys_did_you_mean(small_rig_records):
     with pytest.raises(rubref.InputError, match=r"^simulate: unknown keyword 'setle_revs'; did you mean 'settle_revs'\?$") as e:
         rubref.simulate(setle_revs=10)
     _one_line(e)
@@ -254,6 +254,9 @@ def test_mistyped_keywords_get_the_librarys_did_you_mean():
         rubref.orbit(speed=1600)
     with pytest.raises(rubref.InputError, match=r"unknown keyword 'bootstarp'; did you mean 'bootstrap'\?"):
         rubref.identify("x.csv", bootstarp=0)
+    # A value naming a parameter gets the library's check too, before any work.
+    with pytest.raises(rubref.InputError, match=r"re-identification: unknown parameter 'delta' \(k1, k3, c2, mu, e, clearance\)"):
+        rubref.identify(small_rig_records, reidentify=True, reid_fit=["k1", "delta"])
     with pytest.raises(rubref.InputError, match=r"unknown keyword 'max_efects'; did you mean 'max_effects'\?"):
         rubref.loop("x.csv", max_efects=2)
     # A parameter file's key, mistyped, among the model parameters.

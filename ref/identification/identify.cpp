@@ -168,6 +168,7 @@ averaging parse_averaging(const std::string& name) {
 
 identification identify(const std::vector<std::pair<record, std::string>>& records, const identify_settings& s) {
   if (records.empty()) throw input_error("identify needs at least one record");
+  if (s.reidentify) check_reid_fit(s.reid.fit);
   std::vector<dwell> dwells;
   std::vector<std::string> notes;
   for (const auto& [r, name] : records) {

@@ -124,6 +124,10 @@ class orbit_error {
 
 }  // namespace
 
+void check_reid_fit(const std::vector<std::string>& fit) {
+  for (const auto& name : fit) member_named(name);
+}
+
 reid_result reidentify(const std::vector<dwell_forces>& dwells, const parameters& start, double unbalance_phase,
                        const reid_settings& s) {
   if (dwells.empty()) throw input_error("re-identification needs at least one dwell with contact");

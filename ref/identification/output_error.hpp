@@ -66,6 +66,10 @@ inline constexpr double kOrbitNoiseFloor = 1e-8;  // m
 
 // `start`: linear part, clearance and the law's starting values. Dwells need their forces
 // computed (for the initial velocities) with the same linear part.
+// input_error unless every name in `fit` is one the re-identification fits (a did-you-mean for a
+// near miss): checked before any work (identify), not after the identification.
+void check_reid_fit(const std::vector<std::string>& fit);
+
 reid_result reidentify(const std::vector<dwell_forces>& dwells, const parameters& start, double unbalance_phase,
                        const reid_settings& s);
 
