@@ -43,13 +43,7 @@ _REQUIRED_COLUMNS = ("t_s", "x_m", "y_m", "speed_rpm")
 _log = _logging.getLogger("rubref")
 
 
-def _row(scope, name):
-    """The settings registry's row (ref/model/settings.hpp) of ``name`` in ``scope``, else the shared one."""
-    for wanted in (scope, ""):
-        for r in _SETTINGS:
-            if r["scope"] == wanted and r["name"] == name:
-                return r
-    raise KeyError(f"no setting {scope}.{name}")  # a bug here, not the user's
+_row = _rubref._setting  # the registry's row (ref/model/settings.hpp) of a name in a scope, else the shared one
 
 
 def _default(scope, name):
