@@ -12,7 +12,7 @@ import tempfile
 
 # In order, one folder per layer: a layer may include only itself and the layers before it.
 LAYERS = ["base", "format", "model", "variants", "integrate", "run", "analysis", "orbits", "sweep",
-          "identification", "rig", "loop", "tracking", "validation", "study", "app", "cli"]
+          "inference", "identification", "rig", "loop", "tracking", "validation", "study", "app", "cli"]
 RANK = {folder: i for i, folder in enumerate(LAYERS)}
 
 

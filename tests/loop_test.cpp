@@ -168,8 +168,8 @@ const std::vector<scenario> kScenarios{
      .error_ratio = 0.2,
      .records = [] { return std::vector<rig_request>{rub_and_free(0.35e-3, {1040, 1110, 1230, 1490, 1530, 1570, 1610, 1640, 1670, 1720}, {}, 95, 6, 0.15e-6, 14000, "piecewise-nonlinear").front()}; },
      .check = [](const loop_result& r, const std::vector<rig_request>&) {
-       EXPECT_TRUE(r.claim == "full" || r.claim == "partial") << r.claim;
-       EXPECT_LE(1.0 - r.explained_share, 1e-4);
+       EXPECT_TRUE(r.decision.claim == "full" || r.decision.claim == "partial") << r.decision.claim;
+       EXPECT_LE(1.0 - r.decision.explained_share, 1e-4);
        EXPECT_TRUE(r.validity_after.noise_level.pass) << r.validity_after.noise_level.value;
        EXPECT_TRUE(r.excluded.empty());
      }},
@@ -185,7 +185,7 @@ const std::vector<scenario> kScenarios{
      .records = [] { return std::vector<rig_request>{from_elsewhere({1500, 1550, 1600, 1650, 1700}, 0.3e-3, 31), from_elsewhere({1200, 1350, 1500, 1650, 1800}, 0.01, 32)}; },
      .claim = "partial",
      .check = [](const loop_result& r, const std::vector<rig_request>&) {
-       EXPECT_GE(r.explained_share, loop_settings{}.min_explained_share);
+       EXPECT_GE(r.decision.explained_share, evidence_rules{}.claim_share);
        EXPECT_FALSE(r.validity_after.pass);
      }},
     // A dwell on a period-3 rub orbit (below the resonance at 0.2 mm) is fitted on the model's
@@ -226,10 +226,9 @@ TEST_P(loop, scenario) {
     records.emplace_back(run_rig(req).measurement, records.empty() ? "rub.csv" : "free.csv");
   }
   const loop_result r = run_loop(records, loop_settings{});
-  std::vector<std::string> named;
-  for (const auto& e : r.effects) named.push_back(e.effect);
-  std::printf("MEASURED %s: error %.4g -> %.4g, unexplained %d, claim %s, effects", sc.name, r.error_before, r.error_after, r.unexplained,
-              r.claim.c_str());
+  const std::vector<std::string>& named = r.decision.named;
+  std::printf("MEASURED %s: error %.4g -> %.4g, unexplained %d, claim %s, effects", sc.name, r.error_before, r.error_after, r.decision.unexplained,
+              r.decision.claim.c_str());
   for (const auto& e : r.effects) std::printf(" %s", e.effect.c_str());
   std::printf("\n");
 
@@ -238,7 +237,7 @@ TEST_P(loop, scenario) {
   std::sort(got.begin(), got.end());
   EXPECT_EQ(got, expected);
   if (sc.unexplained) {
-    EXPECT_EQ(r.unexplained, *sc.unexplained);
+    EXPECT_EQ(r.decision.unexplained, *sc.unexplained);
   }
   if (sc.unexplained == false) {
     EXPECT_TRUE(r.excluded.empty()) << r.excluded.front().reason;
@@ -260,7 +259,7 @@ TEST_P(loop, scenario) {
     EXPECT_EQ(r.error_after, r.error_before);
   }
   if (sc.claim) {
-    EXPECT_EQ(r.claim, sc.claim);
+    EXPECT_EQ(r.decision.claim, sc.claim);
   }
   if (sc.check) sc.check(r, requests);
 }

@@ -70,7 +70,7 @@ void expect_within(const estimate& e, double truth_value, double slack, const ch
 // What the loop tried, for a failure's message.
 std::string trace(const tracking_result& r) {
   std::string s;
-  for (const auto& m : r.models) s += m.estimates + ": " + m.verdict + "\n";
+  for (const auto& m : r.models) s += m.estimates + ": " + m.summary + "\n";
   return s;
 }
 
@@ -178,10 +178,10 @@ TEST(TrackingLoop, AnIsotropicRotorWithRunoutIsLeftAlone) {
   t.p.k_y = t.p.k_x, t.p.c_y = t.p.c_x;
   t.runout_x = std::polar(3e-6, 2.0), t.runout_y = std::polar(3e-6, 2.0 - kPi / 2.0);
   const tracking_result r = run_tracking_loop(closed_form_table(t, 0.2e-6, std::nullopt));
-  EXPECT_TRUE(r.effects.empty()) << trace(r);
+  EXPECT_TRUE(r.named().empty()) << trace(r);
   // The noise the loop uses, within 10 % of the truth's (482 draws per probe: ~3 % standard error).
   EXPECT_NEAR(r.after.noise_m[0], 0.2e-6, 0.2e-7);
-  EXPECT_FALSE(r.unexplained);
+  EXPECT_FALSE(r.unexplained());
   EXPECT_TRUE(r.after.consistent_with_noise);
   ASSERT_EQ(r.after.modes.size(), 1u);
   expect_within(r.after.modes[0].critical_speed_rpm, critical_rpm(t.p.k_x, t.p.m), 1e-3, "critical speed");
@@ -195,10 +195,11 @@ TEST(TrackingLoop, AnisotropyAndABowAreNamedAndMeasured) {
   t.bow = 30e-6, t.bow_phase = 1.2;
   t.runout_x = std::polar(2e-6, 0.4), t.runout_y = std::polar(2e-6, 0.4 - kPi / 2.0);
   const tracking_result r = run_tracking_loop(closed_form_table(t, 0.2e-6, std::nullopt));
-  ASSERT_EQ(r.effects.size(), 2u) << trace(r);
-  EXPECT_NE(std::find(r.effects.begin(), r.effects.end(), "anisotropy"), r.effects.end());
-  EXPECT_NE(std::find(r.effects.begin(), r.effects.end(), "shaft_bow"), r.effects.end());
-  EXPECT_EQ(r.claim, "full");
+  const std::vector<std::string> named = r.named();
+  ASSERT_EQ(r.named().size(), 2u) << trace(r);
+  EXPECT_NE(std::find(named.begin(), named.end(), "anisotropy"), named.end());
+  EXPECT_NE(std::find(named.begin(), named.end(), "shaft_bow"), named.end());
+  EXPECT_EQ(r.decision.claim, "full");
   expect_within(r.after.bow_m, 30e-6, 1e-3, "bow");
   expect_within(r.after.bow_phase_deg, 1.2 * 180.0 / kPi, 0.0, "bow phase");
   EXPECT_LT(r.error_after, r.error_before);
@@ -223,9 +224,10 @@ TEST(TrackingLoop, CrossCouplingIsNamed) {
     table.orders[1].vector[i] = (dxx * fy - kyx * fx) / det + cplx(n(gen), n(gen));
   }
   const tracking_result r = run_tracking_loop(table);
-  ASSERT_EQ(r.effects.size(), 2u) << trace(r);
-  EXPECT_NE(std::find(r.effects.begin(), r.effects.end(), "anisotropy"), r.effects.end());
-  EXPECT_NE(std::find(r.effects.begin(), r.effects.end(), "cross_coupling"), r.effects.end());
+  const std::vector<std::string> named = r.named();
+  ASSERT_EQ(r.named().size(), 2u) << trace(r);
+  EXPECT_NE(std::find(named.begin(), named.end(), "anisotropy"), named.end());
+  EXPECT_NE(std::find(named.begin(), named.end(), "cross_coupling"), named.end());
   expect_within(r.after.k_xy_over_m, kxy / t.p.m, 1e-3, "k_xy/m");
   expect_within(r.after.k_yx_over_m, kyx / t.p.m, 1e-3, "k_yx/m");
 }
@@ -249,8 +251,9 @@ TEST(TrackingLoop, ARigRunUpOrderTrackedAndWrittenInMilsIsFittedToItsTruth) {
   given.amplitude = "pk-pk", given.phase = "lag", given.probe_angles_deg = {{"x", 0.0}, {"y", 90.0}};
   const order_table table = parse_order_table(csv, "rig.csv", given);
   const tracking_result r = run_tracking_loop(table);
-  EXPECT_NE(std::find(r.effects.begin(), r.effects.end(), "anisotropy"), r.effects.end()) << trace(r);
-  EXPECT_NE(std::find(r.effects.begin(), r.effects.end(), "shaft_bow"), r.effects.end()) << trace(r);
+  const std::vector<std::string> named = r.named();
+  EXPECT_NE(std::find(named.begin(), named.end(), "anisotropy"), named.end()) << trace(r);
+  EXPECT_NE(std::find(named.begin(), named.end(), "shaft_bow"), named.end()) << trace(r);
   ASSERT_EQ(r.after.modes.size(), 2u);
   // 0.5 %: the rig's quantisation and the tracker's finite dwells, beyond the noise the interval counts.
   expect_within(r.after.modes[0].critical_speed_rpm, critical_rpm(req.params.k_x, req.params.m), 5e-3, "x critical speed");
@@ -260,8 +263,8 @@ TEST(TrackingLoop, ARigRunUpOrderTrackedAndWrittenInMilsIsFittedToItsTruth) {
   expect_within(r.after.runout_m[0], 2e-6, 0.05, "x runout");
   // Its 2X columns hold the quantised noise only: no misalignment named, the 2X residual is noise.
   ASSERT_TRUE(r.two_x.has_value());
-  EXPECT_FALSE(r.two_x->named) << r.two_x->verdict;
-  EXPECT_FALSE(r.two_x->unexplained) << r.two_x->verdict;
+  EXPECT_FALSE(r.two_x->named) << r.two_x->summary;
+  EXPECT_FALSE(r.two_x->decision.unexplained) << r.two_x->summary;
 }
 
 // A misalignment's 2X (the library's moderate level, 0.5 N) and a 2X runout on a rig run-up that
@@ -276,9 +279,10 @@ TEST(TrackingLoop, AMisalignmentIsNamedFromTheTwoXColumnsOfARigRunUp) {
   req.effects.runout_2x = 1e-6, req.effects.runout_2x_phase = -1.0;
   const order_table table = track_orders(run_rig(req).measurement, "rig");
   const tracking_result r = run_tracking_loop(table);
+  const std::vector<std::string> named = r.named();
   ASSERT_TRUE(r.two_x.has_value());
-  EXPECT_TRUE(r.two_x->named) << r.two_x->verdict;
-  EXPECT_NE(std::find(r.effects.begin(), r.effects.end(), "misalignment_2x"), r.effects.end()) << trace(r) << r.two_x->verdict;
+  EXPECT_TRUE(r.two_x->named) << r.two_x->summary;
+  EXPECT_NE(std::find(named.begin(), named.end(), "misalignment_2x"), named.end()) << trace(r) << r.two_x->summary;
   EXPECT_LT(r.two_x->after().rms_residual_m, r.two_x->before.rms_residual_m);
   // 2 %: the critical speeds' own 0.5 % (as above) at 2X, where the forced response is steep.
   expect_within(r.two_x->with.force_over_m, 0.5 / req.params.m, 0.02, "F2/m");
@@ -325,8 +329,8 @@ TEST(TrackingLoop, ARubRunUpIsNamedWithItsClearanceContactStiffnessAndFriction) 
   const tracking_result r = run_tracking_loop(table);
   ASSERT_TRUE(r.rub.has_value()) << trace(r);
   EXPECT_TRUE(r.rub->named) << trace(r);
-  EXPECT_EQ(r.effects, (std::vector<std::string>{"anisotropy", "rub"})) << trace(r);
-  EXPECT_EQ(r.claim, "full") << trace(r);
+  EXPECT_EQ(r.named(), (std::vector<std::string>{"anisotropy", "rub"})) << trace(r);
+  EXPECT_EQ(r.decision.claim, "full") << trace(r);
   const rub_fit& rub = r.rub->fit;
   // 0.5 %: as the contact-free run-up's (the rig's quantisation and the tracker's finite dwells);
   // the rub's own orbits are shot to 1e-12 m.
@@ -340,8 +344,8 @@ TEST(TrackingLoop, ARubRunUpIsNamedWithItsClearanceContactStiffnessAndFriction) 
   EXPECT_LT(r.error_after, 0.05 * r.error_before);
   // The 2X columns are the rub's own 2X: read from the shot orbits, nothing is left to name.
   ASSERT_TRUE(r.two_x.has_value());
-  EXPECT_FALSE(r.two_x->named) << r.two_x->verdict;
-  EXPECT_TRUE(r.two_x->after().consistent_with_noise) << r.two_x->verdict;
+  EXPECT_FALSE(r.two_x->named) << r.two_x->summary;
+  EXPECT_TRUE(r.two_x->after().consistent_with_noise) << r.two_x->summary;
 }
 
 }  // namespace

@@ -184,8 +184,8 @@ def test_loop_on_records_without_an_effect_claims_none(tmp_path):
     rec = rubref.rig(noise=0.5e-6, seed=3)
     rubref.write_record(tmp_path / "rig.csv", rec["columns"], rec["metadata"])
     report = rubref.loop(tmp_path / "rig.csv")
-    assert report["effects"] == []
-    assert report["unexplained"] is False
+    assert report["verdict"]["claim"] == "none" and report["verdict"]["named"] == [] and report["effects"] == []
+    assert report["verdict"]["unexplained"] is False
     assert report["error_after"] <= report["error_before"]
 
 
@@ -230,7 +230,7 @@ def test_order_table_reads_as_complex_vectors_and_loops(tmp_path):
     with pytest.raises(rubref.InputError, match="'mass' is for record files"):
         rubref.loop(tmp_path / "t.csv", amplitude="0-peak", phase="lead", mass=1.0)
     report = rubref.loop(tmp_path / "t.csv", amplitude="0-peak", phase="lead")
-    assert report["kind"] == "order-tracked" and report["effects"] == [] and report["unexplained"] is False
+    assert report["kind"] == "order-tracked" and report["verdict"]["named"] == [] and report["verdict"]["unexplained"] is False
     import math
     # 1e-6: a noise-free table, fitted to its own rounding.
     assert abs(report["modes"][0]["critical_speed_rpm"] - 160 * 30 / math.pi) < 1e-6 * 160 * 30 / math.pi

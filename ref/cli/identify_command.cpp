@@ -58,9 +58,9 @@ void add_identify(CLI::App& app) {
   // A callback, not CLI11's negated flag "!--no-orbit-fit", whose help shows "--no-orbit-fit{false}".
   sub->add_flag_callback("--no-orbit-fit", [st] { st->settings.orbit_fit = false; }, "report the weak form's estimates without refining them by the averaged cycles' periodic orbits");
   sub->add_option("--bootstrap", s.bootstrap, "episode-bootstrap resamples for the 95 % intervals (0: none)")->capture_default_str();
-  sub->add_flag("--reidentify", s.reidentify, "refine by output error with NLopt (BOBYQA)");
+  sub->add_flag("--reidentify", s.reidentify, "refine by output error (the least-squares solver on the simulated orbits)");
   sub->add_option("--reid-fit", st->reid_fit, "parameters to re-identify: any of k1,k3,c2,mu,e,clearance")->capture_default_str();
-  sub->add_flag("--global", s.reid.global, "DIRECT-L global stage before BOBYQA");
+  sub->add_flag("--global", s.reid.global, "NLopt DIRECT-L global stage for the re-identification's start");
   sub->add_option("--out", st->out, "output directory: identification.json, identification.md")->required();
   add_threads_option(*sub);
   sub->callback([st] {

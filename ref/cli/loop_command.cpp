@@ -1,6 +1,7 @@
 #include <cmath>
 #include <iostream>
 #include <memory>
+#include <sstream>
 
 #include "ref/app/python_script.hpp"
 #include "ref/base/errors.hpp"
@@ -26,6 +27,12 @@ struct loop_state {
   std::vector<std::string> probe_angles;  // "DEG" or "NAME=DEG"
   double scale = 0.0;
 };
+
+// The one line a run ends with: the errors, then the verdict (ref/inference/verdict.hpp), records
+// and tables alike.
+void print_result(const std::string& errors, const verdict& v, const std::string& out) {
+  std::cout << errors << "; " << summary_line(v) << "\nwrote " << out << "/report.json, report.md\n";
+}
 
 // `rubref loop TABLE`: an order-tracked table (docs/real-data.md).
 void run_on_table(const loop_state& st, staged_directory& dir) {
@@ -57,18 +64,9 @@ void run_on_table(const loop_state& st, staged_directory& dir) {
   dir.write("plot_data.json", plot_data(r).dump() + "\n");
   if (st.figures) run_python_script(default_python(), script_path("plot_tracking.py"), dir.path());
   dir.commit();
-  std::cout << "error before " << r.error_before << " m, after " << r.error_after << " m; effects:";
-  for (const auto& e : r.effects) std::cout << " " << e;
-  if (r.effects.empty()) std::cout << " none";
-  if (!r.tentative.empty()) {
-    std::cout << " (tentative:";
-    for (const auto& e : r.tentative) std::cout << " " << e;
-    std::cout << ")";
-  }
-  std::cout << (r.claim == "partial" ? "; named, partial: " + format_digits(100.0 * r.remaining_share, 3) + " % of the excess remains"
-                : r.unexplained   ? "; residual unexplained"
-                                  : "; residual is noise")
-            << "\nwrote " << st.out << "/report.json, report.md\n";
+  std::ostringstream errors;
+  errors << "error before " << r.error_before << " m, after " << r.error_after << " m";
+  print_result(errors.str(), r.decision, st.out);
 }
 }  // namespace
 
@@ -80,10 +78,10 @@ void add_loop(CLI::App& app) {
       ->required()
       ->check(CLI::ExistingFile);
   sub->add_option("--out", st->out, "report folder (report.json, report.md, figures)")->required();
-  sub->add_option("--mass", s.mass, "rotor mass [kg]; default: the records' m_kg, else the paper's");
-  sub->add_option("--clearance", s.clearance, "clearance for records without clearance_m metadata [m]");
-  sub->add_option("--max-effects", s.max_effects, "trace rounds (effects added at most)")->capture_default_str()->check(CLI::Range(0, 11));
-  sub->add_option("--refit", s.refit_candidates, "effects refitted per round (best scores)")->capture_default_str()->check(CLI::Range(1, 11));
+  add_setting(*sub, s.mass, {"loop", "mass"});
+  add_setting(*sub, s.clearance, {"loop", "clearance"});
+  add_setting(*sub, s.max_effects, {"trace", "max_effects"});
+  add_setting(*sub, s.refit_candidates, {"trace", "refit_candidates"});
   // A callback, not CLI11's negated flag "!--no-figures", whose help shows "--no-figures{false}".
   sub->add_flag_callback("--no-figures", [st] { st->figures = false; }, "write the report without drawing figures");
   auto* table = sub->add_option_group("order-tracked tables", "conventions of a table the file does not declare (docs/data-format.md)");
@@ -111,22 +109,12 @@ void add_loop(CLI::App& app) {
     dir.write("plot_data.json", plot_data(r).dump() + "\n");
     if (st->figures && !r.plot_x.empty()) run_python_script(default_python(), script_path("plot_loop.py"), dir.path());
     dir.commit();
+    std::ostringstream errors;
     if (std::isfinite(r.error_before))
-      std::cout << "error before " << r.error_before << ", after " << r.error_after << "; effects:";
+      errors << "error before " << r.error_before << ", after " << r.error_after;
     else  // every dwell with contact was left out (the warnings above say why): nothing to score
-      std::cout << "no dwell with contact was usable (see the warnings): nothing fitted; effects:";
-    for (const auto& e : r.effects) std::cout << " " << e.effect;
-    if (r.effects.empty()) std::cout << " none";
-    if (!r.tentative.empty()) {
-      std::cout << " (tentative:";
-      for (const auto& e : r.tentative) std::cout << " " << e.effect;
-      std::cout << ")";
-    }
-    std::cout << (r.claim == "partial" ? "; named, partial: " + format_digits(100.0 * std::max(0.0, 1.0 - r.explained_share), 3) +
-                                             " % of the excess remains"
-                  : r.unexplained ? "; residual unexplained"
-                                  : "; residual is noise")
-              << "\nwrote " << st->out << "/report.json, report.md\n";
+      errors << "no dwell with contact was usable (see the warnings): nothing fitted";
+    print_result(errors.str(), r.decision, st->out);
   });
 }
 

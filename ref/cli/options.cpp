@@ -60,6 +60,18 @@ parameters parameter_options::resolve() const {
   return p;
 }
 
+namespace {
+template <class T>
+CLI::Option* add_registry_option(CLI::App& app, T& value, setting_key key) {
+  const setting_info& s = *key.row;
+  const std::string unit = s.unit == "-" ? std::string() : " [" + std::string(s.unit) + "]";
+  return app.add_option("--" + std::string(s.flag), value, std::string(s.description) + unit)->capture_default_str();
+}
+}  // namespace
+
+CLI::Option* add_setting(CLI::App& app, double& value, setting_key key) { return add_registry_option(app, value, key); }
+CLI::Option* add_setting(CLI::App& app, int& value, setting_key key) { return add_registry_option(app, value, key); }
+
 void integration_cli::add_to(CLI::App& app) {
   const char* group = "Integration";
   app.add_option("--stepper", stepper_, "rk4 (fixed dt), dopri5, rkf78, bulirsch-stoer")->capture_default_str()->group(group);

@@ -7,6 +7,7 @@
 
 #include "ref/integrate/hybrid_integrator.hpp"
 #include "ref/model/parameters.hpp"
+#include "ref/model/settings.hpp"
 
 namespace rubref::cli {
 
@@ -15,6 +16,12 @@ std::string variant_names();  // "restitution, piecewise-linear, ..."
 // A library message with its settings (`from_rpm`, `clearance`: ref/base/errors.hpp, setting)
 // spelled as this command line's flags (--from, --clearance).
 std::string with_flags(std::string_view message);
+
+// --<flag> for a setting of the registry (ref/model/settings.hpp): flag, help and unit from its
+// row; the library's validate() checks the value (its message names the setting, with_flags
+// spells it as the flag).
+CLI::Option* add_setting(CLI::App& app, double& value, setting_key key);
+CLI::Option* add_setting(CLI::App& app, int& value, setting_key key);
 
 // --params FILE and one --<flag> per row of parameter_table; the file first, flags override it.
 // A length parameter of a rotor kit's implausible size gets a warning (unit_warnings).

@@ -7,26 +7,19 @@
 #include <limits>
 #include <numbers>
 #include <boost/math/distributions/chi_squared.hpp>
-#include <unsupported/Eigen/LevenbergMarquardt>
 
 #include "ref/base/errors.hpp"
 #include "ref/base/parallel.hpp"
 #include "ref/identification/output_error.hpp"
+#include "ref/inference/least_squares.hpp"
 #include "ref/integrate/hybrid_integrator.hpp"
-#include "ref/integrate/shooting.hpp"
+#include "ref/orbits/fit_orbits.hpp"
 #include "variants/identified.hpp"
 
 namespace rubref {
 
 namespace {
 
-// Newton shooting from the previous orbit of the same cycle converges in a few iterations; a trial
-// law that needs more, or 10^5 steps per revolution, is far off the data (as output_error.cpp).
-constexpr int kShootIterations = 12;
-constexpr std::size_t kMaxStepsPerRevolution = 100000;
-// A cycle whose orbit cannot be computed answers this whitened residual per sample (1000 noise
-// standard deviations): LM rejects the step that led there.
-constexpr double kFailedResidual = 1e3;
 // Central differences in the scaled unknowns (relative to the start): far above the shooting's
 // 1e-12 m over the noise floor's 1e-8 m, far below the ~0.5 % the data resolve.
 constexpr double kDifferenceStep = 1e-4;
@@ -104,8 +97,9 @@ class cycles_model {
     return q;
   }
 
-  // All whitened residuals at u; the cycles' orbits become the next evaluation's first guesses.
-  Eigen::VectorXd evaluate(const Eigen::VectorXd& u) {
+  // All whitened residuals at u, or nothing where some cycle's orbit cannot be computed (the
+  // solver rejects the point); the cycles' orbits become the next evaluation's first guesses.
+  std::optional<Eigen::VectorXd> evaluate(const Eigen::VectorXd& u) {
     Eigen::VectorXd r(residuals());
     std::vector<int> failed(cycles_.size(), 0);
     parallel_for(cycles_.size(), 0, [&](std::size_t k) {
@@ -117,11 +111,14 @@ class cycles_model {
     for (std::size_t k = 0; k < cycles_.size(); ++k) failed_ += failed[k];
     last_failed_ = std::count(failed.begin(), failed.end(), 1) > 0;
     ++evaluations_;
+    if (last_failed_) return std::nullopt;
     return r;
   }
 
-  // Central differences; cycle k's residuals depend on the shared unknowns and its own forcing only.
-  Eigen::MatrixXd jacobian(const Eigen::VectorXd& u) const {
+  // Central differences (one-sided where one side's orbit cannot be computed; a column with
+  // neither is 0, held for the step); cycle k's residuals depend on the shared unknowns and its own
+  // forcing only.
+  Eigen::MatrixXd jacobian(const Eigen::VectorXd& u, const Eigen::VectorXd& r0) const {
     Eigen::MatrixXd J = Eigen::MatrixXd::Zero(residuals(), unknowns());
     parallel_for(cycles_.size(), 0, [&](std::size_t k) {
       std::vector<Eigen::Index> columns;
@@ -129,14 +126,17 @@ class cycles_model {
       columns.push_back(forcing(k));
       columns.push_back(forcing(k) + 1);
       Eigen::VectorXd up(size(k)), down(size(k));
+      const auto base = r0.segment(offset(k), size(k));
       for (const auto c : columns) {
         Eigen::VectorXd u1 = u, u2 = u;
         u1[c] += kDifferenceStep;
         u2[c] -= kDifferenceStep;
         state_type g1 = guess_[k], g2 = guess_[k];
-        cycle_residuals(k, at(u1, k), g1, up);
-        cycle_residuals(k, at(u2, k), g2, down);
-        J.block(offset(k), c, size(k), 1) = (up - down) / (2.0 * kDifferenceStep);
+        const bool ok_up = cycle_residuals(k, at(u1, k), g1, up), ok_down = cycle_residuals(k, at(u2, k), g2, down);
+        auto column = J.block(offset(k), c, size(k), 1);
+        if (ok_up && ok_down) column = (up - down) / (2.0 * kDifferenceStep);
+        else if (ok_up) column = (up - base) / kDifferenceStep;
+        else if (ok_down) column = (base - down) / kDifferenceStep;
       }
     });
     return J;
@@ -159,7 +159,7 @@ class cycles_model {
           trial[forcing(k)] = size * std::cos(phase), trial[forcing(k) + 1] = size * std::sin(phase);
         }
         state_type orbit = guess_[k];
-        if (!cycle_residuals(k, at(trial, k), orbit, r)) continue;
+        if (!cycle_residuals(k, at(trial, k), orbit, r)) continue;  // never read: that phase is not chosen
         if (r.squaredNorm() < best) best = r.squaredNorm(), chosen = {trial[forcing(k)], trial[forcing(k) + 1]}, chosen_orbit = orbit;
       }
       u[forcing(k)] = chosen.first, u[forcing(k) + 1] = chosen.second;
@@ -180,24 +180,21 @@ class cycles_model {
   Eigen::Index size(std::size_t k) const { return static_cast<Eigen::Index>(2 * cycles_[k].forces->source->size()); }
 
   // The periodic orbit of cycle k's model near `orbit` (updated to it), sampled on the cycle's grid:
-  // (x_sim - x, y_sim - y) / noise per sample. False (and kFailedResidual) where it cannot be computed.
+  // (x_sim - x, y_sim - y) / noise per sample. False where it cannot be computed (r then holds
+  // nothing to read).
   template <class Out>
   bool cycle_residuals(std::size_t k, const parameters& q, state_type& orbit, Out&& r) const {
     const dwell& d = *cycles_[k].forces->source;
     const std::size_t n = d.size();
     const double noise = std::max(cycles_[k].noise, kOrbitNoiseFloor);
-    r.setConstant(kFailedResidual);
     try {
       const rotor_system<identified> model(q, d.omega());
-      shooting_settings set;
-      set.max_iterations = kShootIterations;
-      set.integration.max_steps = kMaxStepsPerRevolution;
+      // Shot and sampled as every fit's orbit (ref/orbits/fit_orbits.hpp): from the previous orbit
+      // of the same cycle Newton converges in a few iterations.
       const double t0 = d.t[0];
-      const auto shot = shoot_periodic_orbit(model, orbit, t0, 1, set);
+      const auto shot = shoot_fit_orbit(model, orbit, t0);
       if (!shot.converged) return false;
-      integration_options opt;
-      opt.stepper.rtol = 1e-10;
-      opt.stepper.atol = 1e-14;
+      const integration_options opt = fit_sampling();
       position_recorder rec;
       rec.x.reserve(n);
       rec.y.reserve(n);
@@ -227,41 +224,16 @@ class cycles_model {
   bool last_failed_ = false;
 };
 
-// Eigen's Levenberg-Marquardt on the whitened residuals.
-struct lm_functor : Eigen::DenseFunctor<double> {
-  explicit lm_functor(cycles_model& m) : Eigen::DenseFunctor<double>(static_cast<int>(m.unknowns()), static_cast<int>(m.residuals())), model(m) {}
-  int operator()(const Eigen::VectorXd& u, Eigen::VectorXd& r) const {
-    r = model.evaluate(u);
-    return 0;
-  }
-  int df(const Eigen::VectorXd& u, Eigen::MatrixXd& J) {
-    J = model.jacobian(u);
-    ++jacobians;  // one per LM iteration
-    return 0;
-  }
-  cycles_model& model;
-  int jacobians = 0;
-};
-
-std::string lm_status(Eigen::LevenbergMarquardtSpace::Status s) {
-  using namespace Eigen::LevenbergMarquardtSpace;
-  switch (s) {
-    case RelativeReductionTooSmall: return "converged: relative reduction of the residual below tolerance";
-    case RelativeErrorTooSmall: return "converged: relative change of the unknowns below tolerance";
-    case RelativeErrorAndReductionTooSmall: return "converged: residual and unknowns both settled";
-    case CosinusTooSmall: return "converged: residual orthogonal to the Jacobian";
-    case TooManyFunctionEvaluation: return "stopped: evaluation budget spent";
-    case FtolTooSmall:
-    case XtolTooSmall:
-    case GtolTooSmall: return "stopped: no further reduction possible at rounding level";
-    default: return "stopped: Levenberg-Marquardt failed";
-  }
-}
-
 }  // namespace
+
+void orbit_fit_settings::validate() const {
+  check({"orbit_fit", "max_jacobians"}, max_jacobians);
+  check({"orbit_fit", "phase_search"}, phase_search);
+}
 
 orbit_fit_result fit_periodic_orbits(const std::vector<orbit_fit_cycle>& cycles, const parameters& start,
                                      const std::vector<std::string>& terms, const orbit_fit_settings& s) {
+  s.validate();
   if (cycles.empty()) throw input_error("orbit fit: no averaged cycle to fit");
   cycles_model model(cycles, start, terms);
   orbit_fit_result out;
@@ -271,69 +243,61 @@ orbit_fit_result fit_periodic_orbits(const std::vector<orbit_fit_cycle>& cycles,
 
   Eigen::VectorXd start_values = model.start();
   if (s.phase_search > 0) model.search_phases(start_values, s.phase_search);
-  Eigen::VectorXd u = start_values;
-  out.initial_chi2 = model.evaluate(u).squaredNorm() / dof;
-  lm_functor f(model);
-  Eigen::LevenbergMarquardt<lm_functor> lm(f);
-  lm.setXtol(s.tolerance);
-  lm.setFtol(s.tolerance * s.tolerance);
-  lm.setMaxfev(s.max_evaluations);
-  const auto status = lm.minimize(u);
-  out.iterations = f.jacobians;
-  out.status = lm_status(status);
-
-  const Eigen::VectorXd r = model.evaluate(u);
+  const auto initial = model.evaluate(start_values);
+  out.initial_chi2 = initial ? initial->squaredNorm() / dof : std::numeric_limits<double>::infinity();
+  // The one solver (ref/inference/least_squares.hpp) on the whitened residuals.
+  least_squares_problem lsq;
+  lsq.residuals = [&model](const Eigen::VectorXd& u) { return model.evaluate(u); };
+  lsq.jacobian = [&model](const Eigen::VectorXd& u, const Eigen::VectorXd& r) { return model.jacobian(u, r); };
+  least_squares_options o;
+  o.max_jacobians = s.max_jacobians;
+  const least_squares_result fit = solve_least_squares(lsq, start_values, o);
+  out.iterations = fit.jacobians;
+  out.status = fit.status;
+  const Eigen::VectorXd& u = fit.u;
+  const auto final_r = model.evaluate(u);
   out.evaluations = model.evaluations();
   out.failed_evaluations = model.failed();
-  out.final_chi2 = r.squaredNorm() / dof;
-  using namespace Eigen::LevenbergMarquardtSpace;
-  out.converged = !model.last_failed() && (status == RelativeReductionTooSmall || status == RelativeErrorTooSmall ||
-                                           status == RelativeErrorAndReductionTooSmall || status == CosinusTooSmall);
-  if (model.last_failed()) out.status = "failed: the final parameters' orbit could not be computed";
+  out.converged = fit.ok && fit.converged && final_r.has_value();
+  if (!final_r) {
+    out.status = "failed: the final parameters' orbit could not be computed";
+    out.final_chi2 = out.final_rms = std::numeric_limits<double>::quiet_NaN();
+  }
   for (std::size_t k = 0; k < cycles.size(); ++k) {
     const parameters q = model.at(u, k);
     out.e.push_back(q.e);
     out.phase.push_back(q.unbalance_phase);
   }
-  double sq = 0.0;
-  Eigen::Index at = 0;
-  for (const auto& c : cycles) {
-    const double noise = std::max(c.noise, kOrbitNoiseFloor);
-    const auto n = static_cast<Eigen::Index>(2 * c.forces->source->size());
-    sq += r.segment(at, n).squaredNorm() * noise * noise;
-    at += n;
-  }
-  out.final_rms = std::sqrt(sq / static_cast<double>(out.residuals));
-  {
-    // Lag-k products within each cycle's x series (even entries) and y series (odd entries).
-    constexpr int kLags = 4;
-    std::array<double, kLags + 1> c{};
-    Eigen::Index start = 0;
-    for (const auto& cy : cycles) {
-      const auto n = static_cast<Eigen::Index>(cy.forces->source->size());
-      for (int axis = 0; axis < 2; ++axis)
-        for (int k = 0; k <= kLags; ++k)
-          for (Eigen::Index i = 0; i + k < n; ++i) c[static_cast<std::size_t>(k)] += r[start + 2 * i + axis] * r[start + 2 * (i + k) + axis];
-      start += 2 * n;
-    }
-    double f = 1.0;
-    for (int k = 1; k <= kLags && c[0] > 0.0; ++k) f += 2.0 * c[static_cast<std::size_t>(k)] / c[0];
-    out.correlation_factor = std::max(1.0, f);
-  }
-
-  // Covariance: (J'J)^-1 on whitened residuals, times the residual's excess over the noise when
-  // the model leaves more than noise (never narrowed below what the noise gives).
-  const Eigen::MatrixXd J = model.jacobian(u);
-  const Eigen::MatrixXd info = J.transpose() * J;
-  const Eigen::LDLT<Eigen::MatrixXd> ldlt(info);
-  const bool solvable = ldlt.info() == Eigen::Success && ldlt.isPositive();
-  const Eigen::MatrixXd cov = std::max(1.0, out.final_chi2) * out.correlation_factor * ldlt.solve(Eigen::MatrixXd::Identity(info.rows(), info.cols()));
   std::vector<std::string> names = terms;
   names.insert(names.end(), {"mu", "c_x", "c_y", "k_x", "k_y"});
+  if (!final_r) {
+    for (std::size_t j = 0; j < names.size(); ++j) {
+      const auto jj = static_cast<Eigen::Index>(j);
+      out.parameters.push_back({names[j], start_values[jj] * model.scale(j), u[jj] * model.scale(j), std::numeric_limits<double>::infinity()});
+    }
+    return out;
+  }
+  const Eigen::VectorXd& r = *final_r;
+  out.final_chi2 = r.squaredNorm() / dof;
+  double sq = 0.0;
+  Eigen::Index at = 0;
+  std::vector<residual_series> series;  // each cycle's x (even entries) and y (odd entries) in time order
+  for (const auto& c : cycles) {
+    const double noise = std::max(c.noise, kOrbitNoiseFloor);
+    const auto n = static_cast<Eigen::Index>(c.forces->source->size());
+    sq += r.segment(at, 2 * n).squaredNorm() * noise * noise;
+    series.push_back({at, n, 2}), series.push_back({at + 1, n, 2});
+    at += 2 * n;
+  }
+  out.final_rms = std::sqrt(sq / static_cast<double>(out.residuals));
+  // Covariance: (J'J)^-1 on whitened residuals, times the residual's excess over the noise when
+  // the model leaves more than noise (never narrowed below what the noise gives), times the
+  // residuals' correlation factor.
+  const fit_covariance cc = covariance_of(model.jacobian(u, r), r, 1.0, series);
+  out.correlation_factor = cc.correlation;
   for (std::size_t j = 0; j < names.size(); ++j) {
     const auto jj = static_cast<Eigen::Index>(j);
-    const double se = solvable && cov(jj, jj) > 0.0 ? std::sqrt(cov(jj, jj)) * model.scale(j) : std::numeric_limits<double>::infinity();
-    out.parameters.push_back({names[j], start_values[jj] * model.scale(j), u[jj] * model.scale(j), se});
+    out.parameters.push_back({names[j], start_values[jj] * model.scale(j), u[jj] * model.scale(j), cc.standard_deviation(jj) * model.scale(j)});
   }
   return out;
 }

@@ -18,14 +18,17 @@
 // free record resolves c and k: on the 2 um records, the free record's c_y 3.7 % low and
 // k_y 0.06 % high (near resonance, 0.7 % of k_y - m w^2) left chi^2/dof 8.4 and k1 +16 % when held
 // fixed, chi^2/dof 1.4 with the dampings alone fitted, and ~1 with all four (measured). With a
-// per-cycle forcing, x and y together over several speeds still fix c and k. Levenberg-Marquardt (Eigen's) on the residuals whitened by each
-// cycle's noise; standard errors from the Jacobian, scaled by the residual when it exceeds the noise.
+// per-cycle forcing, x and y together over several speeds still fix c and k. The one solver
+// (ref/inference/least_squares.hpp) on the residuals whitened by each cycle's noise; standard
+// errors from its covariance (scaled by the residual where it exceeds the noise, and by the
+// residuals' correlation over neighbouring samples).
 
 #include <string>
 #include <vector>
 
 #include "ref/identification/contact_forces.hpp"
 #include "ref/model/parameters.hpp"
+#include "ref/model/settings.hpp"
 
 namespace rubref {
 
@@ -37,14 +40,13 @@ struct orbit_fit_cycle {
 };
 
 struct orbit_fit_settings {
-  int max_evaluations = 400;  // residual evaluations of Levenberg-Marquardt
-  // Relative change of the scaled unknowns at which LM stops: a thousandth of the smallest
-  // standard error seen on the records (~0.5 %).
-  double tolerance = 1e-6;
-  // Cycles whose shaft angle is not known (times not on one angle): before Levenberg-Marquardt,
-  // each cycle's forcing phase starts at the best of this many phases around the circle and its
-  // given start (0: the given start).
-  int phase_search = 0;
+  // Defaults, ranges and reasons: the settings registry (scope "orbit_fit").
+  int max_jacobians = default_count_of("orbit_fit", "max_jacobians");  // of the least-squares solver
+  // Cycles whose shaft angle is not known (times not on one angle): before the fit, each cycle's
+  // forcing phase starts at the best of this many phases around the circle and its given start
+  // (0: the given start).
+  int phase_search = default_count_of("orbit_fit", "phase_search");
+  void validate() const;  // input_error naming the setting
 };
 
 struct orbit_fit_parameter {
@@ -57,16 +59,16 @@ struct orbit_fit_result {
   std::vector<double> e, phase;                 // per cycle: the fitted unbalance (m, rad)
   double initial_chi2 = 0.0, final_chi2 = 0.0;  // whitened residual sum of squares per degree of freedom
   double final_rms = 0.0;                       // m, RMS of x_sim - x, y_sim - y
-  // The residuals' long-run variance over their variance, 1 + 2 sum_{k=1..4} rho_k (x and y
-  // series of every cycle pooled), at least 1: an averaged cycle resampled off its grid by cubic
-  // interpolation has neighbouring samples that share raw ones, so its noise is correlated over a
-  // few samples and (J'J)^-1 alone understates the covariance of parameters that move the orbit
-  // smoothly. The covariance is scaled by it.
+  // The residuals' long-run variance over their variance (ref/inference/least_squares.hpp,
+  // correlation_factor; x and y series of every cycle pooled), at least 1: an averaged cycle
+  // resampled off its grid by cubic interpolation has neighbouring samples that share raw ones, so
+  // its noise is correlated over a few samples and (J'J)^-1 alone understates the covariance of
+  // parameters that move the orbit smoothly. The covariance is scaled by it.
   double correlation_factor = 1.0;
   std::size_t residuals = 0, unknowns = 0;
-  int iterations = 0, evaluations = 0, failed_evaluations = 0;
-  bool converged = false;  // LM ended on its tolerance, and the final orbits were all computed
-  std::string status;      // LM's stop reason, or the failure
+  int iterations = 0, evaluations = 0, failed_evaluations = 0;  // Jacobians; residual evaluations; those whose orbit failed
+  bool converged = false;  // the solver converged, and the final orbits were all computed
+  std::string status;      // the solver's stop reason, or the failure
 };
 
 // `start`: the linear part (m, c, k), clearance delta, and the law's start (k1, k3, c2, mu; e and

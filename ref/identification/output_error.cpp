@@ -11,18 +11,14 @@
 #include "ref/base/errors.hpp"
 #include "ref/base/parallel.hpp"
 #include "ref/integrate/hybrid_integrator.hpp"
-#include "ref/integrate/shooting.hpp"
+#include "ref/inference/least_squares.hpp"
+#include "ref/orbits/fit_orbits.hpp"
 #include "variants/identified.hpp"
 
 namespace rubref {
 
 namespace {
 
-// Newton shooting for the model's periodic orbit near an averaged cycle (to the shooting's 1e-12 m,
-// far below probe resolution): from a cycle of the data it converges in a few iterations; a trial
-// law that needs more, or 10^5 steps per revolution, is far off the data.
-constexpr int kShootIterations = 12;
-constexpr std::size_t kMaxStepsPerRevolution = 100000;
 
 // The parameter a re-identification fits, named as in the registry (ref/model/settings.hpp):
 // the contact law's, the friction, the unbalance and the clearance (the rotor's are identified
@@ -44,9 +40,9 @@ class orbit_error {
     for (const auto& d : dwells_) samples_ += d.source->size() - first_sample(*d.source);
   }
 
-  // Residuals (x then y per sample, dwell after dwell) of the model with parameters p. Where a
-  // dwell's orbit cannot be computed its residuals are 1 m (far off, for the optimiser) and
-  // `failure` names the first such dwell; empty when every orbit was computed.
+  // Residuals (x then y per sample, dwell after dwell) of the model with parameters p, and the
+  // first dwell whose orbit cannot be computed (`failure`: then the residuals are not to be read);
+  // empty when every orbit was computed.
   struct evaluation {
     Eigen::VectorXd r;
     std::string failure;
@@ -66,6 +62,17 @@ class orbit_error {
     return out;
   }
   std::size_t samples() const { return samples_; }
+  // Each dwell's x and y residuals in time order (their correlation factor's series).
+  std::vector<residual_series> series() const {
+    std::vector<residual_series> out;
+    Eigen::Index at = 0;
+    for (const auto& d : dwells_) {
+      const auto n = static_cast<Eigen::Index>(d.source->size() - first_sample(*d.source));
+      out.push_back({at, n, 2}), out.push_back({at + 1, n, 2});
+      at += 2 * n;
+    }
+    return out;
+  }
 
  private:
   Eigen::VectorXd dwell_residuals(const dwell_forces& f, const parameters& p, std::string& failure) const {
@@ -77,11 +84,10 @@ class orbit_error {
     q.unbalance_phase = phase_;  // the fitted or given unbalance angle at t = 0
     const double t0 = d.t[i0];
     const rotor_system<identified> model(q, w);
-    integration_options opt;
-    opt.stepper.rtol = 1e-10;
-    opt.stepper.atol = 1e-14;
-    Eigen::VectorXd r(2 * n);
-    r.setConstant(1.0);  // 1 m: a parameter set the integrator cannot follow is far off
+    // Sampled as every fit's orbit (ref/orbits/fit_orbits.hpp), over the dwell's revolutions.
+    const double span = static_cast<double>(n - 1) * d.dt;
+    const integration_options opt = fit_sampling(1 + static_cast<int>(std::ceil(span * std::abs(w) / (2.0 * std::numbers::pi))));
+    Eigen::VectorXd r = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(2 * n));  // never read where `failure` is set
     try {
       state_type s0{d.x[i0], d.y[i0], f.vx[i0], f.vy[i0]};
       if (d.periodic) s0 = periodic_orbit(model, s0, t0);
@@ -101,14 +107,12 @@ class orbit_error {
     return r;
   }
 
-  // The model's periodic orbit through a state near `guess` at t0, by the one shooting routine
-  // (ref/integrate/shooting.hpp: Newton with the exact monodromy). A periodic cycle is compared with
-  // this orbit: no dependence on a noisy initial velocity, and no drift onto a coexisting attractor.
+  // The model's periodic orbit through a state near `guess` at t0, as every fit's
+  // (ref/orbits/fit_orbits.hpp: Newton with the exact monodromy, to the shooting's 1e-12 m): from
+  // a cycle of the data it converges in a few iterations. A periodic cycle is compared with this
+  // orbit: no dependence on a noisy initial velocity, and no drift onto a coexisting attractor.
   static state_type periodic_orbit(const rotor_system<identified>& model, const state_type& guess, double t0) {
-    shooting_settings set;
-    set.max_iterations = kShootIterations;
-    set.integration.max_steps = kMaxStepsPerRevolution;
-    const auto orbit = shoot_periodic_orbit(model, guess, t0, 1, set);
+    const auto orbit = shoot_fit_orbit(model, guess, t0);
     if (!orbit.converged) throw numerical_error("shooting: " + orbit.failure);
     return orbit.state;
   }
@@ -128,120 +132,144 @@ void check_reid_fit(const std::vector<std::string>& fit) {
   for (const auto& name : fit) member_named(name);
 }
 
-reid_result reidentify(const std::vector<dwell_forces>& dwells, const parameters& start, double unbalance_phase,
-                       const reid_settings& s) {
-  if (dwells.empty()) throw input_error("re-identification needs at least one dwell with contact");
+void reid_settings::validate() const {
+  check_reid_fit(fit);
+  check({"reidentify", "max_jacobians"}, max_jacobians);
+  check({"reidentify", "global_evaluations"}, global_evaluations);
+  check({"reidentify", "derivative_half_width"}, derivative_half_width);
+}
+
+namespace {
+
+// The fitted parameters' members and scales (their starts): u = value / start.
+struct scaled_parameters {
   std::vector<double parameters::*> members;
   std::vector<double> scale;
-  for (const auto& name : s.fit) {
-    members.push_back(member_named(name));
-    const double v = start.*members.back();
+  parameters start;
+  parameters at(const Eigen::VectorXd& u) const {
+    parameters p = start;
+    for (Eigen::Index i = 0; i < u.size(); ++i) p.*members[static_cast<std::size_t>(i)] = u[i] * scale[static_cast<std::size_t>(i)];
+    return p;
+  }
+};
+
+scaled_parameters scaled(const std::vector<std::string>& fit, const parameters& start) {
+  scaled_parameters out{{}, {}, start};
+  for (const auto& name : fit) {
+    out.members.push_back(member_named(name));
+    const double v = start.*out.members.back();
     if (!(v > 0.0)) {
       std::ostringstream msg;
       msg << "re-identification of '" << name << "' needs a positive starting value";
       throw input_error(msg.str());
     }
-    scale.push_back(v);
+    out.scale.push_back(v);
   }
+  return out;
+}
+
+// The global stage (DIRECT-L over [0.1, 10] x start): only a start for the solver. DIRECT needs a
+// number at every point it samples: one whose orbit cannot be computed is ranked last (the mean
+// square of 1 m residuals, far above any orbit error); the solver never sees such a number.
+Eigen::VectorXd global_start(const orbit_error& err, const scaled_parameters& sp, const reid_settings& s, reid_result& out) {
+  const auto n = sp.members.size();
+  std::vector<double> u(n, 1.0);
+  struct context {
+    const orbit_error* err;
+    const scaled_parameters* sp;
+    reid_result* out;
+  } ctx{&err, &sp, &out};
+  const auto objective = [](const std::vector<double>& x, std::vector<double>&, void* data) {
+    auto* c = static_cast<context*>(data);
+    ++c->out->evaluations;
+    const auto e = c->err->residuals(c->sp->at(Eigen::Map<const Eigen::VectorXd>(x.data(), static_cast<Eigen::Index>(x.size()))));
+    if (!e.failure.empty()) {
+      ++c->out->failed_evaluations;
+      if (c->out->failure.empty()) c->out->failure = e.failure;
+      return 1.0;
+    }
+    return e.r.squaredNorm() / static_cast<double>(e.r.size());
+  };
+  nlopt::opt global(nlopt::GN_DIRECT_L, static_cast<unsigned>(n));
+  global.set_lower_bounds(std::vector<double>(n, 0.1));
+  global.set_upper_bounds(std::vector<double>(n, 10.0));
+  global.set_min_objective(objective, &ctx);
+  global.set_maxeval(s.global_evaluations);
+  double f = 0.0;
+  try {
+    global.optimize(u, f);
+  } catch (const nlopt::roundoff_limited&) {
+  }
+  return Eigen::Map<const Eigen::VectorXd>(u.data(), static_cast<Eigen::Index>(n));
+}
+
+}  // namespace
+
+reid_result reidentify(const std::vector<dwell_forces>& dwells, const parameters& start, double unbalance_phase, const reid_settings& s) {
+  s.validate();
+  if (dwells.empty()) throw input_error("re-identification needs at least one dwell with contact");
+  const scaled_parameters sp = scaled(s.fit, start);
   const bool fit_clearance = std::find(s.fit.begin(), s.fit.end(), "clearance") != s.fit.end();
   if (fit_clearance)
     for (const auto& d : dwells)
       if (d.source->clearance > 0.0 && d.source->clearance != dwells.front().source->clearance)
         throw input_error("re-identification of the clearance needs records of one clearance");
   const orbit_error err(dwells, unbalance_phase, s.derivative_half_width, fit_clearance);
-  const auto at = [&](const std::vector<double>& u) {
-    parameters p = start;
-    for (std::size_t i = 0; i < u.size(); ++i) p.*members[i] = u[i] * scale[i];
-    return p;
-  };
-  // Minimise the mean square, smooth at a perfect fit (its square root, the RMS, is a cone there
-  // and stalls BOBYQA's quadratic models); report the RMS. Failed orbits are counted: the
-  // optimiser sees their 1 m penalty, the result never reports it as an orbit error.
   reid_result out;
-  const auto mean_square = [&](const std::vector<double>& u) {
-    const auto e = err.residuals(at(u));
-    if (!e.failure.empty()) {
-      ++out.failed_evaluations;
-      if (out.failure.empty()) out.failure = e.failure;
-    }
-    return e.r.squaredNorm() / static_cast<double>(2 * err.samples());
-  };
-  const auto rms_or_nan = [&](const std::vector<double>& u, bool& failed) {
-    const auto e = err.residuals(at(u));
+  // The orbit errors' RMS at u, or NaN where an orbit cannot be computed (never a number then).
+  const auto rms_or_nan = [&](const Eigen::VectorXd& u, bool& failed) {
+    const auto e = err.residuals(sp.at(u));
     failed = !e.failure.empty();
     if (failed && out.failure.empty()) out.failure = e.failure;
     return failed ? std::numeric_limits<double>::quiet_NaN() : std::sqrt(e.r.squaredNorm() / static_cast<double>(2 * err.samples()));
   };
-
-  std::vector<double> u(members.size(), 1.0);
-  out.initial_rms = rms_or_nan(u, out.initial_failed);
-  struct context {
-    const decltype(mean_square)* f;
-    int calls = 0;
-  } ctx{&mean_square};
-  const auto objective = [](const std::vector<double>& x, std::vector<double>&, void* data) {
-    auto* c = static_cast<context*>(data);
-    ++c->calls;
-    return (*c->f)(x);
-  };
-  // Scaled parameters u = value / start live in [0, 10]: positive laws, and room for a start 10x off.
-  const std::vector<double> lower(u.size(), 0.0), upper(u.size(), 10.0);
-  out.algorithm = "NLopt LN_BOBYQA";
+  const auto n = static_cast<Eigen::Index>(sp.members.size());
+  out.initial_rms = rms_or_nan(Eigen::VectorXd::Ones(n), out.initial_failed);
+  out.algorithm = "least squares (ref/inference)";
+  Eigen::VectorXd u0 = Eigen::VectorXd::Ones(n);
   if (s.global) {
-    nlopt::opt global(nlopt::GN_DIRECT_L, static_cast<unsigned>(u.size()));
-    global.set_lower_bounds(std::vector<double>(u.size(), 0.1));
-    global.set_upper_bounds(upper);
-    global.set_min_objective(objective, &ctx);
-    global.set_maxeval(s.max_evaluations);
-    double f = 0.0;
-    try {
-      global.optimize(u, f);
-    } catch (const nlopt::roundoff_limited&) {
-    }
-    out.algorithm = "NLopt GN_DIRECT_L, then LN_BOBYQA";
+    u0 = global_start(err, sp, s, out);
+    out.algorithm = "NLopt GN_DIRECT_L (start), then least squares (ref/inference)";
   }
-  nlopt::opt local(nlopt::LN_BOBYQA, static_cast<unsigned>(u.size()));
-  local.set_lower_bounds(lower);
-  local.set_upper_bounds(upper);
-  local.set_min_objective(objective, &ctx);
-  local.set_xtol_rel(s.relative_tolerance);
-  local.set_maxeval(s.max_evaluations);
-  local.set_initial_step(std::vector<double>(u.size(), 0.05));
-  double f = 0.0;
-  try {
-    local.optimize(u, f);
-  } catch (const nlopt::roundoff_limited&) {
-    // The objective stopped improving at rounding level: u holds the best point.
-  }
-  out.evaluations = ctx.calls;
+  // The solver on the orbit residuals (m): scaled parameters u = value / start in [0, 10]
+  // (positive laws, and room for a start 10x off); a failed orbit is a rejected point.
+  least_squares_problem lsq;
+  lsq.residuals = [&](const Eigen::VectorXd& u) -> std::optional<Eigen::VectorXd> {
+    ++out.evaluations;
+    auto e = err.residuals(sp.at(u));
+    if (e.failure.empty()) return std::move(e.r);
+    ++out.failed_evaluations;
+    if (out.failure.empty()) out.failure = e.failure;
+    return std::nullopt;
+  };
+  lsq.lower = Eigen::VectorXd::Zero(n);
+  lsq.upper = Eigen::VectorXd::Constant(n, 10.0);
+  lsq.noise = kOrbitNoiseFloor;
+  least_squares_options o;
+  o.max_jacobians = s.max_jacobians;
+  o.difference_step = default_of("reidentify", "difference_step");
+  const least_squares_result fit = solve_least_squares(lsq, u0, o);
+  const Eigen::VectorXd& u = fit.u;
   out.final_rms = rms_or_nan(u, out.final_failed);
 
-  // Standard errors from the Jacobian of the residuals (central differences in u).
-  const Eigen::VectorXd r0 = err.residuals(at(u)).r;
-  Eigen::MatrixXd J(r0.size(), static_cast<Eigen::Index>(u.size()));
-  constexpr double kStep = 1e-4;  // relative: well above the 1e-9 integration tolerance
-  for (std::size_t i = 0; i < u.size(); ++i) {
-    auto up = u, down = u;
-    up[i] += kStep;
-    down[i] -= kStep;
-    J.col(static_cast<Eigen::Index>(i)) = (err.residuals(at(up)).r - err.residuals(at(down)).r) / (2 * kStep);
+  // Standard errors from the covariance at the end: the residuals' own scatter (never below the
+  // noise floor) is their noise; a parameter the orbit barely feels has a huge standard error, one
+  // in a direction the data do not constrain an infinite one.
+  std::vector<residual_series> series;
+  fit_covariance cc;
+  if (fit.ok && !out.final_failed) {
+    const Eigen::MatrixXd J = forward_difference_jacobian(lsq, u, fit.r, o.difference_step);
+    const double dof = std::max(1.0, static_cast<double>(fit.r.size()) - static_cast<double>(n));
+    cc = covariance_of(J, fit.r, std::max(std::sqrt(fit.r.squaredNorm() / dof), kOrbitNoiseFloor), err.series());
   }
-  const double dof = std::max(1.0, static_cast<double>(r0.size()) - static_cast<double>(u.size()));
-  const double sigma = std::max(std::sqrt(r0.squaredNorm() / dof), kOrbitNoiseFloor);
-  // Cov = sigma^2 (J'J)^-1. A parameter the orbit barely feels has a tiny pivot and so a huge
-  // standard error; an exactly singular J'J leaves it undetermined (infinite).
-  const Eigen::MatrixXd info = J.transpose() * J;
-  const Eigen::LDLT<Eigen::MatrixXd> ldlt(info);
-  const Eigen::MatrixXd cov = sigma * sigma * ldlt.solve(Eigen::MatrixXd::Identity(info.rows(), info.cols()));
-  const bool solvable = ldlt.info() == Eigen::Success && ldlt.isPositive();
-  for (std::size_t i = 0; i < u.size(); ++i) {
-    const double se = std::sqrt(std::max(0.0, cov(i, i))) * scale[i];
-    const double value = u[i] * scale[i];
-    const bool felt = solvable && cov(i, i) > 0.0 && std::isfinite(se);
-    // On a bound: within 1e-9 of 0 or 10 in the scaled unknown (BOBYQA ends exactly on an active bound).
-    const bool at_bound = u[i] <= lower[i] + 1e-9 || u[i] >= upper[i] - 1e-9;
-    out.parameters.push_back({s.fit[i], scale[i], value, felt ? se : std::numeric_limits<double>::infinity(),
-                              felt && value > 1.96 * se && !out.final_failed, at_bound});
+  for (Eigen::Index i = 0; i < n; ++i) {
+    const auto k = static_cast<std::size_t>(i);
+    const double value = u[i] * sp.scale[k];
+    const double se = cc.cov.size() ? cc.standard_deviation(i) * sp.scale[k] : std::numeric_limits<double>::infinity();
+    const bool felt = std::isfinite(se);
+    // On a bound: within 1e-9 of 0 or 10 in the scaled unknown (the projection ends exactly on an active bound).
+    const bool at_bound = u[i] <= 1e-9 || u[i] >= 10.0 - 1e-9;
+    out.parameters.push_back({s.fit[k], sp.scale[k], value, se, felt && value > 1.96 * se && !out.final_failed, at_bound});
   }
   return out;
 }

@@ -1,7 +1,8 @@
 #pragma once
 // Re-identification by output error (simulation error): the contact-law parameters of Eq. 5's
-// family (k1, k3, c2, mu; optionally e and the clearance) that make simulated orbits match the measured
-// ones, found with NLopt (BOBYQA, after an optional DIRECT-L global stage).
+// family (k1, k3, c2, mu; optionally e and the clearance) that make simulated orbits match the
+// measured ones, by the one least-squares solver (ref/inference/least_squares.hpp), after an
+// optional global stage (NLopt's DIRECT-L) that only chooses its start.
 //
 // A raw dwell is simulated from its measured state (positions, and velocities from the
 // derivative filter) at its first fully centred sample, with the model's unbalance phase, and
@@ -16,23 +17,26 @@
 #include "ref/identification/contact_forces.hpp"
 #include "ref/integrate/hybrid_integrator.hpp"
 #include "ref/model/parameters.hpp"
+#include "ref/model/settings.hpp"
 
 namespace rubref {
 
 struct reid_settings {
   std::vector<std::string> fit = {"k1", "k3", "c2", "mu"};  // any of k1, k3, c2, mu, e, clearance
-  bool global = false;        // DIRECT-L over [0.1, 10] x start before the local stage
-  int max_evaluations = 600;  // local stage
-  double relative_tolerance = 1e-6;  // on the scaled parameters
-  int derivative_half_width = 4;     // as used for the velocities of the initial states
+  bool global = false;  // DIRECT-L over [0.1, 10] x start before the solver: its best point is the solver's start
+  // Defaults, ranges and reasons: the settings registry (scope "reidentify").
+  int max_jacobians = default_count_of("reidentify", "max_jacobians");                  // of the solver
+  int global_evaluations = default_count_of("reidentify", "global_evaluations");        // of DIRECT-L
+  int derivative_half_width = default_count_of("reidentify", "derivative_half_width");  // as used for the velocities of the initial states
+  void validate() const;  // input_error naming the setting
 };
 
 struct reid_parameter {
   std::string name;
   double initial, value;
-  double standard_error;  // from the Jacobian of the orbit residuals (docs/identification.md)
+  double standard_error;  // from the solver's covariance at the end (docs/identification.md)
   bool identifiable;      // value > 1.96 standard errors
-  bool at_bound = false;  // the optimiser ended on a bound (0 or 10x the start)
+  bool at_bound = false;  // the solver ended on a bound (0 or 10x the start)
 };
 
 struct reid_result {
@@ -40,9 +44,9 @@ struct reid_result {
   int evaluations = 0;
   double initial_rms = 0.0, final_rms = 0.0;  // m, orbit error (NaN where the orbit failed)
   std::vector<reid_parameter> parameters;
-  // Evaluations whose orbit could not be computed (the optimiser saw a 1 m penalty there), and
-  // whether the start or the final parameters were among them: then the RMS is NaN, never the
-  // penalty, and identify warns.
+  // Evaluations whose orbit could not be computed (the solver rejected them; the global stage
+  // ranks them last), and whether the start or the final parameters were among them: then the
+  // RMS is NaN, never a number, and identify warns.
   int failed_evaluations = 0;
   bool initial_failed = false, final_failed = false;
   std::string failure;  // the first failure's message

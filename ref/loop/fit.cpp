@@ -4,24 +4,14 @@
 #include <cmath>
 #include <numeric>
 
+#include "ref/inference/least_squares.hpp"
+
 namespace rubref {
 
 namespace {
 // Relative finite-difference step of the Jacobian, in scaled coordinates: orbit changes of
 // ~1e-9..1e-7 m, far above the 1e-13 m integration error and small enough to stay linear.
 constexpr double kStep = 1e-3;
-// A step that gains less than this in chi^2 (rss / noise^2), or this share of chi^2, ends the
-// fit: near the noise a fraction of one degree of freedom, far from it a fraction of the BIC
-// drops of thousands the loop then compares; both far below the smallest (10).
-constexpr double kConvergedChi2 = 1e-2;
-constexpr double kConvergedShare = 1e-5;
-// Marquardt's damping: the first value (relative to the diagonal of J'J), and where it is so
-// large that no step of useful size is left.
-constexpr double kFirstDamping = 1e-3;
-constexpr double kMaxDamping = 1e12;
-// Accepted steps per finite-difference Jacobian at most (the others carry it by Broyden updates):
-// a fit's budget of `max_iterations` Jacobians allows this many times as many steps.
-constexpr int kStepsPerJacobian = 3;
 }  // namespace
 
 model_point fit_problem::at(const Eigen::VectorXd& u) const {
@@ -81,96 +71,46 @@ fit_problem make_problem(orbit_predictor& predictor, const std::vector<loop_dwel
   return p;
 }
 
+least_squares_options fit_options(int max_jacobians) {
+  least_squares_options o;
+  o.max_jacobians = max_jacobians;
+  o.steps_per_jacobian = default_count_of("loop", "steps_per_jacobian");
+  return o;
+}
+
 fit_result fit(const fit_problem& problem, const Eigen::VectorXd& start, int max_iterations, const orbit_anchors* from) {
   orbit_predictor& predictor = *problem.predictor;
   fit_result out;
   out.at = problem.at(problem.feasible(start));
   if (from) predictor.anchor(out.at, *from);
   else predictor.anchor(out.at);
-  auto r = predictor.residuals(out.at);
-  ++out.evaluations;
-  if (!r) return out;
-  out.ok = true;
-  out.rss = r->squaredNorm();
-  const double chi2_unit = std::max(problem.noise * problem.noise, 1e-300);
-  Eigen::VectorXd u = problem.feasible(start);
-  double damping = kFirstDamping, growth = 2.0;
-  // The Jacobian: by finite differences (`fresh`), then carried along accepted steps by Broyden's
-  // rank-one update, which costs no evaluation (Madsen, Nielsen & Tingleff 2004, Sec. 3.4). A
-  // finite-difference one is taken again where the carried one fails: a rejected step, or a gain
-  // too small to stop on, so that the fit ends only where a true Jacobian says it has converged.
-  Eigen::MatrixXd J;
-  bool fresh = false;
-  int steps = 0;
-  const auto refresh = [&] {
-    J = problem.jacobian(u, *r);
-    fresh = true;
-    ++out.iterations;
-    out.evaluations += static_cast<int>(problem.coords.size()) + 1;
-  };
-  refresh();
-  while (steps < kStepsPerJacobian * max_iterations) {
-    const Eigen::MatrixXd A = J.transpose() * J;
-    const Eigen::VectorXd g = J.transpose() * *r;
-    const Eigen::VectorXd d = A.diagonal().cwiseMax(1e-12 * std::max(A.diagonal().maxCoeff(), 1e-300));
-    bool accepted = false;
-    double gain = 0.0;
-    while (damping < kMaxDamping) {
-      Eigen::MatrixXd M = A;
-      M.diagonal() += damping * d;
-      const Eigen::VectorXd free_step = -M.ldlt().solve(g);
-      if (!free_step.allFinite()) {
-        damping *= growth, growth *= 2.0;
-        continue;
-      }
-      // Projected onto the bounds: a coordinate at its bound that the step pushes further is held.
-      const Eigen::VectorXd trial = problem.feasible(u + free_step);
-      const Eigen::VectorXd step = trial - u;
-      const auto rt = predictor.residuals(problem.at(trial));
-      ++out.evaluations;
-      const double predicted = step.dot(A * step) + 2.0 * damping * step.dot(d.cwiseProduct(step));
-      if (!rt) {
-        ++out.rejected;
-        damping *= growth, growth *= 2.0;
-        if (!fresh) break;  // the carried Jacobian may have misled the step: a true one first
-        continue;
-      }
-      const double rss = rt->squaredNorm();
-      if (rss < out.rss) {
-        const double rho = predicted > 0.0 ? (out.rss - rss) / predicted : 1.0;
-        damping *= std::max(1.0 / 3.0, 1.0 - std::pow(2.0 * rho - 1.0, 3));
-        growth = 2.0;
-        gain = (out.rss - rss) / chi2_unit;
-        if (const double h = step.squaredNorm(); h > 0.0) J += ((*rt - *r) - J * step) * (step.transpose() / h);
-        u = trial;
-        r = rt;
-        out.rss = rss;
-        accepted = true;
-        break;
-      }
-      damping *= growth, growth *= 2.0;
-      if (!fresh) break;
-      // A step too small to change the residual at all: nothing is left to gain.
-      if (step.cwiseAbs().maxCoeff() < 1e-14 * std::max(1.0, u.cwiseAbs().maxCoeff())) break;
-    }
-    const bool converged = !accepted || gain < std::max(kConvergedChi2, kConvergedShare * out.rss / chi2_unit);
-    const bool from_fresh = fresh;  // the step (or its failure) came from a finite-difference Jacobian
-    if (accepted) ++steps, fresh = false;
-    if (converged) {
-      if (from_fresh || out.iterations >= max_iterations) break;  // a true Jacobian agrees: done (or its budget is spent)
-      refresh();
-    } else if (!fresh && steps % kStepsPerJacobian == 0) {
-      if (out.iterations >= max_iterations) break;
-      refresh();  // the carried Jacobian drifts from the true one: renewed every few steps
-    }
+  // The one solver (ref/inference/least_squares.hpp) on the orbits' residuals: each evaluation
+  // starts every dwell's shooting from the orbits of the last one (the predictor's anchors).
+  least_squares_problem lsq;
+  lsq.residuals = [&](const Eigen::VectorXd& u) { return predictor.residuals(problem.at(u)); };
+  lsq.jacobian = [&](const Eigen::VectorXd& u, const Eigen::VectorXd& r) { return problem.jacobian(u, r); };
+  lsq.lower = Eigen::VectorXd::Constant(problem.size(), -std::numeric_limits<double>::infinity());
+  lsq.upper = Eigen::VectorXd::Constant(problem.size(), std::numeric_limits<double>::infinity());
+  for (std::size_t j = 0; j < problem.coords.size(); ++j) {
+    const auto k = static_cast<Eigen::Index>(j);
+    lsq.lower[k] = problem.coords[j].lower / problem.coords[j].scale;
+    lsq.upper[k] = problem.coords[j].upper / problem.coords[j].scale;
   }
-  out.at = problem.at(u);
+  lsq.noise = problem.noise;
+  const least_squares_result s = solve_least_squares(lsq, start, fit_options(max_iterations));
+  out.iterations = s.jacobians;
+  out.evaluations = s.evaluations + s.jacobians * static_cast<int>(problem.coords.size() + 1);  // a Jacobian: one per coordinate and its base
+  out.rejected = s.rejected;
+  if (!s.ok) return out;
+  out.ok = true;
+  out.at = problem.at(s.u);
   // The end on the orbits the fit followed (its last evaluation may have been a rejected trial).
   if (auto rf = predictor.residuals(out.at)) {
     out.r = std::move(*rf);
     out.rss = out.r.squaredNorm();
   } else {
-    out.r = *r;  // the accepted point's own evaluation
+    out.r = s.r;  // the accepted point's own evaluation
+    out.rss = s.cost;
   }
   out.orbits = predictor.last_orbits();
   return out;

@@ -1,11 +1,9 @@
 #pragma once
 // Stage 3 of `rubref loop` (docs/loop.md): least squares of the model's orbits against the
-// measured samples. Levenberg-Marquardt over some coordinates of the model (the rest held), plus
-// one timing shift per dwell with a keyphasor; and fits from several starts, keeping the best.
-//
-// Eigen's Levenberg-Marquardt (a MINPACK port) can only abort when an evaluation fails; here a
-// trial point where the model's orbit cannot be computed is a rejected step, like one that raises
-// the residual, so a failure never enters the objective as a number.
+// measured samples, by the one solver (ref/inference/least_squares.hpp), over some coordinates of
+// the model (the rest held) plus one timing shift per dwell with a keyphasor; and fits from
+// several starts, keeping the best. A trial point where the model's orbit cannot be computed is a
+// rejected step, never a number.
 
 #include <Eigen/Dense>
 #include <functional>
@@ -53,10 +51,10 @@ struct fit_result {
   bool ok = false;        // false: the start itself could not be computed (at = the start)
 };
 
-// Levenberg-Marquardt (Marquardt's scaling, Nielsen's damping update) from u = start, at most
-// `max_iterations` Jacobians; it stops when a step gains less than 0.01 in chi^2 = rss / noise^2.
-// Every accepted step lowers the residual, so the result is never worse than its start.
-// The start's orbits are `from` (else found from the data).
+// The solver from u = start, at most `max_iterations` Jacobians, each carrying
+// steps_per_jacobian Broyden steps (registry, scope "loop"); it stops when a step gains less than
+// min_gain in chi^2 = rss / noise^2. Every accepted step lowers the residual, so the result is
+// never worse than its start. The start's orbits are `from` (else found from the data).
 fit_result fit(const fit_problem& problem, const Eigen::VectorXd& start, int max_iterations, const orbit_anchors* from = nullptr);
 
 // The residual of m on its own periodic orbits (anchored at m), as every comparison of fits uses;

@@ -5,6 +5,7 @@
 #include <limits>
 
 #include "ref/base/errors.hpp"
+#include "ref/inference/evidence.hpp"
 #include "ref/loop/paper_fit.hpp"
 
 namespace rubref {
@@ -70,11 +71,9 @@ void measure(loop_result& out, orbit_predictor& predictor, double noise, const l
   if (!r_before || !r) throw numerical_error("the loop's model cannot be computed at its own fit");
   const std::vector<orbit_kind> kinds = predictor.kinds();  // the final model's
   out.validity_after = validity(out.dwells, predictor, out.after, *r, noise, s.orders, s.whiteness_lags);
-  out.unexplained = !out.validity_after.pass;
   const synchronous_energy sync_before = synchronous_part(out.dwells, predictor, out.before, *r_before, s.orders);
-  const double sync_after = synchronous_part(out.dwells, predictor, out.after, *r, s.orders).energy;
-  const double excess = sync_before.excess(noise);
-  out.explained_share = excess > 0.0 ? (sync_before.energy - sync_after) / excess : 1.0;
+  const synchronous_energy sync_after = synchronous_part(out.dwells, predictor, out.after, *r, s.orders);
+  out.decision.explained_share = explained_share(sync_before.excess(noise), sync_after.energy - noise * noise * sync_after.dof);
   const error_totals eb = errors_of(out.dwells, predictor, *r_before), ea = errors_of(out.dwells, predictor, *r);
   out.error_before = eb.nrmse_contact;
   out.error_after = ea.nrmse_contact;
@@ -114,13 +113,51 @@ void measure(loop_result& out, orbit_predictor& predictor, double noise, const l
   }
 }
 
+// Loud, never silent: an estimate outside what the library describes, or a law without stiffness;
+// then what is claimed, by the evidence rules' claim rule. The effects are claimed together or not
+// at all: they were fitted together.
+void claim(loop_result& out, const loop_settings& s) {
+  const auto warn = [&](const std::string& w) {
+    out.warnings.push_back(w);
+    s.progress("warning: " + w);
+  };
+  std::vector<std::string> implausible;  // estimates the library's rows do not describe
+  for (const auto& e : out.effects)
+    if (const auto* q = outside_fit_range(find_effect(e.effect), out.after)) {
+      implausible.push_back(e.effect + "'s " + std::string(q->key) + " = " + format_digits(out.after.fx.*q->member) + " " + std::string(q->unit) +
+                            " is outside the library's range [" + format_digits(q->lo) + ", " + format_digits(q->hi) + "]");
+      warn(implausible.back());
+    }
+  if (!(out.after.p.k1 > 0.0)) warn("the law's k1 is 0: the contact has no linear stiffness (an effect the library lacks may carry it)");
+  if (!(out.after.p.mu > 0.0)) warn("mu is 0: no friction at the contact");
+  claim_inputs in;
+  in.residual_is_noise = out.validity_after.pass;
+  in.explained_share = out.decision.explained_share;
+  in.plausible = first_implausible(implausible).empty();
+  std::vector<std::string> names, reasons;
+  std::string rival;  // the decisive-choice rule: an effect in the model with a rival is not decided
+  for (const auto& e : out.effects) {
+    names.push_back(e.effect);
+    if (!e.rival.empty()) rival += (rival.empty() ? "" : "; ") + e.rival + " in place of " + e.effect;
+  }
+  if (!in.plausible) reasons.push_back("an estimate lies outside the library's range (warnings): the effects are tentative, not claimed");
+  out.decision = decide("effects", std::move(names), in, s.rules, std::move(rival), std::move(reasons));
+}
+
 bool any_contact(const std::vector<loop_dwell>& dwells) {
   return std::any_of(dwells.begin(), dwells.end(), [](const loop_dwell& d) { return d.contact; });
 }
 
 }  // namespace
 
+void loop_settings::validate() const {
+  trace_settings::validate();
+  check({"loop", "mass"}, mass);
+  check({"loop", "clearance"}, clearance);
+}
+
 loop_result run_loop(const std::vector<std::pair<record, std::string>>& records, const loop_settings& s) {
+  s.validate();
   loop_result out;
   // 1. The dwells.
   prepared_dwells prep = prepare_dwells(records, s.mass, s.clearance);
@@ -133,7 +170,7 @@ loop_result run_loop(const std::vector<std::pair<record, std::string>>& records,
   out.excluded = std::move(prep.excluded);
   const double noise = std::max(out.noise, 1e-12);
   const auto nothing_to_fit = [&](const std::string& why) {
-    out.unexplained = true;
+    out.decision = decide("effects", {}, claim_inputs{}, s.rules, {}, {why});
     out.error_before = out.error_after = std::numeric_limits<double>::quiet_NaN();
     out.notes.push_back(why);
     return out;
@@ -150,7 +187,7 @@ loop_result run_loop(const std::vector<std::pair<record, std::string>>& records,
   if (!any_contact(out.dwells)) return nothing_to_fit("the model's orbit cannot be computed in any dwell with contact");
   s.progress("      every coordinate together (Levenberg-Marquardt) ...");
   orbit_predictor predictor(out.dwells, noise);
-  const multistart_result before = fit_paper_model(predictor, out.dwells, out.initial, noise, s.max_fit_iterations, [&](const fit_result& f) {
+  const multistart_result before = fit_paper_model(predictor, out.dwells, out.initial, noise, s.max_jacobians, [&](const fit_result& f) {
     return validity(out.dwells, predictor, f.at, f.r, noise, s.orders, s.whiteness_lags).pass;
   });
   if (!before.best.ok) throw numerical_error("the paper's model cannot be computed at any start of its fit");
@@ -173,38 +210,7 @@ loop_result run_loop(const std::vector<std::pair<record, std::string>>& records,
   measure(out, predictor, noise, s, traced);
   out.model_evaluations = predictor.evaluations();
   for (const auto& h : held_out) held_out_check(out, h, noise);
-  // Loud, never silent: an estimate outside what the library describes, or a law without stiffness.
-  const auto warn = [&](const std::string& w) {
-    out.warnings.push_back(w);
-    s.progress("warning: " + w);
-  };
-  bool implausible = false;  // an estimate the library's rows do not describe
-  for (const auto& e : out.effects)
-    if (const auto* q = outside_fit_range(find_effect(e.effect), out.after)) {
-      implausible = true;
-      warn(e.effect + "'s " + std::string(q->key) + " = " + format_digits(out.after.fx.*q->member) + " " + std::string(q->unit) +
-           " is outside the library's range [" + format_digits(q->lo) + ", " + format_digits(q->hi) + "]");
-    }
-  if (!(out.after.p.k1 > 0.0)) warn("the law's k1 is 0: the contact has no linear stiffness (an effect the library lacks may carry it)");
-  if (!(out.after.p.mu > 0.0)) warn("mu is 0: no friction at the contact");
-  // The effects are claimed together or not at all: they were fitted together.
-  const bool too_little = out.unexplained && out.explained_share < s.min_explained_share;
-  if (!out.effects.empty() && (too_little || implausible)) {
-    out.notes.push_back(too_little ? "the effects added explain " + format_digits(100.0 * out.explained_share, 3) +
-                                         " % of the before-fit's synchronous excess and leave a residual that is not noise: they are tentative, not claimed"
-                                   : "an estimate lies outside the library's range (warnings): the effects are tentative, not claimed");
-    out.tentative = std::move(out.effects);
-    out.effects.clear();
-    out.unexplained = true;
-    out.claim = "tentative";
-  } else if (!out.effects.empty()) {
-    // Named; a full explanation only where the residual left is noise, else a partial one, said.
-    out.claim = out.validity_after.pass ? "full" : "partial";
-    if (out.claim == "partial")
-      out.notes.push_back("named, partial: the effects remove " + format_digits(100.0 * out.explained_share, 3) +
-                          " % of the before-fit's synchronous excess, but the residual is not noise (" +
-                          format_digits(100.0 * std::max(0.0, 1.0 - out.explained_share), 3) + " % of the excess remains unexplained)");
-  }
+  claim(out, s);
   return out;
 }
 

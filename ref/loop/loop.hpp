@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "ref/format/record.hpp"
+#include "ref/inference/verdict.hpp"
 #include "ref/loop/fit.hpp"
 #include "ref/loop/preprocess.hpp"
 #include "ref/loop/residuals.hpp"
@@ -20,14 +21,10 @@
 namespace rubref {
 
 struct loop_settings : trace_settings {
-  double mass = 0.0;       // kg; 0: the records' m_kg metadata, else the paper's
-  double clearance = 0.0;  // m, for records without clearance_m
-  // The effects are claimed only if, together, they leave a residual that is noise or remove at
-  // least this share of the before-fit's synchronous excess (a partial claim); else they are only
-  // tentative. 0.96 of the excess energy is a 5-fold cut of its RMS: a model that leaves more
-  // than a fifth of the disagreement is not an explanation, however much better it fits (a shaft
-  // bow took 90 % of what hardening supports, outside the library, put into a campaign record).
-  double min_explained_share = 0.96;
+  double mass = default_of("loop", "mass");            // kg; 0: the records' m_kg metadata, else the paper's
+  double clearance = default_of("loop", "clearance");  // m, for records without clearance_m (0: the records' own)
+  // input_error naming the setting, its range and its reason (the trace's too).
+  void validate() const;
 };
 
 struct dwell_error {
@@ -56,16 +53,13 @@ struct loop_result {
   std::vector<std::string> notes;
   std::vector<std::string> warnings;        // estimates that are unphysical or outside the library's ranges (also on stderr)
   double error_before = 0.0, error_after = 0.0;
-  std::vector<loop_step> effects;            // claimed: the explanation
-  std::vector<loop_step> tentative;          // added by the trace but not claimed (min_explained_share)
-  double explained_share = 0.0;              // of the before-fit's synchronous excess, by the final model
-  // What the report claims: "full" (the effects leave a residual that is noise), "partial" (named:
-  // they remove at least min_explained_share of the excess, but the residual is not noise; the
-  // rest is unexplained), "tentative" (added, not claimed), "none" (nothing added).
-  std::string claim = "none";
+  std::vector<loop_step> effects;            // in the final model, in the order added: claimed or tentative as `decision` says
+  // What is claimed, by the evidence rules' claim rule (ref/inference/evidence.hpp): the effects
+  // named ("full": the residual is noise; "partial": they remove claim_share of the before-fit's
+  // synchronous excess, the rest unexplained), tentative, or none; explained_share is of that excess.
+  verdict decision;
   std::vector<removed_effect> removed;
   std::vector<effect_candidate> last_round;  // the round that added nothing (if any)
-  bool unexplained = false;
   std::size_t model_evaluations = 0;          // of every dwell's orbits on all dwells (the loop's cost; out-of-sample ones apart)
   validity_report validity_before, validity_after;
   std::vector<dwell_error> errors;

@@ -6,7 +6,7 @@
 
 #include "ref/base/errors.hpp"
 #include "ref/base/parallel.hpp"
-#include "ref/integrate/shooting.hpp"
+#include "ref/orbits/fit_orbits.hpp"
 
 namespace rubref {
 
@@ -15,24 +15,14 @@ namespace {
 using rig_state = std::array<double, 6>;
 using model = rotor_with_effects<identified>;
 
-// Shooting converges to the shooting's 1e-12 m (ref/integrate/shooting.hpp): far below probe
-// resolution and far below the orbit changes the fit's finite differences make (>= 1e-9 m).
-constexpr int kShootIterations = 16;
+// Orbits are shot and sampled as every fit's (ref/orbits/fit_orbits.hpp): to the shooting's
+// 1e-12 m, far below probe resolution and far below the orbit changes the fit's finite
+// differences make (>= 1e-9 m).
 // Revolutions integrated from a first guess taken from the data before shooting starts: damps
 // what the guess gets wrong of fast motions (contact ringing) so that Newton starts close.
 constexpr int kFirstSettleRevs = 10;
 // Revolutions the model runs from the data's state when Newton finds no periodic orbit there.
 constexpr int kFallbackSettleRevs = 30;
-
-integration_options fit_integration() {
-  integration_options opt;
-  opt.stepper.rtol = 1e-10;  // ~1e-13 m on a 0.3 mm orbit: below every difference the fit takes
-  opt.stepper.atol = 1e-14;
-  // A revolution of the paper's model takes ~10^3 steps; a fit's trial law that needs 10^5 per
-  // revolution is far off the data and is treated as a failed point rather than integrated.
-  opt.max_steps = 100000;
-  return opt;
-}
 
 struct state_recorder {
   std::vector<rig_state>* out;
@@ -183,10 +173,7 @@ orbit_kind orbit_predictor::predict(std::size_t k, const model_point& m) {
   // orbit): compare the motion the model settles into from the data's state instead, so that the
   // fit still sees how far off it is and which way to go.
   try {
-    integration_options opt = fit_integration();
-    integration_options settle = opt;
-    settle.max_steps *= kFallbackSettleRevs;
-    opt.max_steps *= periods;
+    const integration_options settle = fit_sampling(kFallbackSettleRevs), opt = fit_sampling(periods);
     const rig_state settled =
         flow(sys, guess_from_data(d, m.fx, periods), kFallbackSettleRevs * 2.0 * std::numbers::pi / w, settle, sample_grid{}, nullptr);
     std::vector<rig_state> sorted;
@@ -205,23 +192,18 @@ orbit_predictor::shot orbit_predictor::shoot(std::size_t k, const model_point& m
   const dwell& d = dwells_[k].data;
   cache& c = caches_[k];
   const int periods = dwells_[k].periods;
-  integration_options opt = fit_integration();
-  opt.max_steps *= periods;
+  const integration_options opt = fit_sampling(periods);
   try {
     rig_state guess = c.started ? c.start : guess_from_data(d, m.fx, periods);
     if (!c.started) {
       // Whole multiples of the motion's period: a period-n orbit comes back to the guess's phase.
       const int cycles = (kFirstSettleRevs + periods - 1) / periods;
-      integration_options settle = opt;
-      settle.max_steps *= cycles;
+      const integration_options settle = fit_sampling(periods * cycles);
       guess = flow(sys, guess, cycles * period, settle, sample_grid{}, nullptr);
     }
     // The one shooting routine (ref/integrate/shooting.hpp): Newton with the exact monodromy of
     // the `periods`-revolution map.
-    shooting_settings set;
-    set.max_iterations = kShootIterations;
-    set.integration.max_steps = opt.max_steps;
-    const auto orbit = shoot_periodic_orbit(sys, guess, 0.0, periods, set);
+    const auto orbit = shoot_fit_orbit(sys, guess, 0.0, periods);
     if (!orbit.converged) return shot::failed;
     std::vector<rig_state> sorted;
     flow(sys, orbit.state, period, opt, grid, &sorted);

@@ -71,25 +71,18 @@ json to_json(const loop_result& r) {
     }
     j["effects"].push_back({{"name", e.effect},
                             {"params", params},
-                            {"claim", r.claim},
+                            {"claimed", r.decision.claim == "full" || r.decision.claim == "partial"},
                             {"profiles", profiles},
                             {"error_after_adding", e.error_after_adding},
                             {"bic_drop", e.bic_drop},
                             {"excess_share", e.excess_share},
                             {"holdout_gain_chi2", e.holdout_gain},
                             {"alternatives", e.alternatives},
+                            {"rival", e.rival},
                             {"exchanged_for", e.exchanged_for},
                             {"candidates", candidates_json(e.candidates)}});
   }
-  j["claim"] = r.claim;
-  j["explained_share"] = r.explained_share;
-  j["remaining_share"] = r.effects.empty() ? json(nullptr) : json(std::max(0.0, 1.0 - r.explained_share));
-  j["tentative"] = json::array();
-  for (const auto& e : r.tentative) {
-    json params;
-    for (const auto& [k, v] : e.params) params[k] = v;
-    j["tentative"].push_back({{"name", e.effect}, {"params", params}, {"bic_drop", e.bic_drop}, {"excess_share", e.excess_share}});
-  }
+  j["verdict"] = to_json(r.decision);
   j["removed"] = json::array();
   for (const auto& e : r.removed)
     j["removed"].push_back({{"name", e.effect},
@@ -97,7 +90,6 @@ json to_json(const loop_result& r) {
                             {"bic_drop", e.bic_drop},
                             {"excess_share", e.excess_share},
                             {"replaced_by", e.replaced_by}});
-  j["unexplained"] = r.unexplained;
   if (!r.last_round.empty()) j["rejected_round"] = candidates_json(r.last_round);
   j["excluded"] = json::array();
   for (const auto& e : r.excluded)
@@ -144,15 +136,10 @@ std::string to_markdown(const loop_result& r) {
   o << "| residual RMS | " << rms_um(r.validity_before.rms) << " | " << rms_um(r.validity_after.rms) << " |\n";
   o << "| residual consistent with noise (" << fmt(r.noise * 1e6) << " um) | " << (r.validity_before.pass ? "yes" : "no") << " | "
     << (r.validity_after.pass ? "yes" : "no") << " |\n\n";
-  o << "Effects added, in order:";
+  o << to_markdown(r.decision);
+  o << "Effects the trace added, in order (" << (r.decision.named.empty() ? "not claimed" : "claimed: " + r.decision.claim) << "):";
   if (r.effects.empty()) o << " none.";
   o << "\n\n";
-  if (!r.tentative.empty()) {
-    o << "Tentative (the trace added them, but together they explain " << fmt(100.0 * r.explained_share, 3)
-      << " % of the synchronous excess with a residual that is not noise, or an estimate lies outside the library's range; they are not claimed):";
-    for (const auto& e : r.tentative) o << " " << e.effect;
-    o << ".\n\n";
-  }
   if (!r.effects.empty()) {
     o << "| # | effect | parameters | error after adding | BIC drop | share of synchronous excess removed | out-of-sample gain (chi^2) |\n"
          "|---|---|---|---|---|---|---|\n";
@@ -160,14 +147,10 @@ std::string to_markdown(const loop_result& r) {
     for (const auto& e : r.effects) {
       std::string ps;
       for (const auto& [k, v] : e.params) ps += (ps.empty() ? "" : ", ") + k + " = " + fmt(v);
-      o << "| " << i++ << " | " << e.effect << (r.claim == "partial" ? " (named, partial)" : "") << " | " << ps << " | " << fmt(e.error_after_adding) << " | " << fmt(e.bic_drop, 6) << " | "
+      o << "| " << i++ << " | " << e.effect << " | " << ps << " | " << fmt(e.error_after_adding) << " | " << fmt(e.bic_drop, 6) << " | "
         << fmt(e.excess_share, 3) << " | " << fmt(e.holdout_gain, 4) << " |\n";
     }
     o << "\n";
-    if (r.claim == "partial")
-      o << "**Named, partial:** together the effects remove " << fmt(100.0 * r.explained_share, 3)
-        << " % of the before-fit's synchronous excess, but the residual is still not noise: " << fmt(100.0 * std::max(0.0, 1.0 - r.explained_share), 3)
-        << " % of it remains, which these effects do not explain.\n\n";
     bool any_profile = false;
     for (const auto& e : r.effects) any_profile = any_profile || !e.profiles.empty();
     if (any_profile) {
@@ -200,9 +183,6 @@ std::string to_markdown(const loop_result& r) {
     for (const auto& e : r.excluded) o << "- " << e.record << ", " << fmt(e.rpm) << " rpm: " << e.reason << "\n";
     o << "\n";
   }
-  o << (r.claim == "partial" ? "The final residual is not noise: the effects named explain part of it (above).\n\n"
-        : r.unexplained      ? "**Unexplained:** the final residual is not noise, and no effect of the library explains it.\n\n"
-                             : "The final residual is consistent with probe noise.\n\n");
   if (!r.plot_x.empty()) o << "![orbit](orbit.png)\n\n![residual spectrum](residual_spectrum.png)\n\n![residual](residual.png)\n\n";
   o << "## Validity checks (after)\n\n| check | value | limit | pass |\n|---|---|---|---|\n";
   for (const auto* c : {&r.validity_after.noise_level, &r.validity_after.synchronous, &r.validity_after.whiteness})

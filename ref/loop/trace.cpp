@@ -6,6 +6,7 @@
 #include <optional>
 
 #include "ref/format/record.hpp"
+#include "ref/inference/evidence.hpp"
 #include "ref/loop/paper_fit.hpp"
 #include "ref/loop/residuals.hpp"
 #include "ref/loop/search.hpp"
@@ -27,7 +28,7 @@ constexpr int kHoldoutIterations = 6;
 // A refit among the best few that removes this share of the synchronous excess leaves the others
 // at most the tenth that is left to gain, so they are not refitted (the best few always are:
 // near twins such as a contact angle and turned probes both reach it, and only their refits
-// tell them apart). (The loop claims effects only where they remove more: loop_settings::min_explained_share.)
+// tell them apart). (The loop claims effects only where they remove more: evidence_rules::claim_share.)
 constexpr double kSettledShare = 0.9;
 // Jacobians of a screening refit (try_refit): enough for a refit that will pass to show a gain.
 constexpr int kScreenIterations = 5;
@@ -85,7 +86,7 @@ std::optional<fitted_model> on_the_datas_orbits(const round_context& c, const fi
   auto judged = judge(c, f.at, problem.coords, &f);
   double followed = f.rss;
   for (int more = 0; judged && judged->rss() < followed && more < kOrbitRefits; ++more) {
-    const fit_result g = fit(problem, problem.of(judged->at), c.s.max_fit_iterations, &judged->orbits);
+    const fit_result g = fit(problem, problem.of(judged->at), c.s.max_jacobians, &judged->orbits);
     if (!g.ok) break;
     auto next = judge(c, g.at, problem.coords, &g);
     if (!next || !(next->rss() < judged->rss())) break;
@@ -95,26 +96,31 @@ std::optional<fitted_model> on_the_datas_orbits(const round_context& c, const fi
   return judged;
 }
 
-// The significance rule of `with` against `without` (trace_settings): a BIC drop, a share of the
-// synchronous excess, and a change of the synchronous energy larger than the synchronous check's
-// own tolerance. With 1e5-1e6 samples a BIC drop is reached by a change of the orbit of a few
-// per cent of the noise (a cross-coupling of 1.5 N/m took 75 % of what a contact angle left);
-// the check that calls a residual noise could not see such a change, and neither can the claim.
+// The significance rule (ref/inference/evidence.hpp) of `with` against `without`: a rise of the
+// criterion without it, a share of the synchronous excess, and a change of the synchronous energy
+// larger than the synchronous check's own tolerance. With 1e5-1e6 samples a criterion rise is
+// reached by a change of the orbit of a few per cent of the noise (a cross-coupling of 1.5 N/m
+// took 75 % of what a contact angle left); the check that calls a residual noise could not see
+// such a change, and neither can the claim.
 struct significance {
-  double bic_drop = 0.0, excess_share = 0.0;
-  double removed = 0.0, tolerance = 0.0;  // m^2: synchronous energy removed, the check's tolerance
-  bool pass = false;
+  part_comparison comparison;  // criterion rise (the BIC drop), excess share, synchronous energy removed against the check's tolerance
+  need judged;
+  double bic_drop() const { return comparison.criterion_rise; }
+  double excess_share() const { return comparison.excess_share; }
+  bool pass() const { return judged.significant; }
 };
+double criterion_of(const round_context& c, const fitted_model& m) { return information_criterion(m.rss(), c.rows, m.coords.size()); }
 significance test(const round_context& c, const fitted_model& without, const fitted_model& with) {
   significance out;
-  out.bic_drop = bic(without.rss(), c.rows, without.coords.size()) - bic(with.rss(), c.rows, with.coords.size());
+  part_comparison& pc = out.comparison;
+  pc.criterion_rise = criterion_of(c, without) - criterion_of(c, with);
   const synchronous_energy base = synchronous_part(c.dwells, c.predictor, without.at, without.r, c.s.orders);
   const double after = synchronous_part(c.dwells, c.predictor, with.at, with.r, c.s.orders).energy;
   const double excess = base.excess(c.noise);
-  out.excess_share = excess > 0.0 ? (base.energy - after) / excess : 0.0;
-  out.removed = base.energy - after;
-  out.tolerance = base.tolerance(c.noise);
-  out.pass = out.bic_drop > c.s.min_bic_drop && out.excess_share >= c.s.min_excess_share && out.removed > out.tolerance;
+  pc.excess_share = excess > 0.0 ? (base.energy - after) / excess : 0.0;
+  pc.change = base.energy - after;
+  pc.resolution = base.tolerance(c.noise);
+  out.judged = judge_need(pc, c.s.rules);
   return out;
 }
 
@@ -283,7 +289,7 @@ std::optional<fitted_model> refit(const round_context& c, const fitted_model& cu
     start_name = "dip search";
     const auto j = current.coords.size() + static_cast<std::size_t>(searched - ec.begin());
     const bool paper_only = std::all_of(current.coords.begin(), current.coords.end(), [](const fit_coordinate& q) { return q.effect.empty(); });
-    const fit_result f = search_dips(problem, j, current.rss(), paper_only ? c.staged : current.at, c.dwells, c.s.max_fit_iterations, c.s.progress);
+    const fit_result f = search_dips(problem, j, current.rss(), paper_only ? c.staged : current.at, c.dwells, c.s.max_jacobians, c.s.progress);
     return f.ok ? judge(c, f.at, with, &f) : std::nullopt;
   }
   const auto nb = static_cast<Eigen::Index>(current.coords.size()), ne = static_cast<Eigen::Index>(ec.size());
@@ -330,7 +336,7 @@ std::optional<fitted_model> refit(const round_context& c, const fitted_model& cu
   // One fit, from the start that leads after a lap (race_starts): a second one from another
   // start is the fair comparison's and the backward elimination's job, which test every addition
   // against the refitted base.
-  const multistart_result m = race_starts(problem, starts, c.s.max_fit_iterations, kRaceLap);
+  const multistart_result m = race_starts(problem, starts, c.s.max_jacobians, kRaceLap);
   start_name = m.winner;
   return m.best.ok ? judge(c, m.best.at, with, &m.best) : std::nullopt;
 }
@@ -462,7 +468,7 @@ profile_run profile_coordinate(const round_context& c, const fitted_model& curre
   if (lowest < grid.size()) {  // a better minimum: every coordinate free from there
     const fitted_model& from = *fits[lowest];
     const fit_problem problem = make_problem(c.predictor, c.dwells, from.at, current.coords, c.noise);
-    const fit_result f = fit(problem, problem.of(from.at), c.s.max_fit_iterations, &from.orbits);
+    const fit_result f = fit(problem, problem.of(from.at), c.s.max_jacobians, &from.orbits);
     if (f.ok)
       if (auto judged = judge(c, f.at, current.coords, &f); judged && judged->rss() < from.rss()) out.lower = std::move(*judged);
     if (!out.lower) out.lower = from;
@@ -502,7 +508,395 @@ std::vector<parameter_profile> settle_shapes(const round_context& c, fitted_mode
   return profiles;
 }
 
+// ---------------------------------------------------------------------------------------------
+// The trace's rounds, step by step (trace, below, is their sequence).
+
+// What the rounds share: the model so far, the effects not yet in it, and the trace's result.
+struct trace_run {
+  const round_context& c;
+  trace_result out;
+  fitted_model current;
+  std::vector<const effect_info*> remaining;
+  int base_restarts = 0;
+  bool polished = false;  // the current structure has been refitted from the staged start
+
+  void note(const std::string& text) {
+    out.notes.push_back("trace: " + text);
+    c.s.progress("      " + text);
+  }
+  // Whether m's residual passes the validity checks (the predictor left anchored at m).
+  bool is_noise(const fitted_model& m) const {
+    c.predictor.anchor(m.at, m.orbits);  // the states its validity checks read
+    const auto r = c.predictor.residuals(m.at);
+    return r && validity(c.dwells, c.predictor, m.at, *r, c.noise, c.s.orders, c.s.whiteness_lags).pass;
+  }
+};
+
+// After an effect is added, the model is refitted once from the before-fit's starts too (the
+// staged model's base, and its linear part with the Table 2 law), raced, with the current effects:
+// a base can fall into a degenerate minimum of its own (a law whose k1 went to 0 and k3 took its
+// place while the effect was missing) that every later refit starts from. True when it moved.
+bool polish_from_the_staged_start(trace_run& run) {
+  const round_context& c = run.c;
+  std::vector<named_start> starts;
+  for (named_start st : before_fit_starts(c.staged)) {
+    const parameters p = st.at.p;
+    st.at = run.current.at;
+    st.at.p = p;
+    starts.push_back(std::move(st));
+  }
+  const fit_problem problem = make_problem(c.predictor, c.dwells, run.current.at, run.current.coords, c.noise);
+  const multistart_result raced = race_starts(problem, starts, c.s.max_jacobians, kRaceLap);
+  auto judged = on_the_datas_orbits(c, problem, raced.best);
+  if (!judged || !(judged->rss() < run.current.rss())) return false;
+  run.note("the model refitted from the before-fit's start '" + raced.winner + "' with its effects lands lower (residual " + format_digits(judged->rss()) +
+           " against " + format_digits(run.current.rss()) + " m^2): it is the base from here");
+  run.current = std::move(*judged);
+  return true;
+}
+
+// Every remaining effect scored at the current model (linearised there and at the staged base).
+std::vector<scored> score_round(trace_run& run) {
+  const round_context& c = run.c;
+  const fitted_model& current = run.current;
+  const fit_problem base = make_problem(c.predictor, c.dwells, current.at, current.coords, c.noise);
+  c.predictor.anchor(current.at, current.orbits);
+  const Eigen::MatrixXd J = base.jacobian(base.of(current.at), current.r);
+  std::optional<staged_linearisation> at_staged;
+  model_point on_staged = current.at;
+  on_staged.p = c.staged.p;
+  if (auto r = residual_at(c.predictor, on_staged)) {
+    const fit_problem staged_problem = make_problem(c.predictor, c.dwells, on_staged, current.coords, c.noise);
+    Eigen::MatrixXd Js = staged_problem.jacobian(staged_problem.of(on_staged), *r);
+    at_staged = staged_linearisation{on_staged, std::move(*r), std::move(Js)};
+  }
+  c.predictor.anchor(current.at, current.orbits);
+  return score(c, current, run.remaining, base, J, at_staged);
+}
+
+// The refits of a round: candidates with their refit, significant against the current model.
+struct round_refits {
+  std::vector<std::pair<std::size_t, fitted_model>> passing;
+  bool noise_left = false;      // a passing refit leaves only noise: the round is settled
+  bool most_explained = false;  // one removes most of the excess (kSettledShare)
+};
+
+// The refit of candidate i, judged against the current model. A screened refit (one of the
+// others, beyond the best few by score) is fitted a few Jacobians first, and the rest of its
+// budget only where that already removes a third of the share of the synchronous excess the rule
+// asks for (with 1e5 samples nearly every refit gains a criterion rise of 10): most of them gain
+// nothing, and a fit that creeps along a valley for its whole budget was most of a last round's cost.
+void try_refit(trace_run& run, std::vector<scored>& cands, std::size_t i, bool screen, round_refits& round) {
+  const round_context& c = run.c;
+  const fitted_model& current = run.current;
+  trace_settings screening = c.s;
+  screening.max_jacobians = std::min(c.s.max_jacobians, kScreenIterations);
+  const round_context screened{c.dwells, c.predictor, c.noise, c.rows, c.staged, screening};
+  auto& cand = cands[i].candidate;
+  auto fitted = refit(screen ? screened : c, current, cands[i], cand.start);
+  cand.refitted = true;
+  if (!fitted) {
+    cand.verdict = "its refit cannot be computed";
+    return;
+  }
+  significance sig = test(c, current, *fitted);
+  const auto record = [&] {
+    cand.bic_drop = sig.bic_drop();
+    cand.excess_share = sig.excess_share();
+    cand.error_after = errors_of(c.dwells, c.predictor, fitted->r).nrmse_contact;
+  };
+  if (screen) {
+    if (!(sig.excess_share() >= c.s.rules.min_excess_share / 3.0)) {
+      record();
+      cand.verdict = "fails the significance rule (screened: " + std::to_string(kScreenIterations) + " Jacobians of its refit gain nothing)";
+      return;
+    }
+    const fit_problem full = make_problem(c.predictor, c.dwells, fitted->at, fitted->coords, c.noise);
+    const fit_result f = fit(full, full.of(fitted->at), c.s.max_jacobians, &fitted->orbits);
+    if (f.ok)
+      if (auto judged = judge(c, f.at, fitted->coords, &f); judged && judged->rss() < fitted->rss()) fitted = std::move(judged);
+    sig = test(c, current, *fitted);
+  }
+  record();
+  c.s.progress("      " + cand.name + " refitted (from '" + cand.start + "'): BIC drop " + format_digits(sig.bic_drop()) + ", share " +
+               format_digits(sig.excess_share()) + ", error " + format_digits(cand.error_after));
+  if (!sig.pass()) {
+    cand.verdict = sig.judged.reason;
+    return;
+  }
+  if (const double strength = documented_strength(*cands[i].effect, fitted->at); strength < kMinDocumentedLevel) {
+    cand.verdict = "its fitted level is " + format_digits(strength, 2) + " of the weakest it documents: not an effect of this size";
+    return;
+  }
+  if (const auto* q = outside_fit_range(*cands[i].effect, fitted->at)) {
+    cand.verdict = "its fitted " + std::string(q->key) + " = " + format_digits(fitted->at.fx.*q->member) + " " + std::string(q->unit) +
+                   " is outside the library's range [" + format_digits(q->lo) + ", " + format_digits(q->hi) + "]";
+    return;
+  }
+  round.noise_left = round.noise_left || run.is_noise(*fitted);
+  round.most_explained = round.most_explained || sig.excess_share() >= kSettledShare;
+  round.passing.emplace_back(i, std::move(*fitted));
+}
+
+// Refits: the best few by linear score, and, unless one of them leaves only noise, every other
+// candidate too. A linear score can hide the right effect: one nearly collinear with the law's
+// terms (Hertz's z^1.5 between k1 z and k3 z^3), or one whose derivative where it is off is a
+// series spring that k1 absorbs (the stator, which its dip search refits); a weaker effect that
+// passes first then takes its place (docs/loop.md, campaign). The passing ones, largest
+// criterion rise first.
+round_refits refit_round(trace_run& run, std::vector<scored>& cands) {
+  const trace_settings& s = run.c.s;
+  round_refits round;
+  for (std::size_t i = 0; i < std::min<std::size_t>(static_cast<std::size_t>(s.refit_candidates), cands.size()) && !round.noise_left; ++i) {
+    if (cands[i].candidate.score < kRefitScoreShare * cands.front().candidate.score || !cands[i].candidate.verdict.empty()) break;
+    try_refit(run, cands, i, false, round);
+  }
+  if (!round.noise_left && !round.most_explained) {
+    s.progress(round.passing.empty() ? "      nothing passes; refitting the others ..." : "      none leaves only noise; refitting the others ...");
+    for (std::size_t i = 0; i < cands.size() && !round.noise_left; ++i)
+      if (!cands[i].candidate.refitted && cands[i].candidate.verdict.empty()) try_refit(run, cands, i, true, round);
+  } else if (!round.noise_left) {
+    // Most of the excess removed, but not to the noise: a stand-in may have taken the place of an
+    // effect whose linear score hides it (a stator's compliance is a series spring k1 absorbs;
+    // Hunt-Crossley damping passed first on a stator's record, with 98 % of the excess, and
+    // beside it the stator no longer fits). Such effects are refitted by their dip search in this
+    // round too, and the larger criterion rise is added.
+    for (std::size_t i = 0; i < cands.size() && !round.noise_left; ++i) {
+      const auto ec = effect_coordinates(*cands[i].effect);
+      if (!cands[i].candidate.refitted && cands[i].candidate.verdict.empty() && dip_searched(ec) != ec.end()) {
+        s.progress("      most of the excess is removed, not to the noise: the dip search of " + cands[i].candidate.name + " too ...");
+        try_refit(run, cands, i, true, round);
+      }
+    }
+  }
+  std::stable_sort(round.passing.begin(), round.passing.end(),
+                   [&](const auto& a, const auto& b) { return cands[a.first].candidate.bic_drop > cands[b.first].candidate.bic_drop; });
+  return round;
+}
+
+// A round's choice: the candidate added (with its fit) and its rival, or a rescore on a better base.
+struct round_choice {
+  std::optional<std::size_t> chosen;
+  std::optional<fitted_model> fit;
+  std::string rival;  // another needed candidate within min_criterion_rise of the chosen one's criterion
+  bool rescore = false;
+};
+
+// Whether a candidate that passed the significance rule is needed: the fair comparison, then out of
+// sample. Where the fair comparison finds a better base and `may_rescore`, that base replaces the
+// current model (the round is scored again on it).
+enum class judged_as { needed, not_needed, rescore };
+judged_as judge_candidate(trace_run& run, const scored& sc, effect_candidate& cand, const fitted_model& with, bool may_rescore) {
+  const round_context& c = run.c;
+  // Fair comparison: the winner's refit moves the base coordinates too, and may gain only because
+  // the base leaves a local minimum of its own (a misorientation record's before-fit,
+  // docs/loop.md). The base is refitted without the effect from where the winner ended; if that
+  // lands lower, the winner must pass the rule against it too.
+  fitted_model reference = run.current;
+  const fit_problem refit_base = make_problem(c.predictor, c.dwells, run.current.at, run.current.coords, c.noise);
+  const fit_result b = fit(refit_base, refit_base.of(switched_off(with.at, *sc.effect)), c.s.max_jacobians, &with.orbits);
+  if (auto judged = on_the_datas_orbits(c, refit_base, b); judged && judged->rss() < run.current.rss()) reference = std::move(*judged);
+  // A second effect only on evidence the first cannot give: the effects already in the model get
+  // their shapes' global search again from there, and the candidate must pass against the
+  // better-fitted model (a stator held at the wrong mass left room for a stand-in).
+  for (const auto& step : run.out.effects)
+    if (!shapes_of(reference.coords, step.effect, false).empty()) settle_shapes(c, reference, step.effect, false);
+  significance fair = test(c, reference, with);
+  if (!fair.pass()) {
+    cand.verdict = "the model without it, refitted from where its refit ended, explains its gain (BIC drop " + format_digits(fair.bic_drop()) + ", share " +
+                   format_digits(fair.excess_share()) + ")";
+    if (may_rescore && reference.rss() < run.current.rss() && run.base_restarts < kMaxBaseRestarts) {
+      ++run.base_restarts;
+      run.note("the model without " + cand.name + ", refitted from where its refit ended, explains its gain: the round is scored again on it");
+      run.current = std::move(reference);
+      // Still the paper's model: its best fit is the "before".
+      if (run.out.effects.empty()) run.out.before = run.current.at, run.out.before_orbits = run.current.orbits;
+      return judged_as::rescore;
+    }
+    return judged_as::not_needed;
+  }
+  c.s.progress("      " + cand.name + " passes the fair comparison (BIC drop " + format_digits(fair.bic_drop()) + "); out of sample ...");
+  cand.holdout_gain = holdout_gain(c, reference, with);
+  fair.comparison.holdout_gain = cand.holdout_gain;
+  fair.comparison.in_sample_gain = (reference.rss() - with.rss()) / (c.noise * c.noise);
+  const need needed = judge_need(fair.comparison, c.s.rules);
+  cand.verdict = needed.needed ? "added" : needed.reason;
+  return needed.needed ? judged_as::needed : judged_as::not_needed;
+}
+
+// The best passing candidate that is needed (fair comparison, out of sample); then the
+// decisive-choice rule: a later passing one whose model comes within min_criterion_rise of the
+// chosen one's criterion, and is needed too, explains the records alike (its rival).
+round_choice choose(trace_run& run, std::vector<scored>& cands, round_refits& round) {
+  round_choice out;
+  std::size_t k = 0;
+  for (; k < round.passing.size(); ++k) {
+    auto& [i, with] = round.passing[k];
+    const judged_as j = judge_candidate(run, cands[i], cands[i].candidate, with, true);
+    if (j == judged_as::rescore) {
+      out.rescore = true;
+      return out;
+    }
+    if (j == judged_as::needed) {
+      out.chosen = i;
+      break;
+    }
+  }
+  if (!out.chosen) return out;
+  const double chosen = criterion_of(run.c, round.passing[k].second);
+  for (std::size_t r = k + 1; r < round.passing.size(); ++r) {
+    auto& [i, with] = round.passing[r];
+    if (decisive(chosen, criterion_of(run.c, with), run.c.s.rules)) break;  // sorted by criterion rise: the rest are further
+    if (judge_candidate(run, cands[i], cands[i].candidate, with, false) == judged_as::needed) {
+      cands[i].candidate.verdict = "needed too, within the decisive margin of " + cands[*out.chosen].candidate.name + "'s criterion: its rival";
+      out.rival = cands[i].candidate.name;
+      break;
+    }
+  }
+  out.fit = std::move(round.passing[k].second);
+  return out;
+}
+
+// The chosen candidate into the model, with its round's scores and the others that passed.
+void add_chosen(trace_run& run, const std::vector<scored>& cands, const round_refits& round, round_choice& choice) {
+  const effect_candidate& chosen = cands[*choice.chosen].candidate;
+  loop_step step;
+  step.effect = chosen.name;
+  step.error_after_adding = chosen.error_after;
+  step.bic_drop = chosen.bic_drop;
+  step.excess_share = chosen.excess_share;
+  step.holdout_gain = chosen.holdout_gain;
+  step.rival = choice.rival;
+  for (const auto& sc : cands) step.candidates.push_back(sc.candidate);
+  for (const auto& [i, m] : round.passing)
+    if (i != *choice.chosen) step.alternatives.push_back(cands[i].candidate.name);
+  run.out.effects.push_back(std::move(step));
+  run.remaining.erase(std::find(run.remaining.begin(), run.remaining.end(), cands[*choice.chosen].effect));
+  run.current = std::move(*choice.fit);
+  run.polished = false;
+}
+
+// Backward elimination: an earlier effect that the model no longer needs (the new one explains
+// what it did) is taken out, the weakest first, one per round.
+void eliminate_backward(trace_run& run) {
+  const round_context& c = run.c;
+  auto& effects = run.out.effects;
+  if (effects.size() < 2) return;
+  std::optional<std::pair<std::size_t, fitted_model>> weakest;
+  double weakest_drop = std::numeric_limits<double>::infinity();
+  significance weakest_sig;
+  for (std::size_t a = 0; a + 1 < effects.size(); ++a) {
+    const effect_info& e = find_effect(effects[a].effect);
+    const auto coords = without_effect(run.current.coords, e.name);
+    const model_point from = switched_off(run.current.at, e);
+    const fit_problem problem = make_problem(c.predictor, c.dwells, from, coords, c.noise);
+    const fit_result f = fit(problem, problem.of(from), c.s.max_jacobians, &run.current.orbits);
+    if (!f.ok) continue;
+    auto judged = judge(c, f.at, coords, &f);
+    if (!judged) continue;
+    const significance sig = test(c, *judged, run.current);
+    if (!sig.pass() && sig.bic_drop() < weakest_drop) weakest_drop = sig.bic_drop(), weakest_sig = sig, weakest.emplace(a, std::move(*judged));
+  }
+  if (!weakest) return;
+  const std::string name = effects[weakest->first].effect;
+  run.note(name + " is no longer needed with " + effects.back().effect + " (it gains BIC " + format_digits(weakest_sig.bic_drop()) + ", share " +
+           format_digits(weakest_sig.excess_share()) + " over the refit without it): removed");
+  run.out.removed.push_back({name, effects.size(), weakest_sig.bic_drop(), weakest_sig.excess_share(), ""});
+  effects.erase(effects.begin() + static_cast<std::ptrdiff_t>(weakest->first));
+  run.current = std::move(weakest->second);
+}
+
+// Exchange: forward selection can add a stand-in first (a probe runout's 1X and 2X readings beat a
+// shaft bow while a 2X misalignment is still missing, and then hold the bow's place). Every
+// earlier effect is refitted with each effect that also passed in its round in its place; the
+// best exchange that the decisive-choice rule prefers (the criterion lower by more than
+// min_criterion_rise) is made.
+void exchange_stand_ins(trace_run& run) {
+  const round_context& c = run.c;
+  auto& effects = run.out.effects;
+  if (effects.size() < 2) return;
+  const auto in_model = [&](std::string_view name) {
+    return std::any_of(effects.begin(), effects.end(), [&](const loop_step& e) { return e.effect == name; });
+  };
+  struct exchange {
+    std::size_t slot;
+    const effect_info* by;
+    fitted_model model;
+  };
+  std::optional<exchange> best;
+  const double now = criterion_of(c, run.current);
+  double best_criterion = now;
+  for (std::size_t a = 0; a + 1 < effects.size(); ++a) {
+    const effect_info& was = find_effect(effects[a].effect);
+    for (const auto& name : effects[a].alternatives) {
+      const effect_info& by = find_effect(name);
+      const auto ec = effect_coordinates(by);
+      const bool searched = std::any_of(ec.begin(), ec.end(), [](const fit_coordinate& q) { return q.search || q.trials; });
+      if (in_model(name) || searched) continue;  // a searched effect needs its own starts (its round's refit)
+      auto coords = without_effect(run.current.coords, was.name);
+      coords.insert(coords.end(), ec.begin(), ec.end());
+      const model_point from = switched_off(switched_off(run.current.at, was), by);
+      const fit_problem problem = make_problem(c.predictor, c.dwells, from, coords, c.noise);
+      const fit_result f = fit(problem, problem.of(from), c.s.max_jacobians, &run.current.orbits);
+      if (!f.ok) continue;
+      auto judged = judge(c, f.at, coords, &f);
+      if (!judged || documented_strength(by, judged->at) < kMinDocumentedLevel || outside_fit_range(by, judged->at)) continue;
+      if (const double b = criterion_of(c, *judged); b < best_criterion && decisive(b, now, c.s.rules))
+        best_criterion = b, best = exchange{a, &by, std::move(*judged)};
+    }
+  }
+  if (!best) return;
+  loop_step& slot = effects[best->slot];
+  run.note(std::string(best->by->name) + " in place of " + slot.effect + " lowers BIC by " + format_digits(now - best_criterion - c.s.rules.min_criterion_rise) +
+           " beyond the decisive margin: exchanged");
+  run.out.removed.push_back({slot.effect, effects.size(), 0.0, 0.0, std::string(best->by->name)});
+  run.remaining.erase(std::find(run.remaining.begin(), run.remaining.end(), best->by));
+  run.remaining.push_back(&find_effect(slot.effect));
+  slot.alternatives.erase(std::find(slot.alternatives.begin(), slot.alternatives.end(), std::string(best->by->name)));
+  slot.alternatives.push_back(slot.effect);
+  slot.exchanged_for = slot.effect;
+  slot.effect = std::string(best->by->name);
+  slot.rival.clear();  // it won by more than the decisive margin
+  run.current = std::move(best->model);
+  slot.error_after_adding = errors_of(c.dwells, c.predictor, run.current.r).nrmse_contact;
+  run.polished = false;
+}
+
+// One round: score, refit, choose, add (then eliminate and exchange). A round that adds nothing
+// leaves its candidates as the result's last round.
+enum class round_end { added, rescore, nothing };
+round_end run_round(trace_run& run, int round) {
+  const round_context& c = run.c;
+  c.s.progress("[2/3] trace round " + std::to_string(round) + ": scoring " + std::to_string(run.remaining.size()) + " effects (" +
+               std::to_string(c.predictor.evaluations()) + " model evaluations so far) ...");
+  std::vector<scored> cands = score_round(run);
+  c.s.progress("      best scores: " + cands[0].candidate.name + (cands.size() > 1 ? ", " + cands[1].candidate.name : std::string()) + "; refitting ...");
+  round_refits refits = refit_round(run, cands);
+  round_choice choice = choose(run, cands, refits);
+  if (choice.rescore) return round_end::rescore;
+  if (!choice.chosen) {
+    for (auto& sc : cands)
+      if (sc.candidate.verdict.empty()) sc.candidate.verdict = sc.candidate.refitted ? "fails the significance rule" : "not refitted (score)";
+    for (const auto& sc : cands) run.out.last_round.push_back(sc.candidate);
+    return round_end::nothing;
+  }
+  add_chosen(run, cands, refits, choice);
+  eliminate_backward(run);
+  exchange_stand_ins(run);
+  return round_end::added;
+}
+
 }  // namespace
+
+void trace_settings::validate() const {
+  check({"trace", "max_effects"}, max_effects);
+  check({"trace", "refit_candidates"}, refit_candidates);
+  rules.validate();
+  check({"trace", "orders"}, orders);
+  check({"trace", "whiteness_lags"}, whiteness_lags);
+  check({"trace", "max_jacobians"}, max_jacobians);
+  check({"trace", "profile_points"}, profile_points);
+}
 
 const effect_parameter_info* outside_fit_range(const effect_info& e, const model_point& m) {
   if (!has_effect(m.fx, e)) return nullptr;
@@ -522,322 +916,36 @@ std::vector<std::pair<std::string, double>> effect_params(const effect_info& e, 
 
 trace_result trace(const std::vector<loop_dwell>& dwells, orbit_predictor& predictor, double noise, const model_point& staged,
                    const fit_result& before, const trace_settings& s) {
-  trace_result out;
-  out.before = before.at;
   const round_context c{dwells, predictor, noise, static_cast<double>(predictor.orbit_rows()), staged, s};
   auto start = judge(c, before.at, paper_coordinates(), &before);
   if (!start) throw numerical_error("the loop's model cannot be computed at its own before-fit");
-  fitted_model current = std::move(*start);
-  out.before_orbits = current.orbits;
-  const auto is_noise = [&](const fitted_model& m) {
-    predictor.anchor(m.at, m.orbits);  // the states its validity checks read
-    const auto r = predictor.residuals(m.at);
-    return r && validity(dwells, predictor, m.at, *r, noise, s.orders, s.whiteness_lags).pass;
-  };
-  std::vector<const effect_info*> remaining;
-  for (const auto& e : effect_library()) remaining.push_back(&e);
-  int base_restarts = 0, round = 0;
-  bool polished = false;  // the current structure has been refitted from the staged start
-  const auto note = [&](const std::string& text) {
-    out.notes.push_back("trace: " + text);
-    s.progress("      " + text);
-  };
-  while (!is_noise(current) && static_cast<int>(out.effects.size()) < s.max_effects && !remaining.empty()) {
+  trace_run run{c, {}, std::move(*start), {}};
+  run.out.before = before.at;
+  run.out.before_orbits = run.current.orbits;
+  for (const auto& e : effect_library()) run.remaining.push_back(&e);
+  int round = 0;
+  while (!run.is_noise(run.current) && static_cast<int>(run.out.effects.size()) < s.max_effects && !run.remaining.empty()) {
     ++round;
-    // After an effect is added, the model is refitted once from the before-fit's starts too (the
-    // staged model's base, and its linear part with the Table 2 law), raced, with the current
-    // effects: a base can fall into a degenerate minimum of its own (a law whose k1 went to 0 and
-    // k3 took its place while the effect was missing) that every later refit starts from.
-    if (!out.effects.empty() && !polished) {
-      polished = true;
-      std::vector<named_start> starts;
-      for (named_start st : before_fit_starts(staged)) {
-        const parameters p = st.at.p;
-        st.at = current.at;
-        st.at.p = p;
-        starts.push_back(std::move(st));
-      }
-      const fit_problem problem = make_problem(predictor, dwells, current.at, current.coords, noise);
-      const multistart_result raced = race_starts(problem, starts, s.max_fit_iterations, kRaceLap);
-      if (auto judged = on_the_datas_orbits(c, problem, raced.best); judged && judged->rss() < current.rss()) {
-        note("the model refitted from the before-fit's start '" + raced.winner + "' with its effects lands lower (residual " +
-             format_digits(judged->rss()) + " against " + format_digits(current.rss()) + " m^2): it is the base from here");
-        current = std::move(*judged);
-        if (is_noise(current)) break;
-      }
+    if (!run.out.effects.empty() && !run.polished) {
+      run.polished = true;
+      if (polish_from_the_staged_start(run) && run.is_noise(run.current)) break;
     }
-    s.progress("[2/3] trace round " + std::to_string(round) + ": scoring " + std::to_string(remaining.size()) + " effects (" +
-               std::to_string(predictor.evaluations()) + " model evaluations so far) ...");
-    const fit_problem base = make_problem(predictor, dwells, current.at, current.coords, noise);
-    predictor.anchor(current.at, current.orbits);
-    const Eigen::MatrixXd J = base.jacobian(base.of(current.at), current.r);
-    std::optional<staged_linearisation> at_staged;
-    {
-      model_point on_staged = current.at;
-      on_staged.p = staged.p;
-      if (auto r = residual_at(predictor, on_staged)) {
-        const fit_problem staged_problem = make_problem(predictor, dwells, on_staged, current.coords, noise);
-        Eigen::MatrixXd Js = staged_problem.jacobian(staged_problem.of(on_staged), *r);
-        at_staged = staged_linearisation{on_staged, std::move(*r), std::move(Js)};
-      }
-      predictor.anchor(current.at, current.orbits);
-    }
-    std::vector<scored> cands = score(c, current, remaining, base, J, at_staged);
-    s.progress("      best scores: " + cands[0].candidate.name + (cands.size() > 1 ? ", " + cands[1].candidate.name : std::string()) +
-               "; refitting ...");
-
-    // Refits: the best few by linear score, and, unless one of them leaves only noise, every
-    // other candidate too. A linear score can hide the right effect: one nearly collinear with the
-    // law's terms (Hertz's z^1.5 between k1 z and k3 z^3), or one whose derivative where it is off
-    // is a series spring that k1 absorbs (the stator, which its dip search refits); a weaker effect
-    // that passes first then takes its place (docs/loop.md, campaign).
-    std::vector<std::pair<std::size_t, fitted_model>> passing;  // (candidate, refit), significant against the current model
-    // A passing refit that leaves only noise settles the round; one that removes most of the
-    // excess leaves the others beyond the best few too little to gain.
-    bool noise_left = false, most_explained = false;
-    // A refit of one of the others (beyond the best few by score) is screened first: a few
-    // Jacobians, and the rest of its budget only where that already removes a third of the share
-    // of the synchronous excess the rule asks for (with 1e5 samples nearly every refit gains a
-    // BIC drop of 10). Most of them gain nothing, and a fit that creeps along a
-    // valley for its whole budget was most of a last round's cost.
-    trace_settings screening = s;
-    screening.max_fit_iterations = std::min(s.max_fit_iterations, kScreenIterations);
-    const round_context screened_context{c.dwells, c.predictor, c.noise, c.rows, c.staged, screening};
-    const auto try_refit = [&](std::size_t i, bool screen) {
-      auto& cand = cands[i].candidate;
-      auto fitted = refit(screen ? screened_context : c, current, cands[i], cand.start);
-      cand.refitted = true;
-      if (!fitted) {
-        cand.verdict = "its refit cannot be computed";
-        return;
-      }
-      significance sig = test(c, current, *fitted);
-      if (screen) {
-        if (!(sig.excess_share >= s.min_excess_share / 3.0)) {
-          cand.bic_drop = sig.bic_drop;
-          cand.excess_share = sig.excess_share;
-          cand.error_after = errors_of(dwells, predictor, fitted->r).nrmse_contact;
-          cand.verdict = "fails the significance rule (screened: " + std::to_string(kScreenIterations) + " Jacobians of its refit gain nothing)";
-          return;
-        }
-        const fit_problem full = make_problem(predictor, dwells, fitted->at, fitted->coords, noise);
-        const fit_result f = fit(full, full.of(fitted->at), s.max_fit_iterations, &fitted->orbits);
-        if (f.ok)
-          if (auto judged = judge(c, f.at, fitted->coords, &f); judged && judged->rss() < fitted->rss()) fitted = std::move(judged);
-        sig = test(c, current, *fitted);
-      }
-      cand.bic_drop = sig.bic_drop;
-      cand.excess_share = sig.excess_share;
-      cand.error_after = errors_of(dwells, predictor, fitted->r).nrmse_contact;
-      s.progress("      " + cand.name + " refitted (from '" + cand.start + "'): BIC drop " + format_digits(sig.bic_drop) + ", share " +
-                 format_digits(sig.excess_share) + ", error " + format_digits(cand.error_after));
-      if (!sig.pass) {
-        cand.verdict = sig.bic_drop > s.min_bic_drop && sig.excess_share >= s.min_excess_share
-                           ? "changes the synchronous energy by " + format_digits(sig.removed) + " m^2, within the noise check's tolerance " +
-                                 format_digits(sig.tolerance)
-                           : "fails the significance rule";
-        return;
-      }
-      if (const double strength = documented_strength(*cands[i].effect, fitted->at); strength < kMinDocumentedLevel) {
-        cand.verdict = "its fitted level is " + format_digits(strength, 2) + " of the weakest it documents: not an effect of this size";
-        return;
-      }
-      if (const auto* q = outside_fit_range(*cands[i].effect, fitted->at)) {
-        cand.verdict = "its fitted " + std::string(q->key) + " = " + format_digits(fitted->at.fx.*q->member) + " " + std::string(q->unit) +
-                       " is outside the library's range [" + format_digits(q->lo) + ", " + format_digits(q->hi) + "]";
-        return;
-      }
-      noise_left = noise_left || is_noise(*fitted);
-      most_explained = most_explained || sig.excess_share >= kSettledShare;
-      passing.emplace_back(i, std::move(*fitted));
-    };
-    for (std::size_t i = 0; i < std::min<std::size_t>(static_cast<std::size_t>(s.refit_candidates), cands.size()) && !noise_left; ++i) {
-      if (cands[i].candidate.score < kRefitScoreShare * cands.front().candidate.score || !cands[i].candidate.verdict.empty()) break;
-      try_refit(i, false);
-    }
-    if (!noise_left && !most_explained) {
-      s.progress(passing.empty() ? "      nothing passes; refitting the others ..." : "      none leaves only noise; refitting the others ...");
-      for (std::size_t i = 0; i < cands.size() && !noise_left; ++i)
-        if (!cands[i].candidate.refitted && cands[i].candidate.verdict.empty()) try_refit(i, true);
-    } else if (!noise_left) {
-      // Most of the excess removed, but not to the noise: a stand-in may have taken the place of
-      // an effect whose linear score hides it (a stator's compliance is a series spring k1
-      // absorbs; Hunt-Crossley damping passed first on a stator's record, with 98 % of the excess,
-      // and beside it the stator no longer fits). Such effects are refitted by their dip search
-      // in this round too, and the larger BIC drop is added.
-      for (std::size_t i = 0; i < cands.size() && !noise_left; ++i) {
-        const auto ec = effect_coordinates(*cands[i].effect);
-        if (!cands[i].candidate.refitted && cands[i].candidate.verdict.empty() && dip_searched(ec) != ec.end()) {
-          s.progress("      most of the excess is removed, not to the noise: the dip search of " + cands[i].candidate.name + " too ...");
-          try_refit(i, true);
-        }
-      }
-    }
-    std::stable_sort(passing.begin(), passing.end(),
-                     [&](const auto& a, const auto& b) { return cands[a.first].candidate.bic_drop > cands[b.first].candidate.bic_drop; });
-
-    // The best passing candidate that also passes the fair comparison and the out-of-sample test.
-    std::optional<std::size_t> chosen;
-    std::optional<fitted_model> chosen_fit;
-    bool rescore = false;
-    for (auto& [i, with] : passing) {
-      auto& cand = cands[i].candidate;
-      // Fair comparison: the winner's refit moves the base coordinates too, and may gain only
-      // because the base leaves a local minimum of its own (a misorientation record's
-      // before-fit, docs/loop.md). The base is refitted without the effect from where the
-      // winner ended; if that lands lower, the winner must pass the rule against it too.
-      fitted_model reference = current;
-      const fit_problem refit_base = make_problem(predictor, dwells, current.at, current.coords, noise);
-      const fit_result b = fit(refit_base, refit_base.of(switched_off(with.at, *cands[i].effect)), s.max_fit_iterations, &with.orbits);
-      if (auto judged = on_the_datas_orbits(c, refit_base, b); judged && judged->rss() < current.rss()) reference = std::move(*judged);
-      // A second effect only on evidence the first cannot give: the effects already in the model
-      // get their shapes' global search again from there, and the candidate must pass against
-      // the better-fitted model (a stator held at the wrong mass left room for a stand-in).
-      for (const auto& step : out.effects)
-        if (!shapes_of(reference.coords, step.effect, false).empty()) settle_shapes(c, reference, step.effect, false);
-      const significance fair = test(c, reference, with);
-      if (!fair.pass) {
-        cand.verdict = "the model without it, refitted from where its refit ended, explains its gain (BIC drop " + format_digits(fair.bic_drop) +
-                       ", share " + format_digits(fair.excess_share) + ")";
-        if (reference.rss() < current.rss() && base_restarts < kMaxBaseRestarts) {
-          ++base_restarts;
-          note("the model without " + cand.name + ", refitted from where its refit ended, explains its gain: the round is scored again on it");
-          current = std::move(reference);
-          if (out.effects.empty()) out.before = current.at, out.before_orbits = current.orbits;  // still the paper's model: its best fit is the "before"
-          rescore = true;
-          break;
-        }
-        continue;
-      }
-      // Out of sample.
-      s.progress("      " + cand.name + " passes the fair comparison (BIC drop " + format_digits(fair.bic_drop) + "); out of sample ...");
-      cand.holdout_gain = holdout_gain(c, reference, with);
-      const double in_sample = (reference.rss() - with.rss()) / (noise * noise);
-      if (!(cand.holdout_gain > s.min_bic_drop && cand.holdout_gain >= s.min_holdout_share * in_sample)) {
-        cand.verdict = "not needed out of sample: refitted on half of the dwells it gains chi^2 " + format_digits(cand.holdout_gain) +
-                       " on the other half, against " + format_digits(in_sample) + " on all";
-        continue;
-      }
-      cand.verdict = "added";
-      chosen = i;
-      chosen_fit = std::move(with);
-      break;
-    }
-    if (rescore) {
-      --round;
-      continue;
-    }
-    if (!chosen) {
-      for (auto& sc : cands)
-        if (sc.candidate.verdict.empty()) sc.candidate.verdict = sc.candidate.refitted ? "fails the significance rule" : "not refitted (score)";
-      for (const auto& sc : cands) out.last_round.push_back(sc.candidate);
-      break;
-    }
-    loop_step step;
-    step.effect = cands[*chosen].candidate.name;
-    step.error_after_adding = cands[*chosen].candidate.error_after;
-    step.bic_drop = cands[*chosen].candidate.bic_drop;
-    step.excess_share = cands[*chosen].candidate.excess_share;
-    step.holdout_gain = cands[*chosen].candidate.holdout_gain;
-    for (const auto& sc : cands) step.candidates.push_back(sc.candidate);
-    for (const auto& [i, m] : passing)
-      if (i != *chosen) step.alternatives.push_back(cands[i].candidate.name);
-    out.effects.push_back(std::move(step));
-    remaining.erase(std::find(remaining.begin(), remaining.end(), cands[*chosen].effect));
-    current = std::move(*chosen_fit);
-    polished = false;
-
-    // Backward elimination: an earlier effect that the model no longer needs (the new one explains
-    // what it did) is taken out, the weakest first, one per round.
-    if (out.effects.size() > 1) {
-      std::optional<std::pair<std::size_t, fitted_model>> weakest;
-      double weakest_drop = std::numeric_limits<double>::infinity();
-      significance weakest_sig;
-      for (std::size_t a = 0; a + 1 < out.effects.size(); ++a) {
-        const effect_info& e = find_effect(out.effects[a].effect);
-        const auto coords = without_effect(current.coords, e.name);
-        const model_point from = switched_off(current.at, e);
-        const fit_problem problem = make_problem(predictor, dwells, from, coords, noise);
-        const fit_result f = fit(problem, problem.of(from), s.max_fit_iterations, &current.orbits);
-        if (!f.ok) continue;
-        auto judged = judge(c, f.at, coords, &f);
-        if (!judged) continue;
-        const significance sig = test(c, *judged, current);
-        if (!sig.pass && sig.bic_drop < weakest_drop) weakest_drop = sig.bic_drop, weakest_sig = sig, weakest.emplace(a, std::move(*judged));
-      }
-      if (weakest) {
-        const std::string name = out.effects[weakest->first].effect;
-        note(name + " is no longer needed with " + out.effects.back().effect + " (it gains BIC " + format_digits(weakest_sig.bic_drop) +
-             ", share " + format_digits(weakest_sig.excess_share) + " over the refit without it): removed");
-        out.removed.push_back({name, out.effects.size(), weakest_sig.bic_drop, weakest_sig.excess_share, ""});
-        out.effects.erase(out.effects.begin() + static_cast<std::ptrdiff_t>(weakest->first));
-        current = std::move(weakest->second);
-      }
-    }
-
-    // Exchange: forward selection can add a stand-in first (a probe runout's 1X and 2X readings
-    // beat a shaft bow while a 2X misalignment is still missing, and then hold the bow's place).
-    // Every earlier effect is refitted with each effect that also passed in its round in its
-    // place; the best exchange that lowers BIC by more than min_bic_drop is made.
-    if (out.effects.size() > 1) {
-      const auto in_model = [&](std::string_view name) {
-        return std::any_of(out.effects.begin(), out.effects.end(), [&](const loop_step& e) { return e.effect == name; });
-      };
-      struct exchange {
-        std::size_t slot;
-        const effect_info* by;
-        fitted_model model;
-      };
-      std::optional<exchange> best;
-      double best_bic = bic(current.rss(), c.rows, current.coords.size()) - s.min_bic_drop;
-      for (std::size_t a = 0; a + 1 < out.effects.size(); ++a) {
-        const effect_info& was = find_effect(out.effects[a].effect);
-        for (const auto& name : out.effects[a].alternatives) {
-          const effect_info& by = find_effect(name);
-          const auto ec = effect_coordinates(by);
-          const bool searched = std::any_of(ec.begin(), ec.end(), [](const fit_coordinate& q) { return q.search || q.trials; });
-          if (in_model(name) || searched) continue;  // a searched effect needs its own starts (its round's refit)
-          auto coords = without_effect(current.coords, was.name);
-          coords.insert(coords.end(), ec.begin(), ec.end());
-          const model_point from = switched_off(switched_off(current.at, was), by);
-          const fit_problem problem = make_problem(predictor, dwells, from, coords, noise);
-          const fit_result f = fit(problem, problem.of(from), s.max_fit_iterations, &current.orbits);
-          if (!f.ok) continue;
-          auto judged = judge(c, f.at, coords, &f);
-          if (!judged || documented_strength(by, judged->at) < kMinDocumentedLevel || outside_fit_range(by, judged->at)) continue;
-          if (const double b = bic(judged->rss(), c.rows, coords.size()); b < best_bic) best_bic = b, best = exchange{a, &by, std::move(*judged)};
-        }
-      }
-      if (best) {
-        loop_step& slot = out.effects[best->slot];
-        note(std::string(best->by->name) + " in place of " + slot.effect + " lowers BIC by " +
-             format_digits(bic(current.rss(), c.rows, current.coords.size()) - best_bic - s.min_bic_drop) + ": exchanged");
-        out.removed.push_back({slot.effect, out.effects.size(), 0.0, 0.0, std::string(best->by->name)});
-        remaining.erase(std::find(remaining.begin(), remaining.end(), best->by));
-        remaining.push_back(&find_effect(slot.effect));
-        slot.alternatives.erase(std::find(slot.alternatives.begin(), slot.alternatives.end(), std::string(best->by->name)));
-        slot.alternatives.push_back(slot.effect);
-        slot.exchanged_for = slot.effect;
-        slot.effect = std::string(best->by->name);
-        current = std::move(best->model);
-        slot.error_after_adding = errors_of(dwells, predictor, current.r).nrmse_contact;
-        polished = false;
-      }
-    }
+    const round_end end = run_round(run, round);
+    if (end == round_end::rescore) --round;
+    if (end == round_end::nothing) break;
   }
   // Whether the records determine each named effect's shapes: their profiles on the final model
   // (which a profile that lands lower moves, and the later ones are then taken there).
-  for (auto& step : out.effects) {
-    if (shapes_of(current.coords, step.effect, true).empty()) continue;
-    s.progress("[2/3] profiles of " + step.effect + "'s shape parameters (" + std::to_string(predictor.evaluations()) +
-               " model evaluations so far) ...");
-    step.profiles = settle_shapes(c, current, step.effect, true);
+  for (auto& step : run.out.effects) {
+    if (shapes_of(run.current.coords, step.effect, true).empty()) continue;
+    s.progress("[2/3] profiles of " + step.effect + "'s shape parameters (" + std::to_string(predictor.evaluations()) + " model evaluations so far) ...");
+    step.profiles = settle_shapes(c, run.current, step.effect, true);
   }
-  out.after = current.at;
-  out.after_orbits = current.orbits;
-  for (auto& step : out.effects)  // the final estimates (later effects refine earlier ones)
-    step.params = effect_params(find_effect(step.effect), current.at.fx);
-  return out;
+  run.out.after = run.current.at;
+  run.out.after_orbits = run.current.orbits;
+  for (auto& step : run.out.effects)  // the final estimates (later effects refine earlier ones)
+    step.params = effect_params(find_effect(step.effect), run.current.at.fx);
+  return std::move(run.out);
 }
 
 }  // namespace rubref

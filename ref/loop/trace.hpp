@@ -1,8 +1,9 @@
 #pragma once
 // Stage 4 of `rubref loop` (docs/loop.md, "Trace"): from a residual that is not noise to the
 // library effects the model lacks. Each round scores every effect not yet in the model, refits
-// the best few, and adds the one that lowers BIC most, if it passes three tests:
-//   - significance: a BIC drop and a share of the residual's synchronous excess;
+// the best few, and adds the one that lowers the information criterion (BIC) most, if it passes
+// three tests of the evidence rules (ref/inference/evidence.hpp):
+//   - significance: a criterion rise without it and a share of the residual's synchronous excess;
 //   - a fair comparison: the model without it, refitted from where its refit ended, must not
 //     explain the same gain (a refit can gain by leaving the base's own local minimum);
 //   - out of sample: refitted on half of the dwells, it must predict the other half better.
@@ -15,28 +16,29 @@
 #include <utility>
 #include <vector>
 
+#include "ref/inference/evidence.hpp"
 #include "ref/loop/fit.hpp"
 #include "ref/loop/preprocess.hpp"
 
 namespace rubref {
 
 struct trace_settings {
-  int max_effects = 4;           // effects in the model at most
-  int refit_candidates = 3;      // effects refitted per round (best linearised scores)
-  // Significance rule: BIC must fall by more than this (Kass & Raftery 1995: > 10 is very strong
-  // evidence) and the effect must remove at least this share of the synchronous excess: the energy
-  // of the residual's shaft orders -orders..orders above what noise alone puts there.
-  double min_bic_drop = 10.0;
-  double min_excess_share = 1.0 / 3.0;
-  // Out of sample: the effect's gain on dwells it was not refitted on, in chi^2 = rss / noise^2,
-  // must exceed min_bic_drop and this share of its gain on all dwells.
-  double min_holdout_share = 1.0 / 3.0;
-  int orders = 20;               // shaft orders of the residual spectrum and the synchronous test
-  int whiteness_lags = 20;
-  int max_fit_iterations = 20;   // Jacobians per Levenberg-Marquardt fit
+  // Defaults, ranges and reasons: the settings registry (scope "trace").
+  int max_effects = default_count_of("trace", "max_effects");            // effects in the model at most
+  int refit_candidates = default_count_of("trace", "refit_candidates");  // effects refitted per round (best linearised scores)
+  // The evidence rules (ref/inference/evidence.hpp): an effect is added when it is needed (the
+  // criterion rises without it, it removes a share of the synchronous excess: the energy of the
+  // residual's shaft orders -orders..orders above what noise alone puts there; and it is needed
+  // out of sample), and claimed by the claim rule.
+  evidence_rules rules;
+  int orders = default_count_of("trace", "orders");                  // shaft orders of the residual spectrum and the synchronous test
+  int whiteness_lags = default_count_of("trace", "whiteness_lags");
+  int max_jacobians = default_count_of("trace", "max_jacobians");    // per Levenberg-Marquardt fit
   // Shape parameters are profiled at this many values across their physical range (ends included).
-  int profile_points = 5;
+  int profile_points = default_count_of("trace", "profile_points");
   std::function<void(const std::string&)> progress = [](const std::string&) {};
+  // input_error naming the setting, its range and its reason.
+  void validate() const;
 };
 
 struct effect_candidate {
@@ -76,6 +78,7 @@ struct loop_step {
   double bic_drop = 0.0, excess_share = 0.0, holdout_gain = 0.0;
   std::vector<effect_candidate> candidates;            // the round's scores, best first
   std::vector<std::string> alternatives;               // the others that passed the significance rule in its round
+  std::string rival;                                   // one needed too, within the decisive margin of its criterion ("" if none)
   std::string exchanged_for;                           // it took this effect's place later (its scores are then that round's)
 };
 

@@ -121,6 +121,12 @@ struct effect_info {
 // reach ~1e-6..1e-4 m.
 inline constexpr double power_reference_penetration = 1e-5;  // m
 
+// The parts of the paper's own model (Eq. 1-2) that a table's base fit leaves out and its loop
+// adds as it adds effects (docs/real-data.md): support stiffnesses that differ along x and y, and
+// the rub itself. With the library's names, the names a verdict on a table uses.
+inline constexpr std::string_view anisotropy_part = "anisotropy";
+inline constexpr std::string_view rub_part = "rub";
+
 // The library, in a fixed order (docs/loop.md).
 const std::vector<effect_info>& effect_library();
 const effect_info& find_effect(std::string_view name);  // input_error naming the known ones

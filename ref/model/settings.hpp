@@ -99,6 +99,13 @@ inline constexpr auto settings_registry = std::to_array<setting_info>({
     {"shooting", "fallback_settle_revs", "fallback-settle-revs", "", "rev", 200, range::at_least(1),
      "the fallback when shooting fails: a transient this long", "the fallback records after a transient"},
 
+    // Periodic orbits as the fits compare them with data (ref/orbits/fit_orbits.hpp).
+    {"fit_orbits", "max_iterations", "", "max_iterations", "-", 16, range::count_in(1, 1000),
+     "Newton iterations of a fit's shooting at most", "from a neighbouring point's orbit Newton converges in a few; more means the trial model is far off the data"},
+    {"fit_orbits", "max_steps_per_revolution", "", "max_steps_per_revolution", "-", 100000, range::count_in(100, 100000000),
+     "integration steps per revolution beyond which a fit's trial model is a failed point",
+     "a revolution of the paper's model takes ~1e3 steps; a trial law that needs 100 times more is far off the data"},
+
     // Continuation (ref/orbits/continuation.hpp): arclength in scaled unknowns, one unit spans the range.
     {"continuation", "from", "from", "", "rpm, m or -", 1300.0, range::any, "start of the parameter's range (its unit)", "a finite value"},
     {"continuation", "to", "to", "", "rpm, m or -", 2200.0, range::any, "end of the parameter's range (its unit), > from", "a finite value"},
@@ -130,6 +137,99 @@ inline constexpr auto settings_registry = std::to_array<setting_info>({
     {"rig", "noise", "noise", "noise_m", "m", 0.5e-6, range::non_negative, "probe white noise, standard deviation", "a standard deviation"},
     {"rig", "quantisation", "quantisation", "quantisation_m", "m", 61e-9, range::non_negative, "probe quantisation step (16 bits over +-2 mm)",
      "a step size (0: none)"},
+
+    // The least-squares solver (ref/inference/least_squares.hpp): every fit's defaults; a wing
+    // whose fits need others has rows of its own below.
+    {"least_squares", "max_jacobians", "", "max_jacobians", "-", 50, range::count_in(1, 10000), "finite-difference Jacobians per fit at most",
+     "a fit ends; each Jacobian costs one evaluation per coordinate"},
+    {"least_squares", "steps_per_jacobian", "", "steps_per_jacobian", "-", 1, range::count_in(1, 100),
+     "accepted steps per finite-difference Jacobian (the others carried by Broyden updates)", "at least the step the Jacobian was taken for"},
+    {"least_squares", "difference_step", "", "difference_step", "-", 1e-6, {.lo = 0.0, .hi = 0.1, .lo_open = true},
+     "forward-difference step, relative to max(1, |u|) of the scaled coordinate", "a difference quotient needs a step, and one beyond 0.1 is no derivative"},
+    {"least_squares", "min_gain", "", "min_gain", "chi^2", 1e-2, range::positive,
+     "a step that gains less than this in chi^2 (from a fresh Jacobian) ends the fit",
+     "a hundredth of one degree of freedom: far below every decision (a criterion rise of 10)"},
+    {"least_squares", "min_gain_share", "", "min_gain_share", "-", 1e-5, range::unit_interval,
+     "... or less than this share of chi^2 (a fit far from the noise)", "a share of the sum of squares"},
+    {"least_squares", "covariance_lags", "", "covariance_lags", "-", 4, range::count_in(0, 100),
+     "lags of the residuals' correlation factor that widens the covariance",
+     "resampled or filtered data share samples over a few neighbours; 0: residuals taken as independent"},
+
+    // The evidence rules (ref/inference/evidence.hpp): one set for records, tables and the law's structure.
+    {"evidence", "min_criterion_rise", "", "min_criterion_rise", "-", 10.0, range::positive,
+     "a part is significant when the information criterion rises by more than this without it; two models within it explain the data alike",
+     "Kass & Raftery (1995): a BIC difference above 10 is very strong evidence"},
+    {"evidence", "min_excess_share", "", "min_excess_share", "-", 1.0 / 3.0, range::unit_interval,
+     "a significant part removes at least this share of the excess over noise that the model without it leaves",
+     "a part that removes less explains a detail of a misfit, not the misfit"},
+    {"evidence", "min_holdout_share", "", "min_holdout_share", "-", 1.0 / 3.0, range::unit_interval,
+     "a needed part gains, on data it was not refitted on, at least this share of its gain on all data",
+     "half the data fitted, the other half predicted: a third of the gain is what survives when the part fits the noise of the half it saw"},
+    {"evidence", "claim_share", "", "claim_share", "-", 0.96, range::unit_interval,
+     "a partial claim: the parts named remove at least this share of the base fit's excess (the residual not noise)",
+     "0.96 of the excess energy is a 5-fold cut of its RMS: a model that leaves more than a fifth of the disagreement is no explanation"},
+    {"evidence", "max_interval_ratio", "", "max_interval_ratio", "-", 4.0, {.lo = 1.0, .lo_open = true},
+     "a positive quantity is determined when its 95 % interval spans less than this end to end", "within a factor of 2 either way"},
+    {"evidence", "max_cancellation", "", "max_cancellation", "-", 10.0, {.lo = 1.0},
+     "a model whose parts together are more than this many times what they add up to is not plausible",
+     "parts that cancel almost exactly explain the data by their small difference, which the data cannot pin"},
+
+    // The loop on records (ref/loop/loop.hpp) and its trace of the residual (ref/loop/trace.hpp).
+    {"loop", "mass", "mass", "mass_kg", "kg", 0.0, range::non_negative, "rotor mass; 0: the records' m_kg, else the paper's",
+     "a mass (0: taken from the records)"},
+    {"loop", "clearance", "clearance", "clearance_m", "m", 0.0, range::non_negative, "clearance for records without clearance_m (0: the records' own)",
+     "a distance (0: the records' own)"},
+    {"loop", "steps_per_jacobian", "", "steps_per_jacobian", "-", 3, range::count_in(1, 100),
+     "accepted steps per finite-difference Jacobian of an orbit fit (the others carried by Broyden updates)",
+     "a Jacobian costs an orbit fit one shooting per coordinate and dwell; three steps on one keep its error below the step's gain"},
+    {"trace", "max_effects", "max-effects", "max_effects", "-", 4, range::count_in(0, 11), "effects added to the model at most",
+     "the effect library has 11"},
+    {"trace", "refit_candidates", "refit", "refit_candidates", "-", 3, range::count_in(1, 11), "effects refitted per round first (best linearised scores)",
+     "at least the best one, at most the library's 11"},
+    {"trace", "orders", "", "orders", "-", 20, range::count_in(1, 1000), "shaft orders -H..H of the residual's spectrum and its synchronous test",
+     "a contact's harmonics fall below the noise within tens of orders; each order costs a sine per sample"},
+    {"trace", "whiteness_lags", "", "whiteness_lags", "-", 20, range::count_in(1, 1000), "lags of the residual's whiteness test (Box-Pierce)",
+     "at least one lag"},
+    {"trace", "max_jacobians", "", "max_jacobians", "-", 20, range::count_in(1, 10000), "Jacobians per fit of the trace at most",
+     "a fit ends; each Jacobian costs one shooting per coordinate and dwell"},
+    {"trace", "profile_points", "", "profile_points", "-", 5, range::count_in(2, 101),
+     "values at which a shape parameter is profiled across its physical range (ends included)", "a profile has two ends"},
+
+    // The loop on order-tracked tables (ref/tracking/): its fits' solver options and its report.
+    {"response_fit", "max_jacobians", "", "max_jacobians", "-", 200, range::count_in(1, 10000), "Jacobians per fit of the closed-form 1X response at most",
+     "a fit ends; a closed-form Jacobian costs microseconds, so the budget only stops a fit that creeps along a valley"},
+    {"response_fit", "difference_step", "", "difference_step", "-", 1e-6, {.lo = 0.0, .hi = 0.1, .lo_open = true},
+     "forward-difference step of the 1X response fit (logarithms of speeds and damping ratios, angles)",
+     "a peak 1 % wide needs a step far inside it; the closed form is exact to rounding, so 1e-6 keeps ten digits of the derivative"},
+    {"rub_fit", "max_jacobians", "", "max_jacobians", "-", 40, range::count_in(1, 10000), "Jacobians per fit of the rubbing run-up at most",
+     "each Jacobian shoots every row's orbit once per coordinate"},
+    {"rub_fit", "difference_step", "", "difference_step", "-", 1e-5, {.lo = 0.0, .hi = 0.1, .lo_open = true},
+     "forward-difference step of the rub fit", "far above the shot orbits' 1e-12 m, far below the 1 % the table resolves"},
+    {"tracking", "residual_bands", "", "residual_bands", "-", 50, range::count_in(1, 1000),
+     "stretches of the speed range in which the report locates a residual that is not noise", "at least one stretch"},
+
+    // Identification's fits by periodic orbits (ref/identification/orbit_fit.hpp) and by output
+    // error (ref/identification/output_error.hpp).
+    {"orbit_fit", "max_jacobians", "", "max_jacobians", "-", 50, range::count_in(1, 10000), "Jacobians of the orbit fit at most",
+     "a fit ends; each Jacobian shoots every cycle's orbit twice per unknown"},
+    {"orbit_fit", "phase_search", "", "phase_search", "-", 0, range::count_in(0, 360),
+     "phases tried around the circle for each cycle's forcing before the fit (0: the given start)", "at most one per degree"},
+    {"reidentify", "max_jacobians", "", "max_jacobians", "-", 50, range::count_in(1, 10000), "Jacobians of the output-error fit at most",
+     "a fit ends; each Jacobian simulates every dwell once per parameter"},
+    {"reidentify", "global_evaluations", "", "global_evaluations", "-", 600, range::count_in(1, 1000000),
+     "simulations of the global stage (DIRECT-L) at most", "the global stage ends"},
+    {"reidentify", "derivative_half_width", "", "derivative_half_width", "-", 4, range::count_in(2, 100),
+     "Savitzky-Golay half-width of the measured initial states' velocities [samples]", "a derivative of degree 4 needs at least 2 samples each side"},
+    {"reidentify", "difference_step", "", "difference_step", "-", 1e-4, {.lo = 0.0, .hi = 0.1, .lo_open = true},
+     "forward-difference step of the output-error fit, relative to the parameters' starts",
+     "an orbit change far above the integration's 1e-10 relative error, far below the percent the data resolve"},
+
+    // validate's diagnosis (ref/validation/diagnosis.hpp): its one-parameter refits and transforms.
+    {"diagnosis", "max_jacobians", "", "max_jacobians", "-", 30, range::count_in(1, 10000),
+     "Jacobians of a refit between the grid's neighbours at most", "a refit ends; each Jacobian shoots the hypothesis's orbit once"},
+    {"diagnosis", "difference_step", "", "difference_step", "-", 1e-4, {.lo = 0.0, .hi = 0.1, .lo_open = true},
+     "forward-difference step of a refit, in units of the grid's spacing",
+     "an orbit change far above the shooting's 1e-10 m, far below a grid cell's"},
 
     // A study's job (ref/study/study.hpp; the SPEC's "job" object, docs/studies.md): what each point
     // runs. Set in the SPEC only: settle_rounds and max_period have no command-line flag.

@@ -271,8 +271,8 @@ std::vector<std::string> loop_job(const spec& sp, const point& p) {
   std::vector<std::string> truth, claimed, tentative;
   for (const auto& e : effect_library())
     if (has_effect(p.effects, e)) truth.emplace_back(e.name);
-  for (const auto& e : r.effects) claimed.push_back(e.effect);
-  for (const auto& e : r.tentative) tentative.push_back(e.effect);
+  claimed = r.decision.named;
+  tentative = r.decision.tentative;
   std::vector<std::string> c = blank_row(job_kind::loop, "ok", r.warnings.empty() ? "" : r.warnings.front());
   c[1] = name_set(truth);
   c[2] = name_set(claimed);
@@ -280,7 +280,7 @@ std::vector<std::string> loop_job(const spec& sp, const point& p) {
   c[4] = name_set(truth) == name_set(claimed) ? "1" : "0";
   c[5] = num(r.error_before);
   c[6] = num(r.error_after);
-  c[7] = r.unexplained ? "1" : "0";
+  c[7] = r.decision.unexplained ? "1" : "0";
   c[8] = num(r.noise);
   c[9] = std::to_string(r.warnings.size());
   return c;

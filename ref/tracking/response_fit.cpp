@@ -10,7 +10,8 @@
 
 #include "ref/base/errors.hpp"
 #include "ref/base/number_text.hpp"
-#include "ref/tracking/least_squares.hpp"
+#include "ref/inference/evidence.hpp"
+#include "ref/inference/least_squares.hpp"
 
 namespace rubref {
 
@@ -45,7 +46,6 @@ constexpr std::size_t kGridStarts = 4;
 // And the isotropic fit's mode split symmetrically (ratios of the two): two critical speeds a few
 // per cent apart, between which the isotropic fit sits.
 constexpr double kSplits[] = {1.02, 1.05, 1.1, 1.2};
-constexpr int kMaxIterations = 200;
 
 // The standard deviation of Gaussian values from their absolute values, robust to a minority of
 // outliers: 1.4826 times the median, then three times again over the values within 3 of those
@@ -201,29 +201,37 @@ struct problem {
   }
 };
 
-// Forward-difference Jacobian of the projected residuals (variable projection: the amplitudes
-// re-solved at each perturbed point).
-Eigen::MatrixXd jacobian(problem& pr, const std::vector<double>& th, const Eigen::VectorXd& r0, const std::vector<cplx>* fixed) {
-  Eigen::MatrixXd j(r0.size(), static_cast<Eigen::Index>(th.size()));
-  std::vector<cplx> amp;
-  for (std::size_t k = 0; k < th.size(); ++k) {
-    std::vector<double> t = th;
-    const double h = 1e-6 * std::max(1.0, std::abs(th[k]));
-    t[k] += h;
-    j.col(static_cast<Eigen::Index>(k)) = (pr.residuals(t, amp, fixed) - r0) / h;
-  }
-  return j;
+// The problem for the one solver (ref/inference/least_squares.hpp): the projected residuals
+// (variable projection: the amplitudes solved for at every point, so also at each of the forward
+// differences' points), inside the coordinates' bounds; the amplitudes `fixed` where given.
+least_squares_problem solver_problem(problem& pr, const std::vector<cplx>* fixed = nullptr) {
+  least_squares_problem lsq;
+  lsq.residuals = [&pr, fixed](const Eigen::VectorXd& u) -> std::optional<Eigen::VectorXd> {
+    std::vector<cplx> amp;
+    return pr.residuals(std::vector<double>(u.data(), u.data() + u.size()), amp, fixed);
+  };
+  std::vector<double> lo(kSlots, -std::numeric_limits<double>::infinity()), hi(kSlots, std::numeric_limits<double>::infinity());
+  for (const std::size_t k : {ln_wx, ln_wy}) lo[k] = std::log(pr.w_lo), hi[k] = std::log(pr.w_hi);
+  for (const std::size_t k : {ln_zx, ln_zy}) lo[k] = std::log(kZetaLo), hi[k] = std::log(kZetaHi);
+  for (const std::size_t k : {k_xy, k_yx}) lo[k] = -kCrossBound, hi[k] = kCrossBound;
+  const std::vector<double> l = pr.reduce(lo), h = pr.reduce(hi);
+  lsq.lower = Eigen::Map<const Eigen::VectorXd>(l.data(), static_cast<Eigen::Index>(l.size()));
+  lsq.upper = Eigen::Map<const Eigen::VectorXd>(h.data(), static_cast<Eigen::Index>(h.size()));
+  return lsq;
 }
 
-// Levenberg-Marquardt on the projected residuals, inside the coordinates' bounds.
-std::vector<double> levenberg_marquardt(problem& pr, std::vector<double> th) {
-  std::vector<cplx> amp;
-  const least_squares_problem lsq{[&pr, &amp](const std::vector<double>& q) { return pr.residuals(q, amp); },
-                                  [&pr](const std::vector<double>& q, const Eigen::VectorXd& r) { return jacobian(pr, q, r, nullptr); },
-                                  [&pr](std::vector<double> q) { return pr.clamp(std::move(q)); }};
-  return rubref::levenberg_marquardt(lsq, std::move(th), kMaxIterations);
+least_squares_options solver_options() {
+  least_squares_options o;
+  o.max_jacobians = default_count_of("response_fit", "max_jacobians");
+  o.difference_step = default_of("response_fit", "difference_step");
+  return o;
 }
 
+// The fit from q0 (the solver's end, in q's layout).
+std::vector<double> fit_from(problem& pr, const std::vector<double>& q0) {
+  const least_squares_result f = solve_least_squares(solver_problem(pr), Eigen::Map<const Eigen::VectorXd>(q0.data(), static_cast<Eigen::Index>(q0.size())), solver_options());
+  return std::vector<double>(f.u.data(), f.u.data() + f.u.size());
+}
 
 // |c| and arg c (degrees) of a complex amplitude with its covariance (re, im).
 std::pair<estimate, estimate> polar_estimate(cplx c, const Eigen::Matrix2d& cov) {
@@ -299,21 +307,12 @@ void check_fittable(const order_table& table) {
     throw input_error(table.source + ": every row is at " + format_digits(table.rpm.front()) + " rpm: a response against speed needs rows at more than one speed");
 }
 
-response_fit fit_response(const order_table& table, const response_parts& parts, const response_fit_options& options) {
-  const std::vector<std::size_t>& rows = options.rows;
-  const response_fit* start = options.start;
-  const fit_starts how = options.starts;
-  // An anisotropic fit without a start splits the isotropic fit's mode (two close critical
-  // speeds fall between the grid's points).
-  response_fit isotropic;
-  if (parts.anisotropy && !start) {
-    response_parts iso = parts;
-    iso.anisotropy = false;
-    response_fit_options o = options;
-    isotropic = fit_response(table, iso, o);
-    start = &isotropic;
-  }
-  problem pr{table, parts, {}, rows, {}, {}, false, {}};
+namespace {
+
+// The fit's problem: the table's 1X columns, the rows fitted, each probe's declared angle and
+// noise, the table's speed range, and the coordinates the parts free.
+problem set_up(const order_table& table, const response_parts& parts, const response_fit_options& options) {
+  problem pr{table, parts, {}, options.rows, {}, {}, false, {}};
   for (std::size_t o = 0; o < table.orders.size(); ++o)
     if (table.orders[o].order == 1) pr.orders.push_back(o);
   if (pr.orders.empty()) throw input_error(table.source + ": no 1X columns (amp_1x, phase_1x): the response fit reads the 1X");
@@ -341,16 +340,18 @@ response_fit fit_response(const order_table& table, const response_parts& parts,
   double lo = std::numeric_limits<double>::infinity(), hi = 0.0;
   for (const std::size_t i : pr.rows) lo = std::min(lo, table.rpm[i]), hi = std::max(hi, table.rpm[i]);
   pr.w_lo = lo * kRpmToRadS, pr.w_hi = hi * kRpmToRadS;
-
   check_fittable(table);
   pr.lay_out();
+  return pr;
+}
 
-  // The grid of starts, ranked by their projected residual.
-  const std::size_t n = pr.free.size();
-  // Each family of starts (a scan, the splits, a grid, cross-coupling switched on) is ranked on
-  // its own, and the best few of each are fitted: a family whose starts lie closer in residual
-  // is not always the one whose basin holds the fit (two close modes seen by one probe: the
-  // scan's best starts were lower than every split and led elsewhere).
+// The starts of the fits, best first within each family. Each family of starts (a scan, the
+// splits, a grid, cross-coupling switched on) is ranked on its own by its projected residual, and
+// the best few of each are fitted: a family whose starts lie closer in residual is not always the
+// one whose basin holds the fit (two close modes seen by one probe: the scan's best starts were
+// lower than every split and led elsewhere).
+std::vector<std::vector<double>> starts_of(problem& pr, const response_fit* start, fit_starts how) {
+  const response_parts& parts = pr.parts;
   std::vector<std::pair<double, std::vector<double>>> starts;
   std::vector<std::vector<double>> from;
   const auto rank_family = [&] {
@@ -364,8 +365,9 @@ response_fit fit_response(const order_table& table, const response_parts& parts,
     const std::vector<double> q = pr.clamp(pr.reduce(f));
     starts.emplace_back(pr.cost(q), q);
   };
+  const double ln_lo = std::log(pr.w_lo), ln_hi = std::log(pr.w_hi);
   std::vector<double> scan;  // ln w, 1 % apart, over the table's speeds
-  for (double u = std::log(lo * kRpmToRadS); u < std::log(hi * kRpmToRadS) + 0.5 * kScanStep; u += kScanStep) scan.push_back(u);
+  for (double u = ln_lo; u < ln_hi + 0.5 * kScanStep; u += kScanStep) scan.push_back(u);
   if (grid && !parts.anisotropy) {
     for (const double u : scan)
       for (const double z : kScanZetas) {
@@ -396,7 +398,7 @@ response_fit fit_response(const order_table& table, const response_parts& parts,
         }
   } else if (grid) {
     std::vector<double> speeds;
-    for (int i = 0; i < kGridSpeeds; ++i) speeds.push_back(std::log(lo * kRpmToRadS) + std::log(hi / lo) * i / (kGridSpeeds - 1));
+    for (int i = 0; i < kGridSpeeds; ++i) speeds.push_back(ln_lo + (ln_hi - ln_lo) * i / (kGridSpeeds - 1));
     for (int a = 0; a < kGridSpeeds; ++a)
       for (int b = pr.beta_fitted ? a : 0; b < kGridSpeeds; ++b)
         for (const double z : {0.02, 0.1})
@@ -418,8 +420,7 @@ response_fit fit_response(const order_table& table, const response_parts& parts,
         std::vector<double> f = start->theta;
         f[k_xy] = 0.1 * kCrossBound * a, f[k_yx] = 0.1 * kCrossBound * b;
         if (!start->parts.anisotropy && pr.beta_fitted) f[probe_beta] = kPi * g / angles;
-        const std::vector<double> q = pr.clamp(pr.reduce(f));
-        starts.emplace_back(pr.cost(q), q);
+        add(f);
       }
   rank_family();
   // A previous fit's point as it is (a part it lacks starts from off: equal modes, no
@@ -430,94 +431,88 @@ response_fit fit_response(const order_table& table, const response_parts& parts,
       if (!start->parts.anisotropy && pr.beta_fitted) f[probe_beta] = kPi * g / kGridAngles;
       from.push_back(pr.clamp(pr.reduce(f)));
     }
-  std::vector<double> best_q;
-  double best_cost = std::numeric_limits<double>::infinity();
-  for (const auto& q0 : from) {
-    const std::vector<double> q = levenberg_marquardt(pr, q0);
-    const double c = pr.cost(q);
-    if (c < best_cost) best_cost = c, best_q = q;
-  }
-  if (!std::isfinite(best_cost)) throw numerical_error(table.source + ": the 1X response fit found no finite residual from any start");
+  return from;
+}
 
-  std::vector<cplx> amp;
-  pr.residuals(best_q, amp);
-  std::vector<double> best = pr.full(best_q);
-  // One probe without a declared angle: the support axes have no names, so the modes are
-  // labelled by critical speed (a the lower), the frame turned to put x on mode a's axis (an
-  // exact symmetry of the model: every spatial angle turns by -90 degrees).
+// One probe without a declared angle: the support axes have no names, so the modes are labelled
+// by critical speed (a the lower), the frame turned to put x on mode a's axis (an exact symmetry
+// of the model: every spatial angle turns by -90 degrees), and the probe's angle put in [0, 180)
+// (turning it by 180 degrees flips its reading).
+void canonical_frame(const problem& pr, std::vector<double>& best, std::vector<cplx>& amp) {
+  if (!pr.beta_fitted) return;
   const cplx j(0.0, 1.0);
-  if (pr.beta_fitted && best[ln_wx] > best[ln_wy]) {
+  if (best[ln_wx] > best[ln_wy]) {
     std::swap(best[ln_wx], best[ln_wy]), std::swap(best[ln_zx], best[ln_zy]);
     best[probe_beta] -= kPi / 2.0;
     amp[0] *= -j;
-    if (parts.shaft_bow) amp.back() *= -j;
+    if (pr.parts.shaft_bow) amp.back() *= -j;
     const double kxy = best[k_xy], kyx = best[k_yx];
     best[k_xy] = -kyx, best[k_yx] = -kxy;
   }
-  if (pr.beta_fitted) {  // the probe's angle in [0, 180): turning it by 180 degrees flips its reading
-    const auto turn = [&](double by) {
-      best[probe_beta] += by, amp[0] = -amp[0];
-      if (parts.shaft_bow) amp.back() = -amp.back();
-    };
-    while (best[probe_beta] < 0.0) turn(kPi);
-    while (best[probe_beta] >= kPi) turn(-kPi);
-  }
-  best_q = pr.reduce(best);
-
-  // The covariance of every coordinate and amplitude (re, im) from the Jacobian at the fit, scaled
-  // by chi^2/dof where the residual exceeds the noise; directions the data do not constrain
-  // (eigenvalues below 1e-12 of the largest) get an infinite variance.
-  const Eigen::VectorXd r = pr.residuals(best_q, amp, &amp);
-  const std::size_t l = pr.amplitudes();
-  Eigen::MatrixXd jf(r.size(), static_cast<Eigen::Index>(n + 2 * l));
-  jf.leftCols(static_cast<Eigen::Index>(n)) = jacobian(pr, best_q, r, &amp);
-  {
-    std::vector<cplx> unit(l, 0.0), ignored;
-    for (std::size_t c = 0; c < l; ++c)
-      for (int part = 0; part < 2; ++part) {
-        std::fill(unit.begin(), unit.end(), cplx(0.0));
-        unit[c] = part == 0 ? cplx(1.0) : j;
-        // The residual is data - A x: its derivative along a unit amplitude is -A e_c.
-        std::vector<cplx> zero(l, 0.0);
-        const Eigen::VectorXd at_zero = pr.residuals(best_q, ignored, &zero), at_unit = pr.residuals(best_q, ignored, &unit);
-        jf.col(static_cast<Eigen::Index>(n + 2 * c + static_cast<std::size_t>(part))) = at_unit - at_zero;
-      }
-  }
-  response_fit f;
-  f.parts = parts;
-  f.chi2 = r.squaredNorm();
-  const std::size_t parameters = n + 2 * l;
-  f.dof = static_cast<std::size_t>(r.size()) > parameters ? static_cast<std::size_t>(r.size()) - parameters : 1;
-  const double ratio = f.chi2 / static_cast<double>(f.dof);
-  const double scale = std::max(1.0, ratio);
-  const coordinate_covariance cc = covariance_of(jf, scale);
-  const Eigen::MatrixXd& cov = cc.cov;
-  const std::vector<bool>& unbounded = cc.unbounded;
-  const auto sd = [&](std::size_t k) {
-    return unbounded[k] ? std::numeric_limits<double>::infinity() : std::sqrt(std::max(0.0, cov(static_cast<Eigen::Index>(k), static_cast<Eigen::Index>(k))));
+  const auto turn = [&](double by) {
+    best[probe_beta] += by, amp[0] = -amp[0];
+    if (pr.parts.shaft_bow) amp.back() = -amp.back();
   };
+  while (best[probe_beta] < 0.0) turn(kPi);
+  while (best[probe_beta] >= kPi) turn(-kPi);
+}
+
+// The residuals' series for their correlation factor: each probe's real and imaginary parts
+// along the fitted rows (in speed order).
+std::vector<residual_series> row_series(std::size_t probes, std::size_t rows) {
+  std::vector<residual_series> out;
+  for (std::size_t p = 0; p < probes; ++p)
+    for (Eigen::Index part = 0; part < 2; ++part)
+      out.push_back({static_cast<Eigen::Index>(2 * p * rows) + part, static_cast<Eigen::Index>(rows), 2});
+  return out;
+}
+
+// The covariance of every coordinate and amplitude (re, im) at the fit (ref/inference: scaled by
+// chi^2/dof where the residual exceeds the noise, and by the residuals' correlation over
+// neighbouring rows; directions the data do not constrain get an infinite variance). The
+// amplitudes' columns: the residual is data - A x, its derivative along a unit amplitude -A e_c.
+fit_covariance covariance_at(problem& pr, const std::vector<double>& best_q, const std::vector<cplx>& amp, const Eigen::VectorXd& r) {
+  const std::size_t n = best_q.size(), l = pr.amplitudes();
+  Eigen::MatrixXd jf(r.size(), static_cast<Eigen::Index>(n + 2 * l));
+  const least_squares_problem at_amplitudes = solver_problem(pr, &amp);
+  const Eigen::VectorXd u = Eigen::Map<const Eigen::VectorXd>(best_q.data(), static_cast<Eigen::Index>(n));
+  jf.leftCols(static_cast<Eigen::Index>(n)) = forward_difference_jacobian(at_amplitudes, u, r, solver_options().difference_step);
+  std::vector<cplx> unit(l, 0.0), zero(l, 0.0), ignored;
+  const Eigen::VectorXd at_zero = pr.residuals(best_q, ignored, &zero);
+  for (std::size_t c = 0; c < l; ++c)
+    for (int part = 0; part < 2; ++part) {
+      std::fill(unit.begin(), unit.end(), cplx(0.0));
+      unit[c] = part == 0 ? cplx(1.0) : cplx(0.0, 1.0);
+      jf.col(static_cast<Eigen::Index>(n + 2 * c + static_cast<std::size_t>(part))) = pr.residuals(best_q, ignored, &unit) - at_zero;
+    }
+  return covariance_of(jf, r, 1.0, row_series(pr.orders.size(), pr.rows.size()));
+}
+
+// The modes, unbalance, probes' angles and runouts, bow and cross-coupling with their 95 %
+// intervals, and how much the parts cancel.
+void estimates_into(response_fit& f, const problem& pr, const std::vector<double>& best, const std::vector<cplx>& amp, const fit_covariance& cc) {
+  const evidence_rules rules;
+  const std::size_t n = pr.free.size(), l = pr.amplitudes();
   const auto cov2 = [&](std::size_t k) {
-    Eigen::Matrix2d c = cov.block(static_cast<Eigen::Index>(k), static_cast<Eigen::Index>(k), 2, 2);
-    if (unbounded[k] || unbounded[k + 1]) c.setConstant(std::numeric_limits<double>::infinity());
+    Eigen::Matrix2d c = cc.cov.block(static_cast<Eigen::Index>(k), static_cast<Eigen::Index>(k), 2, 2);
+    if (cc.unconstrained[k] || cc.unconstrained[k + 1]) c.setConstant(std::numeric_limits<double>::infinity());
     return c;
   };
-
   // A slot's standard deviation (an isotropic rotor's y slots are its x slots).
   const auto sd_of = [&](std::size_t slot) {
-    if (!parts.anisotropy && slot == ln_wy) slot = ln_wx;
-    if (!parts.anisotropy && slot == ln_zy) slot = ln_zx;
+    if (!pr.parts.anisotropy && slot == ln_wy) slot = ln_wx;
+    if (!pr.parts.anisotropy && slot == ln_zy) slot = ln_zx;
     const auto at = std::find(pr.free.begin(), pr.free.end(), slot);
-    return at == pr.free.end() ? 0.0 : sd(static_cast<std::size_t>(at - pr.free.begin()));
+    return at == pr.free.end() ? 0.0 : cc.standard_deviation(static_cast<Eigen::Index>(at - pr.free.begin()));
   };
-
-  // Critical speeds and damping ratios: determined when their 95 % interval is within a factor
-  // of 2 either way (4 end to end), and not at an edge of the table's speeds.
-  for (int m = 0; m < (parts.anisotropy ? 2 : 1); ++m) {
+  // Critical speeds and damping ratios: determined when their 95 % interval is within the evidence
+  // rules' ratio (a factor of 2 either way), and not at an edge of the table's speeds.
+  for (int m = 0; m < (pr.parts.anisotropy ? 2 : 1); ++m) {
     const std::size_t w_slot = m == 0 ? ln_wx : ln_wy, z_slot = m == 0 ? ln_zx : ln_zy;
     response_mode mode;
-    mode.axis = !parts.anisotropy ? "both" : pr.beta_fitted ? (m == 0 ? "a" : "b") : (m == 0 ? "x" : "y");
-    mode.critical_speed_rpm = log_estimate(best[w_slot], sd_of(w_slot), kRpmToRadS, 4.0);
-    mode.damping_ratio = log_estimate(best[z_slot], sd_of(z_slot), 1.0, 4.0);
+    mode.axis = !pr.parts.anisotropy ? "both" : pr.beta_fitted ? (m == 0 ? "a" : "b") : (m == 0 ? "x" : "y");
+    mode.critical_speed_rpm = log_estimate(best[w_slot], sd_of(w_slot), kRpmToRadS, rules.max_interval_ratio);
+    mode.damping_ratio = log_estimate(best[z_slot], sd_of(z_slot), 1.0, rules.max_interval_ratio);
     mode.at_edge = best[w_slot] <= std::log(pr.w_lo) + 1e-9 || best[w_slot] >= std::log(pr.w_hi) - 1e-9;
     if (mode.at_edge) mode.critical_speed_rpm.determined = mode.damping_ratio.determined = false;
     f.modes.push_back(mode);
@@ -525,8 +520,7 @@ response_fit fit_response(const order_table& table, const response_parts& parts,
   if (f.modes.size() == 2 && f.modes[1].critical_speed_rpm.value < f.modes[0].critical_speed_rpm.value) std::swap(f.modes[0], f.modes[1]);
   std::tie(f.unbalance_m, f.unbalance_phase_deg) = polar_estimate(amp[0], cov2(n));
   for (std::size_t p = 0; p < pr.orders.size(); ++p) {
-    const tracked_order& o = table.orders[pr.orders[p]];
-    f.probes.push_back(o.probe);
+    f.probes.push_back(pr.table.orders[pr.orders[p]].probe);
     if (pr.beta[p]) {
       const double deg = *pr.beta[p] * 180.0 / kPi;
       f.probe_angle_deg.push_back({deg, deg, deg, true});
@@ -541,23 +535,21 @@ response_fit fit_response(const order_table& table, const response_parts& parts,
     f.runout_m.push_back(ra), f.runout_phase_deg.push_back(rp);
     f.noise_m.push_back(pr.sigma[p]);
   }
-  if (parts.shaft_bow) std::tie(f.bow_m, f.bow_phase_deg) = polar_estimate(amp.back(), cov2(n + 2 * (l - 1)));
+  if (pr.parts.shaft_bow) std::tie(f.bow_m, f.bow_phase_deg) = polar_estimate(amp.back(), cov2(n + 2 * (l - 1)));
   // How much the model's parts (the unbalance's response, the bow's, each runout) cancel: the
   // RMS over the fitted rows of the sum of their sizes over the RMS of their sum.
-  {
-    double parts_sq = 0.0, sum_sq = 0.0;
-    std::vector<cplx> col(l);
-    for (std::size_t p = 0; p < pr.orders.size(); ++p)
-      for (const std::size_t i : pr.rows) {
-        pr.columns(pr.point(best, p), p, table.rpm[i] * kRpmToRadS, col.data());
-        double size = 0.0;
-        cplx sum = 0.0;
-        for (std::size_t c = 0; c < l; ++c) size += std::abs(amp[c] * col[c]), sum += amp[c] * col[c];
-        parts_sq += size * size, sum_sq += std::norm(sum);
-      }
-    f.cancellation = sum_sq > 0.0 ? std::sqrt(parts_sq / sum_sq) : std::numeric_limits<double>::infinity();
-  }
-  if (parts.cross_coupling) {
+  double parts_sq = 0.0, sum_sq = 0.0;
+  std::vector<cplx> col(l);
+  for (std::size_t p = 0; p < pr.orders.size(); ++p)
+    for (const std::size_t i : pr.rows) {
+      pr.columns(pr.point(best, p), p, pr.table.rpm[i] * kRpmToRadS, col.data());
+      double size = 0.0;
+      cplx sum = 0.0;
+      for (std::size_t c = 0; c < l; ++c) size += std::abs(amp[c] * col[c]), sum += amp[c] * col[c];
+      parts_sq += size * size, sum_sq += std::norm(sum);
+    }
+  f.cancellation = sum_sq > 0.0 ? std::sqrt(parts_sq / sum_sq) : std::numeric_limits<double>::infinity();
+  if (pr.parts.cross_coupling) {
     const double w2 = std::exp(best[ln_wx] + best[ln_wy]);
     for (const std::size_t slot : {k_xy, k_yx}) {
       const double val = best[slot] * w2, s = sd_of(slot) * w2;
@@ -566,31 +558,71 @@ response_fit fit_response(const order_table& table, const response_parts& parts,
       f.cross_coupling_at_bound = f.cross_coupling_at_bound || at_bound;
     }
   }
-  // Within the 0.1 % bound of chi^2/dof, widened by the noise estimate's own uncertainty (a
-  // relative error s in the noise moves chi^2/dof by 2 s; the two added in quadrature).
-  const double chi2_bound = boost::math::quantile(boost::math::chi_squared(static_cast<double>(f.dof)), 0.999) / static_cast<double>(f.dof) - 1.0;
-  const double noise_bound = 3.29 * 2.0 * options.noise_relative_error;
-  f.chi2_bound = 1.0 + std::hypot(chi2_bound, noise_bound);
-  f.consistent_with_noise = ratio <= f.chi2_bound;
-  f.theta = best;
-  f.amplitudes = amp;
-  f.rows = pr.rows;
-  f.parameters = parameters;
-  f.evaluations = pr.evaluations;
+}
 
-  // The model and residual at every row of the table (fitted or not: a fold's held-out rows too).
+// chi^2 against its 0.1 % bound, widened by the noise estimate's own uncertainty (a relative error
+// s in the noise moves chi^2/dof by 2 s; the two added in quadrature), and the model and residual
+// at every row of the table (fitted or not: a fold's held-out rows too).
+void quality_into(response_fit& f, const problem& pr, double noise_relative_error) {
+  const double ratio = f.chi2 / static_cast<double>(f.dof);
+  const double chi2_bound = boost::math::quantile(boost::math::chi_squared(static_cast<double>(f.dof)), 0.999) / static_cast<double>(f.dof) - 1.0;
+  f.chi2_bound = 1.0 + std::hypot(chi2_bound, 3.29 * 2.0 * noise_relative_error);
+  f.consistent_with_noise = ratio <= f.chi2_bound;
   double sum2 = 0.0;
   std::size_t count = 0;
   f.model.assign(pr.orders.size(), {}), f.residual.assign(pr.orders.size(), {});
   for (std::size_t p = 0; p < pr.orders.size(); ++p)
-    for (std::size_t i = 0; i < table.rows(); ++i) {
-      const cplx mdl = response_at(f, p, table.rpm[i]);
+    for (std::size_t i = 0; i < pr.table.rows(); ++i) {
+      const cplx mdl = response_at(f, p, pr.table.rpm[i]);
       f.model[p].push_back(mdl);
-      f.residual[p].push_back(table.orders[pr.orders[p]].vector[i] - mdl);
+      f.residual[p].push_back(pr.table.orders[pr.orders[p]].vector[i] - mdl);
     }
   for (std::size_t p = 0; p < pr.orders.size(); ++p)
     for (const std::size_t i : pr.rows) sum2 += std::norm(f.residual[p][i]), ++count;
   f.rms_residual_m = std::sqrt(sum2 / static_cast<double>(2 * count));  // per component, as the noise
+}
+
+}  // namespace
+
+response_fit fit_response(const order_table& table, const response_parts& parts, const response_fit_options& options) {
+  // An anisotropic fit without a start splits the isotropic fit's mode (two close critical
+  // speeds fall between the grid's points).
+  const response_fit* start = options.start;
+  response_fit isotropic;
+  if (parts.anisotropy && !start) {
+    response_parts iso = parts;
+    iso.anisotropy = false;
+    isotropic = fit_response(table, iso, options);
+    start = &isotropic;
+  }
+  problem pr = set_up(table, parts, options);
+  std::vector<double> best_q;
+  double best_cost = std::numeric_limits<double>::infinity();
+  for (const auto& q0 : starts_of(pr, start, options.starts)) {
+    const std::vector<double> q = fit_from(pr, q0);
+    const double c = pr.cost(q);
+    if (c < best_cost) best_cost = c, best_q = q;
+  }
+  if (!std::isfinite(best_cost)) throw numerical_error(table.source + ": the 1X response fit found no finite residual from any start");
+
+  std::vector<cplx> amp;
+  pr.residuals(best_q, amp);
+  std::vector<double> best = pr.full(best_q);
+  canonical_frame(pr, best, amp);
+  best_q = pr.reduce(best);
+  const Eigen::VectorXd r = pr.residuals(best_q, amp, &amp);
+  const fit_covariance cc = covariance_at(pr, best_q, amp, r);
+  response_fit f;
+  f.parts = parts;
+  f.chi2 = r.squaredNorm();
+  f.parameters = best_q.size() + 2 * pr.amplitudes();
+  f.dof = cc.dof;
+  estimates_into(f, pr, best, amp, cc);
+  f.theta = best;
+  f.amplitudes = amp;
+  f.rows = pr.rows;
+  f.evaluations = pr.evaluations;
+  quality_into(f, pr, options.noise_relative_error);
   return f;
 }
 

@@ -10,9 +10,10 @@
 #include <boost/math/distributions/chi_squared.hpp>
 
 #include "ref/base/errors.hpp"
-#include "ref/integrate/shooting.hpp"
+#include "ref/orbits/fit_orbits.hpp"
 #include "ref/model/rotor_model.hpp"
-#include "ref/tracking/least_squares.hpp"
+#include "ref/inference/evidence.hpp"
+#include "ref/inference/least_squares.hpp"
 #include "variants/identified.hpp"
 
 namespace rubref {
@@ -39,8 +40,6 @@ constexpr std::size_t kReadSamples = 256;
 // from it (a run-up's jump off a fold): the slowest free decay rate z w of a lightly damped rotor
 // (z = 0.005 at 1000 rpm: 0.5 /s) would need more; the settled state only starts Newton again.
 constexpr int kSettleRevs = 60;
-constexpr int kShootIterations = 16;
-constexpr int kMaxIterations = 40;
 // The starts: the clearance as a share of the clearance's scale (below: the rub flattens the
 // peak, which the linear fit followed), the contact stiffness per unit mass in units of the lower
 // critical speed squared (a stator 30 and 300 times stiffer than the supports: contact frequencies
@@ -53,8 +52,10 @@ constexpr double kDampingShares[] = {1.0, 0.5, 0.25};
 constexpr double kStiffnessRatios[] = {30.0, 300.0};
 constexpr double kFrictionStart = 0.1;
 constexpr std::size_t kFittedStarts = 2;
-// Bounds: the clearance within 5 % and twice that scale (beyond it nothing touches), the
-// stiffness from the supports' to 1e4 times them (stiffer only costs steps and reads alike), mu in [0, 1].
+// Bounds (a box): the clearance within 5 % and twice that scale (beyond it nothing touches), the
+// stiffness per unit mass from the square of the table's lowest speed (at least as stiff as a
+// support whose critical speed is there) to 1e4 times the highest's (stiffer only costs steps and
+// reads alike), mu in [0, 1].
 constexpr double kClearanceLo = 0.05, kClearanceHi = 2.0;
 constexpr double kStiffnessHi = 1e4;
 
@@ -72,14 +73,6 @@ struct sample_recorder {
   }
   void on_event(const basic_contact_event<state6>&) {}
 };
-
-integration_options read_integration() {
-  integration_options opt;
-  opt.stepper.kind = stepper_kind::rkf78;
-  opt.stepper.rtol = 1e-12, opt.stepper.atol = 1e-16;  // as the shooting's own (ref/integrate/shooting.hpp)
-  opt.max_steps = 1000000;
-  return opt;
-}
 
 struct rub_problem {
   const order_table& table;
@@ -118,8 +111,7 @@ struct rub_problem {
     for (const std::size_t k : {ln_zx, ln_zy}) f[k] = std::clamp(f[k], std::log(1e-4), std::log(2.0));
     for (const std::size_t k : {k_xy, k_yx}) f[k] = std::clamp(f[k], -0.5, 0.5);
     f[ln_delta] = std::clamp(f[ln_delta], std::log(kClearanceLo * peak_m), std::log(kClearanceHi * peak_m));
-    const double w2 = std::exp(2.0 * f[ln_wx]);
-    f[ln_kappa] = std::clamp(f[ln_kappa], std::log(w2), std::log(kStiffnessHi * w_hi * w_hi));
+    f[ln_kappa] = std::clamp(f[ln_kappa], 2.0 * std::log(w_lo), std::log(kStiffnessHi * w_hi * w_hi));
     f[friction_mu] = std::clamp(f[friction_mu], 0.0, 1.0);
     return reduce(f);
   }
@@ -161,9 +153,8 @@ struct rub_problem {
     ++evaluations;
     const auto [p, fx] = rotor(f);
     std::vector<row_orbit> out(table.rows());
-    const integration_options opt = read_integration();
-    shooting_settings set;
-    set.max_iterations = kShootIterations;
+    // Shot, settled and read as every fit's orbit (ref/orbits/fit_orbits.hpp).
+    const integration_options settle = fit_sampling(kSettleRevs), read = fit_sampling();
     bool previous_contact = false;
     for (std::size_t i = 0; i < table.rows(); ++i) {
       const double w = table.rpm[i] * kRpmToRadS;
@@ -182,7 +173,7 @@ struct rub_problem {
       const double period = sys.period();
       const auto shoot = [&](const state6& g) -> std::optional<state6> {
         ++shots;
-        const auto orbit = shoot_periodic_orbit(sys, g, 0.0, 1, set);
+        const auto orbit = shoot_fit_orbit(sys, g, 0.0);
         if (orbit.stable()) return orbit.state;
         return std::nullopt;
       };
@@ -190,13 +181,13 @@ struct rub_problem {
       state6 start = guess;
       if (!on) {
         null_observer none;
-        start = integrate_hybrid(sys, start_state(sys, guess, 0.0), kSettleRevs * period, opt, sample_grid{}, none).s;
+        start = integrate_hybrid(sys, start_state(sys, guess, 0.0), kSettleRevs * period, settle, sample_grid{}, none).s;
         on = shoot(start);
       }
       o.periodic = on.has_value();
       std::vector<state6> samples;
       sample_recorder rec{&samples};
-      integrate_hybrid(sys, start_state(sys, on ? *on : start, 0.0), period, opt, sample_grid(0.0, period / static_cast<double>(kReadSamples), kReadSamples),
+      integrate_hybrid(sys, start_state(sys, on ? *on : start, 0.0), period, read, sample_grid(0.0, period / static_cast<double>(kReadSamples), kReadSamples),
                        rec);
       // The next speed starts from this one's orbit; after a row without one, from the
       // contact-free response (a transient's state as a start, tried, led the fits astray:
@@ -217,14 +208,15 @@ struct rub_problem {
   }
 
   // Weighted residuals (re, im per probe and row) at coordinates q; each probe's runout solved
-  // (the mean of data minus model over the fitted rows) or given.
-  Eigen::VectorXd residuals(const std::vector<double>& q, const std::vector<row_orbit>* warm, std::vector<row_orbit>* read, std::vector<cplx>& runout,
-                            const std::vector<cplx>* fixed) {
+  // (the mean of data minus model over the fitted rows) or given. Nothing where some row's orbit
+  // cannot be computed: the point is rejected, never read.
+  std::optional<Eigen::VectorXd> residuals(const std::vector<double>& q, const std::vector<row_orbit>* warm, std::vector<row_orbit>* read,
+                                           std::vector<cplx>& runout, const std::vector<cplx>* fixed) {
     std::vector<row_orbit> o;
     try {
       o = orbits(full(q, base), warm);
     } catch (const numerical_error&) {
-      return Eigen::VectorXd::Constant(static_cast<Eigen::Index>(2 * rows.size() * orders.size()), std::numeric_limits<double>::infinity());
+      return std::nullopt;
     }
     Eigen::VectorXd r(static_cast<Eigen::Index>(2 * rows.size() * orders.size()));
     runout.assign(orders.size(), 0.0);
@@ -246,22 +238,56 @@ struct rub_problem {
     return r;
   }
 
+  // Forward differences at q (residuals r0 there) with every row started from the orbits `at`.
   Eigen::MatrixXd jacobian(const std::vector<double>& q, const Eigen::VectorXd& r0, const std::vector<row_orbit>& at, const std::vector<cplx>* fixed) {
-    Eigen::MatrixXd j(r0.size(), static_cast<Eigen::Index>(q.size()));
-    std::vector<cplx> runout;
-    for (std::size_t k = 0; k < q.size(); ++k) {
-      std::vector<double> t = q;
-      const double h = 1e-5 * std::max(1.0, std::abs(q[k]));
-      t[k] += h;
-      j.col(static_cast<Eigen::Index>(k)) = (residuals(t, &at, nullptr, runout, fixed) - r0) / h;
-    }
-    return j;
+    least_squares_problem warm;
+    warm.residuals = [this, fixed, &at](const Eigen::VectorXd& v) {
+      std::vector<cplx> ignored;
+      return residuals(std::vector<double>(v.data(), v.data() + v.size()), &at, nullptr, ignored, fixed);
+    };
+    return forward_difference_jacobian(warm, Eigen::Map<const Eigen::VectorXd>(q.data(), static_cast<Eigen::Index>(q.size())), r0,
+                                       default_of("rub_fit", "difference_step"));
+  }
+
+  // The solver's problem (ref/inference/least_squares.hpp) in the free coordinates, inside their
+  // box: the residuals (runouts solved for, or `fixed`), and a Jacobian whose forward differences
+  // start every row from the orbits of the point they differ from (so that each stays on the
+  // branch that point followed).
+  least_squares_problem solver_problem(const std::vector<cplx>* fixed = nullptr) {
+    least_squares_problem lsq;
+    const auto as_q = [](const Eigen::VectorXd& u) { return std::vector<double>(u.data(), u.data() + u.size()); };
+    lsq.residuals = [this, fixed, as_q](const Eigen::VectorXd& u) {
+      std::vector<cplx> runout;
+      return residuals(as_q(u), nullptr, nullptr, runout, fixed);
+    };
+    lsq.jacobian = [this, fixed, as_q](const Eigen::VectorXd& u, const Eigen::VectorXd& r0) {
+      std::vector<row_orbit> here;
+      std::vector<cplx> runout;
+      (void)residuals(as_q(u), nullptr, &here, runout, fixed);
+      return jacobian(as_q(u), r0, here, fixed);
+    };
+    std::vector<double> lo(kRubSlots, -std::numeric_limits<double>::infinity()), hi(kRubSlots, std::numeric_limits<double>::infinity());
+    for (const std::size_t k : {ln_wx, ln_wy}) lo[k] = std::log(w_lo), hi[k] = std::log(w_hi);
+    for (const std::size_t k : {ln_zx, ln_zy}) lo[k] = std::log(1e-4), hi[k] = std::log(2.0);
+    for (const std::size_t k : {k_xy, k_yx}) lo[k] = -0.5, hi[k] = 0.5;
+    lo[ln_delta] = std::log(kClearanceLo * peak_m), hi[ln_delta] = std::log(kClearanceHi * peak_m);
+    lo[ln_kappa] = 2.0 * std::log(w_lo), hi[ln_kappa] = std::log(kStiffnessHi * w_hi * w_hi);
+    lo[friction_mu] = 0.0, hi[friction_mu] = 1.0;
+    const std::vector<double> l = reduce(lo), h = reduce(hi);
+    lsq.lower = Eigen::Map<const Eigen::VectorXd>(l.data(), static_cast<Eigen::Index>(l.size()));
+    lsq.upper = Eigen::Map<const Eigen::VectorXd>(h.data(), static_cast<Eigen::Index>(h.size()));
+    return lsq;
   }
 };
 
 }  // namespace
 
-rub_fit fit_rub(const order_table& table, const response_fit& linear, const rub_fit_options& options) {
+namespace {
+
+// The fit's problem: every probe's declared angle (the stator is at +y of them), the rows and
+// noise, the table's speed range, the coordinates the linear fit's parts free, and the linear fit's
+// coordinates and amplitudes as the start f0 (pr.base).
+rub_problem set_up(const order_table& table, const response_fit& linear, const rub_fit_options& options) {
   if (linear.probes.empty() || linear.theta.empty()) throw input_error("fit_rub: the 1X fit it starts from has no probes");
   rub_problem pr{table, linear.parts, {}, {}, {}, options.rows, {}, 1.0, 1.0, 1.0, 1.0, 0, 0, {}};
   for (std::size_t p = 0; p < linear.probes.size(); ++p) {
@@ -278,39 +304,42 @@ rub_fit fit_rub(const order_table& table, const response_fit& linear, const rub_
   for (const std::size_t i : pr.rows) lo = std::min(lo, table.rpm[i]), hi = std::max(hi, table.rpm[i]);
   pr.w_lo = lo * kRpmToRadS, pr.w_hi = hi * kRpmToRadS;
   pr.lay_out();
-
-  // The start: the linear fit's coordinates and amplitudes. The clearance's scales: the linear
-  // fit's largest vertical amplitude over the table's speeds and the table's largest 1X reading
-  // (a hardening branch carried past the critical speed reads larger than any contact-free fit);
-  // the clearance's bounds from the larger.
   std::vector<double> f0(kRubSlots, 0.0);
   for (std::size_t k = 0; k < kSlots; ++k) f0[k] = linear.theta[k];
   pr.ref_m = std::max(std::abs(linear.amplitudes[0]), 1e-12);
   f0[re_a] = linear.amplitudes[0].real() / pr.ref_m, f0[im_a] = linear.amplitudes[0].imag() / pr.ref_m;
   if (linear.parts.shaft_bow) f0[re_b] = linear.amplitudes.back().real() / pr.ref_m, f0[im_b] = linear.amplitudes.back().imag() / pr.ref_m;
   pr.base = f0;
-  double linear_peak = 0.0, data_peak = 0.0;
-  for (std::size_t i = 0; i < table.rows(); ++i) {
-    linear_peak = std::max(linear_peak, std::abs(pr.linear_xy(f0, table.rpm[i] * kRpmToRadS).second));
-    for (const std::size_t o : pr.orders) data_peak = std::max(data_peak, std::abs(table.orders[o].vector[i]));
-  }
-  const double peak = std::max(linear_peak, data_peak);
-  pr.peak_m = peak;
-  if (!(peak > 0.0)) throw numerical_error(table.source + ": the 1X fit it starts from has no vertical response");
+  return pr;
+}
 
+// The starts, best first by their residual (the best kFittedStarts of them), or the given fit's
+// point alone. The clearance's scales: the linear fit's largest vertical amplitude over the
+// table's speeds and the table's largest 1X reading (a hardening branch carried past the critical
+// speed reads larger than any contact-free fit); the clearance's bounds from the larger.
+std::vector<std::vector<double>> starts_of(rub_problem& pr, const rub_fit_options& options) {
+  const std::vector<double> f0 = pr.base;
+  double linear_peak = 0.0, data_peak = 0.0;
+  for (std::size_t i = 0; i < pr.table.rows(); ++i) {
+    linear_peak = std::max(linear_peak, std::abs(pr.linear_xy(f0, pr.table.rpm[i] * kRpmToRadS).second));
+    for (const std::size_t o : pr.orders) data_peak = std::max(data_peak, std::abs(pr.table.orders[o].vector[i]));
+  }
+  pr.peak_m = std::max(linear_peak, data_peak);
+  if (!(pr.peak_m > 0.0)) throw numerical_error(pr.table.source + ": the 1X fit it starts from has no vertical response");
   const auto cost_of = [&](const std::vector<double>& q) {
     std::vector<cplx> runout;
-    const double c = pr.residuals(q, nullptr, nullptr, runout, nullptr).squaredNorm();
-    return std::isfinite(c) ? c : std::numeric_limits<double>::infinity();
+    const auto r = pr.residuals(q, nullptr, nullptr, runout, nullptr);
+    return r && r->allFinite() ? r->squaredNorm() : std::numeric_limits<double>::infinity();
   };
   std::vector<std::vector<double>> from;
   if (options.start) {
     pr.base = options.start->q;
     pr.ref_m = options.start->ref_m;
     from.push_back(pr.clamp(pr.reduce(options.start->q)));
-  } else {
-    std::vector<std::pair<double, std::vector<double>>> starts;
-    for (const double scale : {linear_peak, data_peak})
+    return from;
+  }
+  std::vector<std::pair<double, std::vector<double>>> starts;
+  for (const double scale : {linear_peak, data_peak})
     for (const double share : kClearanceShares)
       for (const double ratio : kStiffnessRatios)
         for (const double damping : kDampingShares) {
@@ -321,82 +350,60 @@ rub_fit fit_rub(const order_table& table, const response_fit& linear, const rub_
           const std::vector<double> q = pr.clamp(pr.reduce(f));
           starts.emplace_back(cost_of(q), q);
         }
-    // A fit of other parts: of fewer, with this fit's extra parts off (equal modes, no bow, no
-    // cross-coupling); of more, with its extra parts dropped (an isotropic fit keeps x's mode);
-    // its unbalance and bow rescaled to this fit's reference size.
-    for (const rub_fit* smaller : options.also_from) {
-      std::vector<double> f = smaller->q;
-      const double rescale = smaller->ref_m / pr.ref_m;
-      for (const std::size_t k : {re_a, im_a, re_b, im_b}) f[k] *= rescale;
-      const std::vector<double> q = pr.clamp(pr.reduce(f));
-      starts.emplace_back(cost_of(q), q);
-    }
-    std::stable_sort(starts.begin(), starts.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
-    for (std::size_t i = 0; i < std::min(kFittedStarts, starts.size()); ++i)
-      if (std::isfinite(starts[i].first)) from.push_back(starts[i].second);
+  // A fit of other parts: of fewer, with this fit's extra parts off (equal modes, no bow, no
+  // cross-coupling); of more, with its extra parts dropped (an isotropic fit keeps x's mode); its
+  // unbalance and bow rescaled to this fit's reference size.
+  for (const rub_fit* other : options.also_from) {
+    std::vector<double> f = other->q;
+    const double rescale = other->ref_m / pr.ref_m;
+    for (const std::size_t k : {re_a, im_a, re_b, im_b}) f[k] *= rescale;
+    const std::vector<double> q = pr.clamp(pr.reduce(f));
+    starts.emplace_back(cost_of(q), q);
   }
+  std::stable_sort(starts.begin(), starts.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  for (std::size_t i = 0; i < std::min(kFittedStarts, starts.size()); ++i)
+    if (std::isfinite(starts[i].first)) from.push_back(starts[i].second);
+  return from;
+}
 
-  // Levenberg-Marquardt; each Jacobian's finite differences start every row from the orbits of
-  // the point they differ from.
-  std::vector<row_orbit> at;
-  std::vector<cplx> runout;
-  const least_squares_problem lsq{[&](const std::vector<double>& q) { return pr.residuals(q, nullptr, &at, runout, nullptr); },
-                                  [&](const std::vector<double>& q, const Eigen::VectorXd& r) {
-                                    std::vector<row_orbit> here;
-                                    std::vector<cplx> ignored;
-                                    (void)pr.residuals(q, nullptr, &here, ignored, nullptr);
-                                    return pr.jacobian(q, r, here, nullptr);
-                                  },
-                                  [&](std::vector<double> q) { return pr.clamp(std::move(q)); }};
+// The best fit from the starts, by the one solver.
+std::vector<double> best_fit(rub_problem& pr, const std::vector<std::vector<double>>& from) {
+  least_squares_options o;
+  o.max_jacobians = default_count_of("rub_fit", "max_jacobians");
+  o.difference_step = default_of("rub_fit", "difference_step");
+  const least_squares_problem lsq = pr.solver_problem();
   std::vector<double> best_q;
   double best_cost = std::numeric_limits<double>::infinity();
   for (const auto& q0 : from) {
-    const std::vector<double> q = levenberg_marquardt(lsq, q0, kMaxIterations);
-    const double c = cost_of(q);
-    if (c < best_cost) best_cost = c, best_q = q;
+    const least_squares_result f = solve_least_squares(lsq, Eigen::Map<const Eigen::VectorXd>(q0.data(), static_cast<Eigen::Index>(q0.size())), o);
+    if (f.ok && f.cost < best_cost) best_cost = f.cost, best_q.assign(f.u.data(), f.u.data() + f.u.size());
   }
-  if (!std::isfinite(best_cost)) throw numerical_error(table.source + ": the rub fit found no point whose every orbit could be computed");
+  if (!std::isfinite(best_cost)) throw numerical_error(pr.table.source + ": the rub fit found no point whose every orbit could be computed");
+  return best_q;
+}
 
-  // The fit's orbits, its runouts, and the covariance of every coordinate and runout (re, im).
-  std::vector<row_orbit> orbits;
-  const Eigen::VectorXd r = pr.residuals(best_q, nullptr, &orbits, runout, nullptr);
-  const std::size_t n = best_q.size(), probes = pr.orders.size();
-  Eigen::MatrixXd jf = Eigen::MatrixXd::Zero(r.size(), static_cast<Eigen::Index>(n + 2 * probes));
-  jf.leftCols(static_cast<Eigen::Index>(n)) = pr.jacobian(best_q, r, orbits, &runout);
-  for (std::size_t p = 0; p < probes; ++p)
-    for (std::size_t k = 0; k < pr.rows.size(); ++k) {
-      const auto row = static_cast<Eigen::Index>(2 * (p * pr.rows.size() + k));
-      jf(row, static_cast<Eigen::Index>(n + 2 * p)) = -1.0 / pr.sigma[p], jf(row + 1, static_cast<Eigen::Index>(n + 2 * p + 1)) = -1.0 / pr.sigma[p];
-    }
-  rub_fit f;
-  f.parts = linear.parts;
-  f.chi2 = r.squaredNorm();
-  f.parameters = n + 2 * probes;
-  f.dof = static_cast<std::size_t>(r.size()) > f.parameters ? static_cast<std::size_t>(r.size()) - f.parameters : 1;
-  const double ratio = f.chi2 / static_cast<double>(f.dof);
-  const coordinate_covariance cc = covariance_of(jf, std::max(1.0, ratio));
-  const auto sd = [&](std::size_t k) {
-    return cc.unbounded[k] ? std::numeric_limits<double>::infinity() : std::sqrt(std::max(0.0, cc.cov(static_cast<Eigen::Index>(k), static_cast<Eigen::Index>(k))));
-  };
+// The modes, unbalance, bow and cross-coupling with their 95 % intervals from the covariance of
+// the free coordinates (its first columns), and the rows in contact.
+void linear_estimates_into(rub_fit& f, const rub_problem& pr, const std::vector<double>& best, const fit_covariance& cc, const std::vector<double>& best_q) {
+  const evidence_rules rules;
   const auto index_of = [&](std::size_t slot) {
     if (!pr.parts.anisotropy && slot == ln_wy) slot = ln_wx;
     if (!pr.parts.anisotropy && slot == ln_zy) slot = ln_zx;
     return static_cast<std::size_t>(std::find(pr.free.begin(), pr.free.end(), slot) - pr.free.begin());
   };
-  const auto sd_of = [&](std::size_t slot) { return sd(index_of(slot)); };
+  const auto sd_of = [&](std::size_t slot) { return cc.standard_deviation(static_cast<Eigen::Index>(index_of(slot))); };
   const auto polar_of = [&](std::size_t k, double unit) {
     const auto i = static_cast<Eigen::Index>(k);
     const double inf = std::numeric_limits<double>::infinity();
-    if (cc.unbounded[k] || cc.unbounded[k + 1]) return polar_estimate(cplx(best_q[k], best_q[k + 1]) * unit, inf, inf, inf);
+    if (cc.unconstrained[k] || cc.unconstrained[k + 1]) return polar_estimate(cplx(best_q[k], best_q[k + 1]) * unit, inf, inf, inf);
     return polar_estimate(cplx(best_q[k], best_q[k + 1]) * unit, cc.cov(i, i) * unit * unit, cc.cov(i + 1, i + 1) * unit * unit, cc.cov(i, i + 1) * unit * unit);
   };
-  const std::vector<double> best = pr.full(best_q, pr.base);
   for (int m = 0; m < (pr.parts.anisotropy ? 2 : 1); ++m) {
     const std::size_t w_slot = m == 0 ? ln_wx : ln_wy, z_slot = m == 0 ? ln_zx : ln_zy;
     response_mode mode;
     mode.axis = !pr.parts.anisotropy ? "both" : (m == 0 ? "x" : "y");
-    mode.critical_speed_rpm = log_estimate(best[w_slot], sd_of(w_slot), kRpmToRadS, 4.0);
-    mode.damping_ratio = log_estimate(best[z_slot], sd_of(z_slot), 1.0, 4.0);
+    mode.critical_speed_rpm = log_estimate(best[w_slot], sd_of(w_slot), kRpmToRadS, rules.max_interval_ratio);
+    mode.damping_ratio = log_estimate(best[z_slot], sd_of(z_slot), 1.0, rules.max_interval_ratio);
     mode.at_edge = best[w_slot] <= std::log(pr.w_lo) + 1e-9 || best[w_slot] >= std::log(pr.w_hi) - 1e-9;
     if (mode.at_edge) mode.critical_speed_rpm.determined = mode.damping_ratio.determined = false;
     f.modes.push_back(mode);
@@ -411,46 +418,86 @@ rub_fit fit_rub(const order_table& table, const response_fit& linear, const rub_
       (slot == k_xy ? f.k_xy_over_m : f.k_yx_over_m) = {val, val - kZ95 * s, val + kZ95 * s, std::isfinite(s) && std::abs(val) > kZ95 * s};
     }
   }
+  // The clearance is determined when its interval spans less than the rules' ratio and some rows
+  // touch; the stiffness's interval says how far the table pins it (a stiff stator reads alike
+  // over decades); the friction is determined when its interval excludes 0.
+  f.clearance_m = log_estimate(best[ln_delta], sd_of(ln_delta), 1.0, rules.max_interval_ratio);
+  f.clearance_m.determined = f.clearance_m.determined && f.rows_in_contact > 0;
+  f.contact_stiffness_over_m = log_estimate(best[ln_kappa], sd_of(ln_kappa), 1.0, rules.max_interval_ratio);
+  const double mu = best[friction_mu], s = sd_of(friction_mu);
+  f.friction = {mu, std::max(0.0, mu - kZ95 * s), mu + kZ95 * s, std::isfinite(s) && mu > kZ95 * s};
+}
+
+// The model, its own 2X and the residual at every row, the noise test and the RMS residual.
+void rows_into(rub_fit& f, const rub_problem& pr, const std::vector<row_orbit>& orbits, const std::vector<cplx>& runout, double noise_relative_error) {
+  const std::size_t probes = pr.orders.size();
+  const double ratio = f.chi2 / static_cast<double>(f.dof);
+  const double chi2_bound = boost::math::quantile(boost::math::chi_squared(static_cast<double>(f.dof)), 0.999) / static_cast<double>(f.dof) - 1.0;
+  f.chi2_bound = 1.0 + std::hypot(chi2_bound, 3.29 * 2.0 * noise_relative_error);
+  f.consistent_with_noise = ratio <= f.chi2_bound;
+  double sum2 = 0.0;
+  f.model.assign(probes, {}), f.residual.assign(probes, {}), f.model_2x.assign(probes, {});
+  for (std::size_t p = 0; p < probes; ++p)
+    for (std::size_t i = 0; i < pr.table.rows(); ++i) {
+      const double c = std::cos(pr.beta[p]), s = std::sin(pr.beta[p]);
+      f.model[p].push_back(c * orbits[i].x1 + s * orbits[i].y1 + runout[p]);
+      f.residual[p].push_back(pr.table.orders[pr.orders[p]].vector[i] - f.model[p].back());
+      f.model_2x[p].push_back(c * orbits[i].x2 + s * orbits[i].y2);
+    }
+  for (std::size_t p = 0; p < probes; ++p)
+    for (const std::size_t i : pr.rows) sum2 += std::norm(f.residual[p][i]);
+  f.rms_residual_m = std::sqrt(sum2 / static_cast<double>(2 * probes * pr.rows.size()));
+}
+
+}  // namespace
+
+rub_fit fit_rub(const order_table& table, const response_fit& linear, const rub_fit_options& options) {
+  rub_problem pr = set_up(table, linear, options);
+  const std::vector<double> best_q = best_fit(pr, starts_of(pr, options));
+
+  // The fit's orbits, its runouts, and the covariance of every coordinate and runout (re, im),
+  // widened by the residuals' correlation over neighbouring rows (ref/inference).
+  std::vector<row_orbit> orbits;
+  std::vector<cplx> runout;
+  const auto at = pr.residuals(best_q, nullptr, &orbits, runout, nullptr);
+  if (!at) throw numerical_error(table.source + ": the rub fit's orbits cannot be computed at its own end");
+  const Eigen::VectorXd& r = *at;
+  const std::size_t n = best_q.size(), probes = pr.orders.size();
+  Eigen::MatrixXd jf = Eigen::MatrixXd::Zero(r.size(), static_cast<Eigen::Index>(n + 2 * probes));
+  jf.leftCols(static_cast<Eigen::Index>(n)) = pr.jacobian(best_q, r, orbits, &runout);
+  std::vector<residual_series> series;
+  for (std::size_t p = 0; p < probes; ++p) {
+    for (std::size_t k = 0; k < pr.rows.size(); ++k) {
+      const auto row = static_cast<Eigen::Index>(2 * (p * pr.rows.size() + k));
+      jf(row, static_cast<Eigen::Index>(n + 2 * p)) = -1.0 / pr.sigma[p], jf(row + 1, static_cast<Eigen::Index>(n + 2 * p + 1)) = -1.0 / pr.sigma[p];
+    }
+    for (Eigen::Index part = 0; part < 2; ++part)
+      series.push_back({static_cast<Eigen::Index>(2 * p * pr.rows.size()) + part, static_cast<Eigen::Index>(pr.rows.size()), 2});
+  }
+  const fit_covariance cc = covariance_of(jf, r, 1.0, series);
+  rub_fit f;
+  f.parts = linear.parts;
+  f.chi2 = r.squaredNorm();
+  f.parameters = n + 2 * probes;
+  f.dof = cc.dof;
   for (const std::size_t i : pr.rows)
     if (orbits[i].contact) {
       if (f.rows_in_contact == 0) f.contact_from_rpm = table.rpm[i];
       f.contact_to_rpm = table.rpm[i], ++f.rows_in_contact;
     }
   for (const std::size_t i : pr.rows) f.rows_not_periodic += orbits[i].periodic ? 0 : 1;
-  // The clearance is determined when its interval spans less than a factor of 4 and some rows
-  // touch; the stiffness's interval says how far the table pins it (a stiff stator reads alike
-  // over decades); the friction is determined when its interval excludes 0.
-  f.clearance_m = log_estimate(best[ln_delta], sd_of(ln_delta), 1.0, 4.0);
-  f.clearance_m.determined = f.clearance_m.determined && f.rows_in_contact > 0;
-  f.contact_stiffness_over_m = log_estimate(best[ln_kappa], sd_of(ln_kappa), 1.0, 4.0);
-  {
-    const double mu = best[friction_mu], s = sd_of(friction_mu);
-    f.friction = {mu, std::max(0.0, mu - kZ95 * s), mu + kZ95 * s, std::isfinite(s) && mu > kZ95 * s};
-  }
+  const std::vector<double> best = pr.full(best_q, pr.base);
+  linear_estimates_into(f, pr, best, cc, best_q);
   f.probes = linear.probes;
   for (std::size_t p = 0; p < probes; ++p) {
     const auto k = static_cast<Eigen::Index>(n + 2 * p);
     const double inf = std::numeric_limits<double>::infinity();
-    const bool open = cc.unbounded[n + 2 * p] || cc.unbounded[n + 2 * p + 1];
+    const bool open = cc.unconstrained[n + 2 * p] || cc.unconstrained[n + 2 * p + 1];
     const auto [ra, rp] = polar_estimate(runout[p], open ? inf : cc.cov(k, k), open ? inf : cc.cov(k + 1, k + 1), open ? inf : cc.cov(k, k + 1));
     f.runout_m.push_back(ra), f.runout_phase_deg.push_back(rp);
   }
   f.noise_m = pr.sigma;
-  const double chi2_bound = boost::math::quantile(boost::math::chi_squared(static_cast<double>(f.dof)), 0.999) / static_cast<double>(f.dof) - 1.0;
-  f.chi2_bound = 1.0 + std::hypot(chi2_bound, 3.29 * 2.0 * options.noise_relative_error);
-  f.consistent_with_noise = ratio <= f.chi2_bound;
-  double sum2 = 0.0;
-  f.model.assign(probes, {}), f.residual.assign(probes, {}), f.model_2x.assign(probes, {});
-  for (std::size_t p = 0; p < probes; ++p)
-    for (std::size_t i = 0; i < table.rows(); ++i) {
-      const double c = std::cos(pr.beta[p]), s = std::sin(pr.beta[p]);
-      f.model[p].push_back(c * orbits[i].x1 + s * orbits[i].y1 + runout[p]);
-      f.residual[p].push_back(table.orders[pr.orders[p]].vector[i] - f.model[p].back());
-      f.model_2x[p].push_back(c * orbits[i].x2 + s * orbits[i].y2);
-    }
-  for (std::size_t p = 0; p < probes; ++p)
-    for (const std::size_t i : pr.rows) sum2 += std::norm(f.residual[p][i]);
-  f.rms_residual_m = std::sqrt(sum2 / static_cast<double>(2 * probes * pr.rows.size()));
+  rows_into(f, pr, orbits, runout, options.noise_relative_error);
   f.q = best;
   f.ref_m = pr.ref_m;
   f.rows = pr.rows;

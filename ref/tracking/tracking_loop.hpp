@@ -2,9 +2,10 @@
 // `rubref loop TABLE` on an order-tracked table (docs/real-data.md): the base fit (an isotropic
 // rotor's one critical speed, the unbalance, each probe's runout; ref/tracking/response_fit.hpp),
 // every combination of the effects a 1X table can show (anisotropy: two critical speeds;
-// shaft_bow; cross_coupling) fitted, the one with the lowest BIC of those whose every part the
-// table determines and whose every effect is needed (the waveform loop's evidence rules), the
-// errors before and after, and where in speed the residual that is left lies.
+// shaft_bow; cross_coupling; a rub) fitted, the one with the lowest information criterion of
+// those whose every part the table determines and whose every effect is needed, by the evidence
+// rules every wing uses (ref/inference/evidence.hpp), the verdict, the errors before and after,
+// and where in speed the residual that is left lies.
 
 #include <functional>
 #include <optional>
@@ -12,6 +13,7 @@
 #include <vector>
 
 #include "ref/format/order_table.hpp"
+#include "ref/inference/verdict.hpp"
 #include "ref/tracking/response_fit.hpp"
 #include "ref/tracking/rub_fit.hpp"
 #include "ref/tracking/two_x_fit.hpp"
@@ -20,21 +22,23 @@ namespace rubref {
 
 // One combination of the effects, fitted with every coordinate free, and what the rules say of it.
 struct tracked_model {
-  std::vector<std::string> effects;  // in the library's order (anisotropy, shaft_bow, cross_coupling)
-  double chi2 = 0.0, bic = 0.0;
+  std::vector<std::string> effects;  // anisotropy, then the effect library's (shaft_bow, cross_coupling), then rub
+  double chi2 = 0.0, bic = 0.0;      // bic: the information criterion (ref/inference/evidence.hpp)
   std::string undetermined;          // "" when every part is determined (the plausibility rule), else what is not
   std::string estimates;             // its effects' parameters with their 95 % intervals, one line
   // Per effect in it: the model without that effect against this one.
   struct need {
     std::string effect;
-    double bic_rise = 0.0;                        // BIC without it minus with it
+    double bic_rise = 0.0;                        // the criterion without it minus with it
+    double excess_share = 0.0;                    // of the chi^2 excess without it that it removes
     std::vector<double> held_out_without, held_out_with;  // chi^2 of each fold's held-out rows
     double held_out_gain = 0.0;
     bool needed = false;
+    std::string reason;                           // the evidence rule's words
   };
   std::vector<need> needs;
   bool eligible = false;             // plausible, and every effect in it needed
-  std::string verdict;               // one line
+  std::string summary;               // one line: its fit against the rules
 };
 
 // A stretch of speed where the final residual is not noise.
@@ -54,11 +58,9 @@ struct two_x_result {
   std::string undetermined;              // "" when the misalignment fit's every part is determined
   tracked_model::need need;              // the misalignment against the runout alone
   bool named = false;                    // needed and plausible: the 2X model is `with`
-  std::string claim = "none";            // as tracking_result::claim, for the 2X
-  double remaining_share = 0.0;
-  bool unexplained = false;
+  verdict decision;                      // the 2X's, by the claim rule (misalignment_2x named, tentative or none)
   std::vector<double> noise_scatter_m, noise_residual_m;
-  std::string verdict;                   // one line
+  std::string summary;                   // one line
   const two_x_fit& after() const { return named ? with : before; }
 };
 
@@ -70,31 +72,33 @@ struct rub_result {
   std::string undetermined;              // "" when its clearance and modes are determined
   tracked_model::need need;              // the rub against the chosen contact-free model
   bool named = false;
-  std::string verdict;                   // one line
+  std::string summary;                   // one line
 };
 
 struct tracking_result {
   order_table table;
   response_fit before;                   // the base fit
   response_fit after;                    // with the contact-free effects added (the rub's fit, when named, is in `rub`)
-  std::vector<std::string> effects;      // claimed: the contact-free ones in the library's order, then rub, then misalignment_2x
-  std::vector<std::string> tentative;    // chosen but not claimed (the residual stays far from the noise)
   std::vector<tracked_model> models;     // every combination, the base first
   double error_before = 0.0, error_after = 0.0;  // m, RMS residual per component
-  // The 1X's claim: "full" (the residual is noise), "partial" (effects named, the residual is not noise but they
-  // removed 96 % of the base fit's excess: the remaining share is said), "tentative" (added, not
-  // claimed, or another combination explains the table alike: `rival`), "none" (nothing added;
-  // unexplained unless the base fit is noise).
-  std::string claim = "none";
-  double remaining_share = 0.0;          // of the base fit's chi^2 excess over its dof, left after
-  std::string rival;                     // an eligible combination of other effects within 10 of the chosen one's BIC (then "tentative")
-  bool unexplained = false;              // the 1X's or the 2X's residual is not noise and no claim covers it
+  // The 1X's verdict (the claim rule, ref/inference/evidence.hpp): the effects chosen among the
+  // combinations, claimed "full" (the residual is noise) or "partial" (not noise, but they remove
+  // claim_share of the base fit's chi^2 excess), or "tentative" (too little removed, or another
+  // eligible combination within min_criterion_rise of the chosen one's criterion: the rival), or
+  // "none". The 2X's is two_x->decision: the columns are fitted apart.
+  verdict decision;
   std::optional<rub_result> rub;         // when tried
   std::optional<two_x_result> two_x;     // when the table has a 2X column for every probe
   std::vector<residual_band> bands;      // 1X and 2X
   std::vector<double> noise_scatter_m, noise_residual_m;  // per probe: the two noise estimates; the fits use the smaller
   std::vector<std::string> cannot_see;   // what such a table cannot show
   std::vector<std::string> notes;
+
+  // The 1X's and the 2X's verdicts side by side: every effect claimed, every one tentative, and
+  // whether either leaves something unexplained.
+  std::vector<std::string> named() const;
+  std::vector<std::string> tentative() const;
+  bool unexplained() const;
 };
 
 tracking_result run_tracking_loop(const order_table& table, const std::function<void(const std::string&)>& progress = {});

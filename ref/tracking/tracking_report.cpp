@@ -20,10 +20,12 @@ json need_json(const tracked_model::need& n, bool with_name) {
   json j;
   if (with_name) j["effect"] = n.effect;
   j["bic_rise_without"] = n.bic_rise;
+  j["excess_share"] = n.excess_share;
   j["held_out_chi2_without"] = n.held_out_without;
   j["held_out_chi2_with"] = n.held_out_with;
   j["held_out_gain"] = n.held_out_gain;
   j["needed"] = n.needed;
+  j["reason"] = n.reason;
   return j;
 }
 
@@ -91,7 +93,7 @@ json rub_json(const rub_result& t) {
   j["need"] = need_json(t.need, false);
   j["evaluations"] = f.evaluations;
   j["orbits_shot"] = f.shots;
-  j["verdict"] = t.verdict;
+  j["summary"] = t.summary;
   return j;
 }
 
@@ -137,12 +139,7 @@ json to_json(const tracking_result& r) {
                 {"from_base_residual_m", r.noise_residual_m},
                 {"used_m", r.after.noise_m},
                 {"rule", "per probe, the smallest of the rows' scatter and the residual scatter of the base fit and of the best-fitting plausible model"}};
-  j["effects"] = r.effects;
-  j["tentative"] = r.tentative;
-  j["claim"] = r.claim;
-  j["unexplained"] = r.unexplained;
-  j["remaining_share"] = r.remaining_share;
-  j["rival"] = r.rival;
+  j["verdict"] = to_json(r.decision);
   j["error_before"] = r.error_before;
   j["error_after"] = r.error_after;
   j["error_unit"] = "m, RMS of the 1X residual per real and imaginary part";
@@ -152,13 +149,11 @@ json to_json(const tracking_result& r) {
     j["two_x"] = {{"error_before", t.before.rms_residual_m},
                   {"error_after", t.after().rms_residual_m},
                   {"misalignment_named", t.named},
-                  {"claim", t.claim},
-                  {"remaining_share", t.remaining_share},
-                  {"unexplained", t.unexplained},
+                  {"verdict", to_json(t.decision)},
                   {"undetermined", t.undetermined},
                   {"need", need_json(t.need, false)},
                   {"noise", {{"from_row_scatter_m", t.noise_scatter_m}, {"from_runout_residual_m", t.noise_residual_m}, {"used_m", t.after().noise_m}}},
-                  {"verdict", t.verdict},
+                  {"summary", t.summary},
                   {"before_fit", two_x_fit_json(t.before)},
                   {"with_misalignment_fit", two_x_fit_json(t.with)}};
   }
@@ -176,7 +171,7 @@ json to_json(const tracking_result& r) {
                            {"estimates", m.estimates},
                            {"needs", needs},
                            {"eligible", m.eligible},
-                           {"verdict", m.verdict}});
+                           {"summary", m.summary}});
   }
   j["residual_bands"] = json::array();
   for (const auto& b : r.bands)
@@ -211,24 +206,13 @@ std::string to_markdown(const tracking_result& r) {
     s += "- noise" + (f.probes[p].empty() ? std::string() : " of " + f.probes[p]) + ": " + um(r.noise_scatter_m[p]) + " from the rows' scatter, " +
          um(r.noise_residual_m[p]) + " from the base fit's residual; used " + um(f.noise_m[p]) +
          " (the smallest of those and the best-fitting plausible model's residual scatter)\n";
-  s += "\n## Verdict\n\n";
+  s += "\n" + to_markdown(r.decision);
   const double chi2_after = rub_named ? r.rub->fit.chi2 / static_cast<double>(r.rub->fit.dof) : f.chi2 / static_cast<double>(f.dof);
-  const bool noise_after = rub_named ? r.rub->fit.consistent_with_noise : f.consistent_with_noise;
   s += "- error before (base fit): " + um(r.error_before) + " RMS; after: " + um(r.error_after) + " (χ²/dof " +
        format_digits(r.before.chi2 / static_cast<double>(r.before.dof), 3) + " → " + format_digits(chi2_after, 3) + ")\n";
-  s += "- effects: " + (r.effects.empty() ? std::string("none") : "");
-  for (std::size_t i = 0; i < r.effects.size(); ++i) s += (i ? ", " : "") + r.effects[i];
-  if (!r.tentative.empty()) {
-    s += " (tentative, not claimed: ";
-    for (std::size_t i = 0; i < r.tentative.size(); ++i) s += (i ? ", " : "") + r.tentative[i];
-    s += ")";
-  }
-  if (!r.rival.empty()) s += "\n- not decisive: " + r.rival + " explains the table alike (BIC within 10), so neither is claimed";
-  s += "\n- claim: " + r.claim + (r.claim == "partial" || r.claim == "tentative" ? " (" + format_fixed(100.0 * r.remaining_share, 1) + " % of the excess remains)" : "") +
-       (r.unexplained ? "; the residual is unexplained" : noise_after ? "; the residual is noise" : "") + "\n";
   if (r.rub) {
     const rub_fit& g = r.rub->fit;
-    s += "- rub (the chosen model with the paper's contact at the top, piecewise-linear law, shot at every speed): " + r.rub->verdict + "\n";
+    s += "- rub (the chosen model with the paper's contact at the top, piecewise-linear law, shot at every speed): " + r.rub->summary + "\n";
     if (r.rub->named) {
       s += "  - its modes: ";
       for (std::size_t m = 0; m < g.modes.size(); ++m)
@@ -238,8 +222,8 @@ std::string to_markdown(const tracking_result& r) {
   }
   if (r.two_x) {
     const two_x_result& t = *r.two_x;
-    s += "- 2X: error before (runout alone): " + um(t.before.rms_residual_m) + " RMS; after: " + um(t.after().rms_residual_m) + "; " + t.verdict +
-         "; claim " + t.claim + (t.unexplained ? " (the 2X residual is unexplained)" : "") + "\n";
+    s += "- 2X: error before (runout alone): " + um(t.before.rms_residual_m) + " RMS; after: " + um(t.after().rms_residual_m) + "; " + t.summary +
+         "; " + summary_line(t.decision) + "\n";
     if (t.with.misalignment)
       s += "- misalignment fit: F2/m " + range(t.with.force_over_m) + " m/s² at " + range(t.with.force_phase_deg) + "° (through the chosen modes at 2X)\n";
     for (std::size_t p = 0; p < t.after().probes.size(); ++p)
@@ -251,7 +235,7 @@ std::string to_markdown(const tracking_result& r) {
   for (const auto& m : r.models) {
     std::string names;
     for (const auto& e : m.effects) names += (names.empty() ? "" : ", ") + e;
-    s += "| " + (names.empty() ? std::string("base") : names) + " | " + (m.estimates.empty() ? std::string("–") : m.estimates) + " | " + m.verdict + " |\n";
+    s += "| " + (names.empty() ? std::string("base") : names) + " | " + (m.estimates.empty() ? std::string("–") : m.estimates) + " | " + m.summary + " |\n";
   }
   if (!r.bands.empty()) {
     s += "\nWhere the residual is not noise (0.1 % false-alarm rate per stretch):\n\n| probe | order | from (rpm) | to (rpm) | rows | RMS / noise |\n|---|---|---|---|---|---|\n";
@@ -300,9 +284,7 @@ json plot_data(const tracking_result& r) {
     }
     j["probes"].push_back(probe);
   }
-  j["effects"] = r.after.parts.anisotropy || r.after.parts.shaft_bow || r.after.parts.cross_coupling || (r.rub && r.rub->named)
-                     ? (r.effects.empty() ? r.tentative : r.effects)
-                     : std::vector<std::string>{};
+  j["effects"] = r.decision.chosen();
   return j;
 }
 

@@ -1,7 +1,6 @@
 #include "ref/validation/diagnosis.hpp"
 
 #include <algorithm>
-#include <boost/math/tools/minima.hpp>
 #include <boost/numeric/odeint.hpp>
 #include <cmath>
 #include <functional>
@@ -12,7 +11,8 @@
 
 #include "ref/base/errors.hpp"
 #include "ref/base/parallel.hpp"
-#include "ref/integrate/shooting.hpp"
+#include "ref/inference/least_squares.hpp"
+#include "ref/orbits/fit_orbits.hpp"
 #include "variants/all_variants.hpp"
 
 namespace rubref {
@@ -84,26 +84,20 @@ struct hypothesis {
   double offset_x = 0.0, offset_y = 0.0;  // m, added to the model's positions
 };
 
-// Newton's tolerance for a hypothesis's orbit: 1e-10 m, below 1/300 of the smallest case
-// tolerance (3.3e-8 m), so the comparison sees the orbit, not the shooting's residual.
-constexpr double kHypothesisShootingTol = 1e-10;
-
+// A hypothesis's orbit is shot and sampled as every fit's (ref/orbits/fit_orbits.hpp): to the
+// shooting's 1e-12 m, far below the smallest case tolerance (3.3e-8 m), so the comparison sees
+// the orbit, not the shooting's residual; a hypothesis far from the candidate (a law pressing the
+// rotor into the stator) fails fast instead of crawling.
 template <class Law>
 model_fit fit_orbit(const hypothesis& h, const view& v, const std::vector<orbit_start>& guesses) {
   model_fit out;
   const rotor_system<Law> model(h.params, h.omega);
-  shooting_settings set;
-  set.tolerance = kHypothesisShootingTol;
-  set.max_iterations = 20;
-  // A hypothesis far from the candidate (a law pressing the rotor into the stator) fails fast
-  // instead of crawling: ~100x the steps of a revolution of the paper's orbits.
-  set.integration.max_steps = 100000;
   const double T = model.period();
   for (const orbit_start& guess : guesses) {
     if (!std::all_of(guess.s.begin(), guess.s.end(), [](double a) { return std::isfinite(a); })) continue;
     periodic_orbit<4> shot;
     try {
-      shot = shoot_periodic_orbit(model, guess.s, guess.t0, guess.periods, set);
+      shot = shoot_fit_orbit(model, guess.s, guess.t0, guess.periods);
     } catch (const std::exception&) {
       continue;
     }
@@ -127,7 +121,7 @@ model_fit fit_orbit(const hypothesis& h, const view& v, const std::vector<orbit_
       void on_event(const contact_event&) {}
     } kept;
     try {
-      integrate_hybrid(model, start_state(model, shot.state, guess.t0), guess.t0 + P, set.integration, sample_grid::at(times), kept);
+      integrate_hybrid(model, start_state(model, shot.state, guess.t0), guess.t0 + P, fit_sampling(guess.periods), sample_grid::at(times), kept);
     } catch (const std::exception&) {
       continue;
     }
@@ -206,10 +200,10 @@ orbit_start golden_start(const golden_case& g) {
 
 // ----------------------------------------------------------------------------------------------
 // One-parameter refit: the value in [lo, hi] with which the hypothesis comes closest (RMS) to
-// the view. A grid, zoomed kRefitZooms times around its best point (orbits continued from point to
-// point), then Brent's method between the last best point's neighbours. The zoom, not Brent
-// alone, brackets the minimum: near a grazing contact Newton may fail at some values, and a
-// failed value would mislead Brent's parabolas.
+// the view. A grid (orbits continued from point to point) brackets the minimum; the one
+// least-squares solver (ref/inference/least_squares.hpp) refines it from the grid's best point
+// within its neighbours. Near a grazing contact Newton may fail at some values: such a value is
+// a rejected step of the solver, never read as a number.
 
 struct refit {
   double value = 0.0;
@@ -221,13 +215,26 @@ constexpr int kRefitGrid = 8;
 // difference there, the right one (its grid point within 1/16 of the range of the fault) several
 // times closer, so the few closest hold it.
 constexpr std::size_t kRefined = 4;
-constexpr int kRefitZooms = 3;
+
+// The solver on one scalar x = centre + u step, u in [lo_u, hi_u], `residual` nothing where it
+// cannot be evaluated; the solver's end.
+double refine_scalar(const std::function<std::optional<Eigen::VectorXd>(double)>& residual, double centre, double step, double lo, double hi) {
+  least_squares_problem lsq;
+  lsq.residuals = [&](const Eigen::VectorXd& u) { return residual(centre + u[0] * step); };
+  lsq.lower = Eigen::VectorXd::Constant(1, (lo - centre) / step);
+  lsq.upper = Eigen::VectorXd::Constant(1, (hi - centre) / step);
+  least_squares_options o;
+  o.max_jacobians = default_count_of("diagnosis", "max_jacobians");
+  o.difference_step = default_of("diagnosis", "difference_step");
+  const least_squares_result f = solve_least_squares(lsq, Eigen::VectorXd::Zero(1), o);
+  return centre + f.u[0] * step;
+}
 
 refit fit_one(const hypothesis& base, const std::function<void(hypothesis&, double)>& set, double lo, double hi, const view& v,
               const std::vector<orbit_start>& starts, bool refine, std::optional<double> extra = std::nullopt) {
   refit best;
   std::optional<orbit_start> warm;
-  const auto objective = [&](double value) {
+  const auto evaluate_at = [&](double value) {
     hypothesis h = base;
     set(h, value);
     std::vector<orbit_start> guesses(starts.begin(), starts.begin() + (starts.empty() ? 0 : 1));
@@ -236,21 +243,20 @@ refit fit_one(const hypothesis& base, const std::function<void(hypothesis&, doub
     const model_fit f = evaluate(h, v, guesses);
     if (f.converged) warm = f.orbit;
     if (f.rms < best.fit.rms) best = {value, f};
-    return f.converged ? f.rms : 1e30;
+    return f;
   };
   // The linearised step from the case's value (a small fault lies between grid points).
-  if (extra && *extra >= lo && *extra <= hi) objective(*extra);
-  double a = lo, b = hi;
-  for (int zoom = 0; zoom <= (refine ? kRefitZooms : 0); ++zoom) {
-    const double step = (b - a) / kRefitGrid;
-    for (int k = 0; k <= kRefitGrid; ++k) objective(a + step * k);
-    if (!best.fit.converged) return best;
-    a = best.value - step;
-    b = best.value + step;
-  }
-  if (!refine) return best;
-  std::uintmax_t iterations = 30;
-  boost::math::tools::brent_find_minima(objective, a, b, 40, iterations);
+  if (extra && *extra >= lo && *extra <= hi) evaluate_at(*extra);
+  const double step = (hi - lo) / kRefitGrid;
+  for (int k = 0; k <= kRefitGrid; ++k) evaluate_at(lo + step * k);
+  if (!best.fit.converged || !refine) return best;
+  refine_scalar(
+      [&](double value) -> std::optional<Eigen::VectorXd> {
+        const model_fit f = evaluate_at(value);
+        if (!f.converged) return std::nullopt;
+        return Eigen::Map<const Eigen::VectorXd>(f.residual.data(), static_cast<Eigen::Index>(f.residual.size()));
+      },
+      best.value, step, std::max(lo, best.value - step), std::min(hi, best.value + step));
   return best;
 }
 
@@ -352,7 +358,25 @@ struct transform_search {
     return std::max(0.0, mean_sq);
   }
 
-  // The best shift of map A: a grid of 4 points per golden sample over the period, then Brent.
+  // The differences at shift tau, x then y per sample (less their mean when `offset`): cost's
+  // terms, for the solver.
+  Eigen::VectorXd differences(const axis_map& A, double tau, bool offset) const {
+    const std::size_t n = v.t.size();
+    Eigen::VectorXd r(static_cast<Eigen::Index>(2 * n));
+    for (std::size_t i = 0; i < n; ++i) {
+      const auto p = curve.at(v.t[i] + tau);
+      r[static_cast<Eigen::Index>(2 * i)] = v.x[i] / scale - (A.a11 * p[0] + A.a12 * p[1]);
+      r[static_cast<Eigen::Index>(2 * i + 1)] = v.y[i] / scale - (A.a21 * p[0] + A.a22 * p[1]);
+    }
+    if (offset) {
+      const double mx = r(Eigen::seq(0, Eigen::last, 2)).mean(), my = r(Eigen::seq(1, Eigen::last, 2)).mean();
+      for (std::size_t i = 0; i < n; ++i) r[static_cast<Eigen::Index>(2 * i)] -= mx, r[static_cast<Eigen::Index>(2 * i + 1)] -= my;
+    }
+    return r;
+  }
+
+  // The best shift of map A: a grid of 4 points per golden sample over the period, then the
+  // solver between the best point's neighbours.
   std::pair<double, double> best_shift(const axis_map& A, bool offset) const {
     const std::size_t M = 4 * curve.per;
     double best_tau = 0.0, best = kInf;
@@ -365,8 +389,8 @@ struct transform_search {
       }
     }
     const double d = curve.P / static_cast<double>(M);
-    std::uintmax_t iterations = 40;
-    const auto [tau, c] = boost::math::tools::brent_find_minima([&](double t) { return cost(A, t, offset); }, best_tau - d, best_tau + d, 50, iterations);
+    const double tau = refine_scalar([&](double t) -> std::optional<Eigen::VectorXd> { return differences(A, t, offset); }, best_tau, d, best_tau - d, best_tau + d);
+    const double c = cost(A, tau, offset);
     return c < best ? std::pair{tau, c} : std::pair{best_tau, best};
   }
 };

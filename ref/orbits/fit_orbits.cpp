@@ -1,0 +1,27 @@
+#include "ref/orbits/fit_orbits.hpp"
+
+namespace rubref {
+
+void fit_orbit_options::validate() const {
+  check({"fit_orbits", "max_iterations"}, max_iterations);
+  check({"fit_orbits", "max_steps_per_revolution"}, max_steps_per_revolution);
+  check({"", "tolerance"}, tolerance);
+}
+
+shooting_settings fit_shooting(int periods, const fit_orbit_options& o) {
+  o.validate();
+  shooting_settings set;
+  set.max_iterations = o.max_iterations;
+  set.tolerance = o.tolerance;
+  set.integration.max_steps = static_cast<std::size_t>(o.max_steps_per_revolution) * static_cast<std::size_t>(std::max(periods, 1));
+  return set;
+}
+
+integration_options fit_sampling(int revolutions, const fit_orbit_options& o) {
+  o.validate();
+  integration_options opt;  // the registry's rtol and atol
+  opt.max_steps = static_cast<std::size_t>(o.max_steps_per_revolution) * static_cast<std::size_t>(std::max(revolutions, 1));
+  return opt;
+}
+
+}  // namespace rubref

@@ -1,0 +1,38 @@
+#pragma once
+// Periodic orbits as the fits compare them with data: the loop's predictor, the tables' rub fit,
+// identification's orbit and output-error fits and validate's diagnosis shoot with these options
+// and sample with this integration, from the settings registry (scope "fit_orbits"); none makes
+// its own. The shooting is the one routine (ref/integrate/shooting.hpp: Newton on the
+// n-revolution map with its exact monodromy).
+
+#include "ref/integrate/shooting.hpp"
+
+namespace rubref {
+
+struct fit_orbit_options {
+  // Newton's iterations: from a neighbouring point's orbit shooting converges in a few; a trial
+  // model that needs more is far off the data and is a failed point.
+  int max_iterations = default_count_of("fit_orbits", "max_iterations");
+  // Steps per revolution beyond which a trial model is a failed point rather than integrated (a
+  // revolution of the paper's model takes ~10^3).
+  int max_steps_per_revolution = default_count_of("fit_orbits", "max_steps_per_revolution");
+  double tolerance = kShootingTolerance;  // m, |P(s) - s|
+  void validate() const;                  // input_error naming the setting
+};
+
+// The shooting's settings for a fit's orbit of `periods` revolutions (its stepper the shooting's
+// own: rkf78 at 1e-12 / 1e-16).
+shooting_settings fit_shooting(int periods = 1, const fit_orbit_options& o = {});
+
+// The integration that samples a shot orbit on the data's grid, or settles a transient of
+// `revolutions`: the registry's integration tolerances (rtol 1e-10, atol 1e-14: ~1e-13 m on a
+// 0.3 mm orbit, below every difference a fit takes), the step budget as the shooting's per revolution.
+integration_options fit_sampling(int revolutions = 1, const fit_orbit_options& o = {});
+
+// The model's periodic orbit of `periods` revolutions near `guess` at t0.
+template <class System>
+auto shoot_fit_orbit(const System& sys, const state_of<System>& guess, double t0, int periods = 1, const fit_orbit_options& o = {}) {
+  return shoot_periodic_orbit(sys, guess, t0, periods, fit_shooting(periods, o));
+}
+
+}  // namespace rubref
