@@ -44,20 +44,20 @@ void add_identify(CLI::App& app) {
   sub->add_option("--law-method", st->law_method, "how the contact law is regressed: auto (from the probe noise), samples (the paper's, on second derivatives) or weak-form (integrals, noise-robust)")
       ->check(CLI::IsMember({"auto", "samples", "weak-form"}))
       ->capture_default_str();
-  sub->add_option("--mass", s.mass, "rotor mass when the linear part is fitted [kg] (not identifiable from displacements)")->capture_default_str();
-  sub->add_option("--clearance", s.clearance, "clearance for records without clearance_m metadata [m]");
+  add_setting(*sub, s.mass, {"identify", "mass"});
+  add_setting(*sub, s.clearance, {"identify", "clearance"});
   sub->add_option("--library", s.library, "candidate terms, e.g. z1..4,zd1..4,abszd1*zd1,z1.5,const")->capture_default_str();
-  sub->add_option("--rho", s.frols.rho, "stop selecting when 1 - sum ERR <= rho")->capture_default_str();
-  sub->add_option("--err-threshold", s.frols.err_threshold, "keep selected terms whose ERR >= this")->capture_default_str();
+  add_setting(*sub, s.frols.rho, {"frols", "rho"});
+  add_setting(*sub, s.frols.err_threshold, {"frols", "err_threshold"});
   sub->add_option("--stop", st->stop, "stopping rule: err (rho), aic or bic")->check(CLI::IsMember({"err", "aic", "bic"}))->capture_default_str();
-  sub->add_option("--sg-half-width", s.derivative.half_width, "Savitzky-Golay half-width [samples]")->capture_default_str();
-  sub->add_option("--sg-degree", s.derivative.degree, "Savitzky-Golay polynomial degree")->capture_default_str();
+  add_setting(*sub, s.derivative.half_width, {"derivatives", "half_width"});
+  add_setting(*sub, s.derivative.degree, {"derivatives", "degree"});
   sub->add_option("--averaging", st->averaging, "synchronous averaging of the dwells that touch: auto (each steady dwell, decided and reported per dwell), on (every dwell) or off")
       ->check(CLI::IsMember({"auto", "on", "off"}))
       ->capture_default_str();
   // A callback, not CLI11's negated flag "!--no-orbit-fit", whose help shows "--no-orbit-fit{false}".
   sub->add_flag_callback("--no-orbit-fit", [st] { st->settings.orbit_fit = false; }, "report the weak form's estimates without refining them by the averaged cycles' periodic orbits");
-  sub->add_option("--bootstrap", s.bootstrap, "episode-bootstrap resamples for the 95 % intervals (0: none)")->capture_default_str();
+  add_setting(*sub, s.bootstrap, {"identify", "bootstrap"});
   sub->add_flag("--reidentify", s.reidentify, "refine by output error (the least-squares solver on the simulated orbits)");
   sub->add_option("--reid-fit", st->reid_fit, "parameters to re-identify: any of k1,k3,c2,mu,e,clearance")->capture_default_str();
   sub->add_flag("--global", s.reid.global, "NLopt DIRECT-L global stage for the re-identification's start");
@@ -66,9 +66,7 @@ void add_identify(CLI::App& app) {
   sub->callback([st] {
     identify_settings s = st->settings;
     s.frols.stop = st->stop == "aic" ? frols_stop::aic : st->stop == "bic" ? frols_stop::bic : frols_stop::err_sum;
-    if (!(s.frols.rho >= 0.0 && s.frols.rho < 1.0)) throw input_error("--rho must be in [0, 1)");
-    if (!(s.frols.err_threshold >= 0.0 && s.frols.err_threshold < 1.0)) throw input_error("--err-threshold must be in [0, 1)");
-    if (s.bootstrap < 0) throw input_error("--bootstrap must be >= 0");
+    s.validate();  // every setting by its registry row, before any file is read (the messages name the flags)
     if (!st->linear_file.empty()) {
       parameters p;
       apply_parameter_file(p, st->linear_file);

@@ -72,4 +72,9 @@ derivatives differentiate(std::span<const double> v, double dt, const derivative
   return out;
 }
 
+void derivative_settings::validate() const {
+  check({"derivatives", "half_width"}, half_width);
+  check({"derivatives", "degree"}, degree);
+}
+
 }  // namespace rubref

@@ -11,11 +11,15 @@
 #include <span>
 #include <vector>
 
+#include "ref/model/settings.hpp"
+
 namespace rubref {
 
 struct derivative_settings {
-  int half_width = 4;  // samples each side: window 2h + 1
-  int degree = 4;      // polynomial degree (>= 2 for a second derivative)
+  // Defaults, ranges and reasons: the settings registry (scope "derivatives").
+  int half_width = default_count_of("derivatives", "half_width");  // samples each side: window 2h + 1
+  int degree = default_count_of("derivatives", "degree");          // polynomial degree (>= 2 for a second derivative)
+  void validate() const;  // input_error naming the setting
 };
 
 struct derivatives {

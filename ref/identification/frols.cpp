@@ -5,6 +5,7 @@
 #include <limits>
 
 #include "ref/base/errors.hpp"
+#include "ref/inference/evidence.hpp"
 
 namespace rubref {
 
@@ -93,8 +94,10 @@ frols_result frols(const Eigen::MatrixXd& P, const Eigen::VectorXd& y, const fro
     err_sum += best_err;
     const double sse = std::max(yy * (1.0 - err_sum), std::numeric_limits<double>::min());
     const double k = static_cast<double>(step + 1);
-    out.order.push_back({static_cast<std::size_t>(best), best_err, err_sum,
-                         n * std::log(sse / n) + 2.0 * k, n * std::log(sse / n) + k * std::log(static_cast<double>(n))});
+    // Akaike's criterion (the user's choice, --stop aic) and the information criterion every wing
+    // uses (ref/inference/evidence.hpp: BIC for Gaussian noise of estimated scale).
+    out.order.push_back({static_cast<std::size_t>(best), best_err, err_sum, n * std::log(sse / n) + 2.0 * k,
+                         information_criterion(sse, static_cast<double>(n), static_cast<std::size_t>(step + 1))});
     const double norm = W.col(best).norm();
     if (norm > kDependentNorm) {
       const Eigen::VectorXd q = W.col(best) / norm;
@@ -144,6 +147,12 @@ frols_result frols(const Eigen::MatrixXd& P, const Eigen::VectorXd& y, const fro
   out.standard_errors = fit.standard_errors;
   out.residual = fit.residual;
   return out;
+}
+
+void frols_settings::validate() const {
+  check({"frols", "rho"}, rho);
+  check({"frols", "err_threshold"}, err_threshold);
+  check({"frols", "err_floor"}, err_floor);
 }
 
 }  // namespace rubref

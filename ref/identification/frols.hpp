@@ -13,6 +13,8 @@
 #include <string>
 #include <vector>
 
+#include "ref/model/settings.hpp"
+
 namespace rubref {
 
 // err_sum: the paper's rule. significance: a step is taken while its term (a) explains at least
@@ -23,11 +25,13 @@ namespace rubref {
 enum class frols_stop { err_sum, aic, bic, significance };
 
 struct frols_settings {
-  double rho = 0.01;            // stop when 1 - sum ERR <= rho
-  double err_threshold = 0.01;  // keep terms whose ERR >= this
+  // Defaults, ranges and reasons: the settings registry (scope "frols").
+  double rho = default_of("frols", "rho");                      // stop when 1 - sum ERR <= rho
+  double err_threshold = default_of("frols", "err_threshold");  // keep terms whose ERR >= this
   frols_stop stop = frols_stop::err_sum;
-  double noise_variance = 0.0;  // significance: the rows' known noise variance (0: unknown)
-  double err_floor = 1e-5;      // significance: the least share of y'y a kept term explains
+  double noise_variance = 0.0;                                  // significance: the rows' known noise variance (0: unknown; set by the weak form)
+  double err_floor = default_of("frols", "err_floor");          // significance: the least share of y'y a kept term explains
+  void validate() const;  // input_error naming the setting
 };
 
 struct frols_step {

@@ -168,7 +168,7 @@ averaging parse_averaging(const std::string& name) {
 
 identification identify(const std::vector<std::pair<record, std::string>>& records, const identify_settings& s) {
   if (records.empty()) throw input_error("identify needs at least one record");
-  if (s.reidentify) check_reid_fit(s.reid.fit);
+  s.validate();  // before any work: every setting by its registry row, the --reid-fit names
   std::vector<dwell> dwells;
   std::vector<std::string> notes;
   for (const auto& [r, name] : records) {
@@ -186,6 +186,7 @@ identification identify(const std::vector<std::pair<record, std::string>>& recor
 }
 
 identification identify(const std::vector<dwell>& dwells, const identify_settings& s) {
+  s.validate();
   identification id = identify_law(dwells, s);
   add_warnings(id, s);
   return id;
@@ -1137,5 +1138,18 @@ void add_warnings(identification& id, const identify_settings& s) {
   }
 }
 }  // namespace
+
+void identify_settings::validate() const {
+  check({"identify", "mass"}, mass);
+  check({"identify", "clearance"}, clearance);
+  derivative.validate();
+  weak.validate();
+  frols.validate();
+  orbit.validate();
+  check({"identify", "bootstrap"}, bootstrap);
+  check({"identify", "seed"}, seed);
+  check({"identify", "correlation_lags"}, correlation_lags);
+  if (reidentify) reid.validate();
+}
 
 }  // namespace rubref

@@ -49,8 +49,10 @@ averaging parse_averaging(const std::string& name);  // input_error if unknown
 
 struct identify_settings {
   std::optional<parameters> linear;      // the linear part (m, c, k, e, unbalance phase) if known; else fitted
-  double mass = parameters{}.m;          // kg, when the linear part is fitted (m is not identifiable)
-  double clearance = 0.0;                // m, for records without clearance_m metadata (0: required there)
+  // Numeric settings: defaults, ranges and reasons in the settings registry (scopes "identify",
+  // "derivatives", "weak_form", "frols", "orbit_fit", "reidentify").
+  double mass = default_of("identify", "mass");            // kg, when the linear part is fitted (m is not identifiable)
+  double clearance = default_of("identify", "clearance");  // m, for records without clearance_m metadata (0: required there)
   linear_method linear_route = linear_method::harmonic;  // how a fitted linear part is found
   derivative_settings derivative;
   averaging average = averaging::automatic;  // synchronous averaging of the dwells that touch
@@ -65,12 +67,15 @@ struct identify_settings {
   orbit_fit_settings orbit;
   std::string library = "z1..4,zd1..4";  // Eq. 4, L = 4
   frols_settings frols;
-  int bootstrap = 200;                   // resamples of whole contact episodes (0: none)
-  unsigned seed = 20041122;              // for the bootstrap: same inputs, same intervals
-  int correlation_lags = 10;
+  int bootstrap = default_count_of("identify", "bootstrap");  // resamples of whole contact episodes (0: none)
+  unsigned seed = static_cast<unsigned>(default_of("identify", "seed"));  // for the bootstrap: same inputs, same intervals
+  int correlation_lags = default_count_of("identify", "correlation_lags");
   parameters reference;                  // the law whose term shares are reported (Table 2)
   bool reidentify = false;
   reid_settings reid;
+  // input_error naming the first setting out of its range (and an unknown --reid-fit name), before
+  // any work.
+  void validate() const;
 };
 
 struct term_estimate {

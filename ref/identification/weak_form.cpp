@@ -232,4 +232,11 @@ weak_form_system weak_form(const std::vector<weak_form_input>& inputs, const lin
   return out;
 }
 
+void weak_form_settings::validate() const {
+  check({"weak_form", "test_functions"}, test_functions);
+  check({"weak_form", "bump_power"}, bump_power);
+  check({"weak_form", "velocity_half_width"}, velocity_half_width);
+  check({"weak_form", "margin"}, margin);
+}
+
 }  // namespace rubref

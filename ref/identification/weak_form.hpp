@@ -22,24 +22,28 @@
 #include "ref/identification/contact_forces.hpp"
 #include "ref/identification/term_library.hpp"
 
+#include "ref/model/settings.hpp"
+
 namespace rubref {
 
 struct weak_form_settings {
-  int test_functions = 6;  // Q per episode: moments up to s^5 resolve the force pulse's shape
+  // Defaults, ranges and reasons: the settings registry (scope "weak_form").
+  int test_functions = default_count_of("weak_form", "test_functions");  // Q per episode: moments up to s^5 resolve the force pulse's shape
   // P: the trapezoid rule's error on y psi'' falls with the smoothness of psi at the support's
   // ends. Whitened rows of a noise-free 10 kHz rig record against the true law leave, relative
   // to their norm: P = 3 6.4 %, P = 4 0.29 %, P = 6 0.23 %, P = 8 0.24 % (measured).
   // tests/identification_test.cpp holds P = 6 below 1 %.
-  int bump_power = 6;
+  int bump_power = default_count_of("weak_form", "bump_power");
   // Savitzky-Golay half-width for z_dot (the only derivative the weak form takes), degree 4 as
   // --sg-degree: z_dot's noise falls as the window widens, and windows never cross y = delta, so a
   // wide one is capped at the contact segment (~16 samples at 10 kHz here). Measured at 2 um
   // noise, 10 revolutions, 30 seeds: half-width 4 -> 6 -> 8 moves k1's bias +5.4 -> +4.0 -> +4.0 %
   // and its spread 6.4 -> 4.3 -> 4.5 %; 8 lets longer contacts (lower rates) benefit too.
-  int velocity_half_width = 8;
+  int velocity_half_width = default_count_of("weak_form", "velocity_half_width");
   // The support extends the episode by this share of its duration on each side (at least
   // 3 samples), so that onset and separation are interior and weighted fully.
-  double margin = 0.5;
+  double margin = default_of("weak_form", "margin");
+  void validate() const;  // input_error naming the setting
 };
 
 // One dwell's contact data for the weak form: its forces (z, z_dot, the source samples) and the

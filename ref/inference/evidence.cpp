@@ -25,7 +25,7 @@ double information_criterion(double chi2, double observations, std::size_t coord
 need judge_need(const part_comparison& c, const evidence_rules& rules) {
   need out;
   const bool rise = c.criterion_rise > rules.min_criterion_rise, share = c.excess_share >= rules.min_excess_share;
-  const bool seen = c.change > c.resolution;
+  const bool seen = !(c.resolution > 0.0) || c.change > c.resolution;  // 0: no test finer than the criterion
   out.significant = rise && share && seen;
   if (!rise || !share) {
     out.reason = "fails the significance rule (criterion rise " + format_digits(c.criterion_rise, 3) + ", share " + format_digits(c.excess_share, 3) + ")";

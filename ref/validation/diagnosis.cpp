@@ -405,6 +405,17 @@ double fold(double tau, double T) {
 
 // ----------------------------------------------------------------------------------------------
 
+// A hypothesis a refit tries: the cause it names, the parameter (its key), the model it changes,
+// how the value enters it, the range searched and the case's own value (infinite: the hypothesis
+// is not the case's model there).
+struct candidate_refit {
+  cause_code code;
+  std::string name;
+  hypothesis base;
+  std::function<void(hypothesis&, double)> set;
+  double lo, hi, value0;
+};
+
 struct diagnosis {
   const golden_case& g;
   const candidate_data& c;
@@ -448,6 +459,9 @@ struct diagnosis {
   int periodicity_stage();
   std::optional<transform_fit> transform_stage();
   void refit_stage(const std::optional<transform_fit>& transform);
+  std::vector<candidate_refit> refit_hypotheses(const std::optional<transform_fit>& transform) const;
+  std::vector<std::optional<double>> linearised_steps(const std::vector<candidate_refit>& list, const view& v, const std::vector<orbit_start>& from) const;
+  void report_refit(const candidate_refit& item, double value, const model_fit& full, bool ok);
   void event_stage();
 };
 
@@ -684,21 +698,12 @@ std::optional<transform_fit> diagnosis::transform_stage() {
   return best;
 }
 
-void diagnosis::refit_stage(const std::optional<transform_fit>& transform) {
-  if (g.period_revs == 0 || g.comparison != comparison_kind::orbit) return;
+// The hypotheses the refits try: every parameter of the case's law, the unbalance and its phase,
+// the rotation sense, and a static load.
+std::vector<candidate_refit> diagnosis::refit_hypotheses(const std::optional<transform_fit>& transform) const {
   const parameters& p = g.request.params;
-  const view v = thinned(candidate_view(c));
-  const std::vector<orbit_start> from = starts();
   const bool rigid = visit_variant(g.request.variant, []<class V>() { return impact_law<V>; });
   const std::string& variant = g.request.variant;
-
-  struct candidate_refit {
-    cause_code code;
-    std::string name;  // parameter key
-    hypothesis base;
-    std::function<void(hypothesis&, double)> set;
-    double lo, hi, value0;  // value0: the case's value (infinite: the hypothesis is not the case's model there)
-  };
   std::vector<candidate_refit> list;
   const hypothesis h0 = case_hypothesis(g);
   const auto member = [](double parameters::*m) { return [m](hypothesis& h, double v) { h.params.*m = v; }; };
@@ -745,9 +750,16 @@ void diagnosis::refit_stage(const std::optional<transform_fit>& transform) {
                     -range, std::min(range, p.clearance * p.k_y), 0.0});
   }
 
-  // A small fault lies between the coarse grid's points: each hypothesis also tries the
-  // Gauss-Newton step from the case's value, p0 - (J . r0) / (J . J), with r0 the residual of the
-  // case's own orbit and J its derivative by a forward difference of 1e-4 of the range.
+  return list;
+}
+
+// A small fault lies between the coarse grid's points: each hypothesis also tries the
+// Gauss-Newton step from the case's value, p0 - (J . r0) / (J . J), with r0 the residual of the
+// case's own orbit and J its derivative by a forward difference of 1e-4 of the range.
+std::vector<std::optional<double>> diagnosis::linearised_steps(const std::vector<candidate_refit>& list, const view& v,
+                                                              const std::vector<orbit_start>& from) const {
+  const parameters& p = g.request.params;
+  const hypothesis h0 = case_hypothesis(g);
   std::vector<std::optional<double>> linearised(list.size());
   const model_fit at_case = evaluate(h0, v, from);
   if (at_case.converged) {
@@ -770,7 +782,13 @@ void diagnosis::refit_stage(const std::optional<transform_fit>& transform) {
       if (jj > 0.0) linearised[k] = p0 - jr / jj;
     });
   }
-  // Every hypothesis on the coarse grid; the kRefined closest to the candidate refined.
+  return linearised;
+}
+
+// Every hypothesis on the coarse grid; the kRefined closest to the candidate refined (the others
+// get no verdict: not converged).
+std::vector<refit> refit_all(const std::vector<candidate_refit>& list, const view& v, const std::vector<orbit_start>& from,
+                             const std::vector<std::optional<double>>& linearised) {
   std::vector<refit> fits(list.size());
   parallel_for(list.size(), thread_count(0, list.size()), [&](std::size_t k) {
     fits[k] = fit_one(list[k].base, list[k].set, list[k].lo, list[k].hi, v, from, false, linearised[k]);
@@ -787,6 +805,81 @@ void diagnosis::refit_stage(const std::optional<transform_fit>& transform) {
   for (std::size_t k = 0; k < list.size(); ++k)
     if (std::find(order.begin(), order.end(), k) == order.end()) fits[k].fit.converged = false;  // not refined: no verdict
 
+  return fits;
+}
+
+// What a refit that came closer says: the cause, in words, with its fitted value.
+void diagnosis::report_refit(const candidate_refit& item, double value, const model_fit& full, bool ok) {
+  const parameters& p = g.request.params;
+  const std::string fit_text = reproduces(full);
+  nlohmann::ordered_json fitted{{item.name, value}};
+  if (std::isfinite(item.value0) && item.value0 != 0.0) fitted["relative_change"] = value / item.value0 - 1.0;
+  switch (item.code) {
+    case cause_code::friction_coefficient:
+      if (value < 0.0) {
+        add(cause_code::friction_sign, ok,
+            "rubref with f_x = -mu f_N (mu = " + format_digits(-value) + ") " + fit_text +
+                "; for a shaft spinning counter-clockwise (x towards y) the stator pushes the rotor's top towards +x, f_x = +mu f_N (docs/model.md)",
+            fitted);
+      } else {
+        add(cause_code::friction_coefficient, ok, "rubref with mu = " + format_digits(value) + " instead of " + format_digits(p.mu) + " " + fit_text, fitted);
+      }
+      break;
+    case cause_code::contact_law_form:
+      add(cause_code::contact_law_form, ok,
+          "rubref with c2 |z_dot| z_dot (a damper, c2 = " + format_digits(value) + " kg/m) in place of Eq. 5's c2 z_dot^2 " + fit_text +
+              "; Eq. 5's term has the same sign in and out of contact (docs/model.md)",
+          fitted);
+      break;
+    case cause_code::rotation_sense:
+      add(cause_code::rotation_sense, ok,
+          "rubref with the unbalance turning clockwise, m e w^2 (cos(-wt + phi), sin(-wt + phi)) with phi = " +
+              format_digits(value * 180.0 / std::numbers::pi, 4) + " deg (friction as rubref's) " + fit_text +
+              (std::abs(value - std::numbers::pi / 2) < 0.05 ? ": sin and cos swapped in the force?" : "") +
+              "; rubref's force is m e w^2 (cos wt, sin wt)",
+          {{"unbalance_phase_rad", value}, {"clockwise", true}});
+      break;
+    case cause_code::time_origin_or_unbalance_phase: {
+      const double deg = fold(value, kTwoPi) * 180.0 / std::numbers::pi;
+      add(cause_code::time_origin_or_unbalance_phase, ok,
+          "rubref with the unbalance at " + format_digits(deg, 4) + " deg at t = 0 (the file's is " + format_digits(p.unbalance_phase * 180.0 / std::numbers::pi, 4) +
+              " deg) " + fit_text + "; its time origin or unbalance phase differs from the case's",
+          {{"unbalance_phase_rad", value}, {"unbalance_phase_deg", deg}});
+      // No shift of the golden orbit matched (the transforms came first): from that start the
+      // rotor settled on another orbit.
+      if (ok)
+        add(cause_code::other_attractor, true,
+            "from that start the rotor settles on another orbit than the case's (no time shift of the golden orbit matches it); "
+            "start from rest at t = 0 with the file's unbalance phase",
+            {{"unbalance_phase_rad", value}});
+      break;
+    }
+    case cause_code::static_offset:
+      add(cause_code::static_offset, ok,
+          "rubref with a static vertical load of " + format_digits(value, 4) + " N (" + format_digits(value / (p.m * kStandardGravity), 3) + " m g) " + fit_text +
+              ": the candidate has gravity or a preload that the paper's Eq. 1 does not",
+          {{"preload_y_N", value}});
+      break;
+    default: {
+      std::string what = item.name, extra;
+      if (item.code == cause_code::contact_law_coefficient && item.name == "r") {
+        if (std::abs(value - std::sqrt(p.r)) <= 2e-3) extra = " (sqrt(" + format_digits(p.r) + ") = " + format_digits(std::sqrt(p.r)) + ": r applied to the kinetic energy instead of the velocity?)";
+        if (std::abs(value - p.r * p.r) <= 2e-3) extra = " (" + format_digits(p.r) + "^2 = " + format_digits(p.r * p.r) + ": r applied twice?)";
+      }
+      add(item.code, ok,
+          "rubref with " + what + " = " + format_digits(value, 6) + " instead of " + format_digits(item.value0, 6) + " (" + format_digits(100.0 * (value / item.value0 - 1.0), 3) +
+              " %) " + fit_text + extra,
+          fitted);
+    }
+  }
+}
+
+void diagnosis::refit_stage(const std::optional<transform_fit>& transform) {
+  if (g.period_revs == 0 || g.comparison != comparison_kind::orbit) return;
+  const view v = thinned(candidate_view(c));
+  const std::vector<orbit_start> from = starts();
+  const std::vector<candidate_refit> list = refit_hypotheses(transform);
+  const std::vector<refit> fits = refit_all(list, v, from, linearised_steps(list, v, from));
   struct ranked {
     std::size_t k;
     model_fit full;
@@ -815,67 +908,7 @@ void diagnosis::refit_stage(const std::optional<transform_fit>& transform) {
     const double value = fits[k].value;
     const bool ok = full.converged && full.max <= tolerance;
     if (!ok && ++likely > 3) continue;
-    const std::string fit_text = reproduces(full);
-    nlohmann::ordered_json fitted{{item.name, value}};
-    if (std::isfinite(item.value0) && item.value0 != 0.0) fitted["relative_change"] = value / item.value0 - 1.0;
-    switch (item.code) {
-      case cause_code::friction_coefficient:
-        if (value < 0.0) {
-          add(cause_code::friction_sign, ok,
-              "rubref with f_x = -mu f_N (mu = " + format_digits(-value) + ") " + fit_text +
-                  "; for a shaft spinning counter-clockwise (x towards y) the stator pushes the rotor's top towards +x, f_x = +mu f_N (docs/model.md)",
-              fitted);
-        } else {
-          add(cause_code::friction_coefficient, ok, "rubref with mu = " + format_digits(value) + " instead of " + format_digits(p.mu) + " " + fit_text, fitted);
-        }
-        break;
-      case cause_code::contact_law_form:
-        add(cause_code::contact_law_form, ok,
-            "rubref with c2 |z_dot| z_dot (a damper, c2 = " + format_digits(value) + " kg/m) in place of Eq. 5's c2 z_dot^2 " + fit_text +
-                "; Eq. 5's term has the same sign in and out of contact (docs/model.md)",
-            fitted);
-        break;
-      case cause_code::rotation_sense:
-        add(cause_code::rotation_sense, ok,
-            "rubref with the unbalance turning clockwise, m e w^2 (cos(-wt + phi), sin(-wt + phi)) with phi = " +
-                format_digits(value * 180.0 / std::numbers::pi, 4) + " deg (friction as rubref's) " + fit_text +
-                (std::abs(value - std::numbers::pi / 2) < 0.05 ? ": sin and cos swapped in the force?" : "") +
-                "; rubref's force is m e w^2 (cos wt, sin wt)",
-            {{"unbalance_phase_rad", value}, {"clockwise", true}});
-        break;
-      case cause_code::time_origin_or_unbalance_phase: {
-        const double deg = fold(value, kTwoPi) * 180.0 / std::numbers::pi;
-        add(cause_code::time_origin_or_unbalance_phase, ok,
-            "rubref with the unbalance at " + format_digits(deg, 4) + " deg at t = 0 (the file's is " + format_digits(p.unbalance_phase * 180.0 / std::numbers::pi, 4) +
-                " deg) " + fit_text + "; its time origin or unbalance phase differs from the case's",
-            {{"unbalance_phase_rad", value}, {"unbalance_phase_deg", deg}});
-        // No shift of the golden orbit matched (the transforms came first): from that start the
-        // rotor settled on another orbit.
-        if (ok)
-          add(cause_code::other_attractor, true,
-              "from that start the rotor settles on another orbit than the case's (no time shift of the golden orbit matches it); "
-              "start from rest at t = 0 with the file's unbalance phase",
-              {{"unbalance_phase_rad", value}});
-        break;
-      }
-      case cause_code::static_offset:
-        add(cause_code::static_offset, ok,
-            "rubref with a static vertical load of " + format_digits(value, 4) + " N (" + format_digits(value / (p.m * kStandardGravity), 3) + " m g) " + fit_text +
-                ": the candidate has gravity or a preload that the paper's Eq. 1 does not",
-            {{"preload_y_N", value}});
-        break;
-      default: {
-        std::string what = item.name, extra;
-        if (item.code == cause_code::contact_law_coefficient && item.name == "r") {
-          if (std::abs(value - std::sqrt(p.r)) <= 2e-3) extra = " (sqrt(" + format_digits(p.r) + ") = " + format_digits(std::sqrt(p.r)) + ": r applied to the kinetic energy instead of the velocity?)";
-          if (std::abs(value - p.r * p.r) <= 2e-3) extra = " (" + format_digits(p.r) + "^2 = " + format_digits(p.r * p.r) + ": r applied twice?)";
-        }
-        add(item.code, ok,
-            "rubref with " + what + " = " + format_digits(value, 6) + " instead of " + format_digits(item.value0, 6) + " (" + format_digits(100.0 * (value / item.value0 - 1.0), 3) +
-                " %) " + fit_text + extra,
-            fitted);
-      }
-    }
+    report_refit(item, value, full, ok);
   }
 }
 
