@@ -257,11 +257,8 @@ run_request run_from(const std::string& variant, double rpm, int settle_revs, in
   return req;
 }
 
-}  // namespace
-
-PYBIND11_MODULE(_rubref, m) {
-  // The public functions are python/rubref/__init__.py's: they check keywords and types, carry the
-  // docstrings and the defaults, and call these with every argument given.
+// The module's documentation, version and exceptions.
+void bind_module(py::module_& m) {
   m.doc() = "rubref's compiled core (docs/python.md); use the functions of the rubref package";
   m.attr("__version__") = std::string(version());
   m.attr("commit") = std::string(commit());
@@ -276,7 +273,10 @@ PYBIND11_MODULE(_rubref, m) {
       numerical_exc(with_keywords(e.what()).c_str());
     }
   });
+}
 
+// The paper's parameters, the names rubref knows, and the settings' registry and defaults.
+void bind_settings(py::module_& m) {
   m.def("default_parameters", [] { return to_python(to_json(parameters{})); });
   m.def("variants", [] { return variant_name_list(); });
   m.def("steppers", [] { return std::vector<std::string>{"rk4", "dopri5", "rkf78", "bulirsch-stoer"}; });
@@ -309,7 +309,10 @@ PYBIND11_MODULE(_rubref, m) {
     d["rig_seed"] = probe_settings{}.seed, d["rig_speeds"] = rig_request{}.speeds_rpm;
     return d;
   });
+}
 
+// Steady runs, one at a time and in batches on the thread pool.
+void bind_runs(py::module_& m) {
   m.def("_simulate", [](const std::string& variant, double rpm, std::optional<double> clearance, int settle_revs, int revs,
                         int samples_per_rev, const std::string& stepper, std::optional<double> rtol, std::optional<double> atol,
                         std::optional<double> dt, std::optional<std::vector<double>> initial, const py::dict& params) {
@@ -373,7 +376,10 @@ PYBIND11_MODULE(_rubref, m) {
     d["backward_whirl"] = py::array(py::cast(backward));
     return d;
   });
+}
 
+// Periodic orbits by shooting, and their continuation.
+void bind_orbits(py::module_& m) {
   m.def("_orbit", [](const std::string& variant, double rpm, std::optional<double> clearance, int periods, double tolerance,
                      int samples_per_rev, const std::string& stepper, std::optional<double> rtol, std::optional<double> atol,
                      std::optional<double> dt, std::optional<std::vector<double>> initial, const py::dict& params) {
@@ -438,7 +444,10 @@ PYBIND11_MODULE(_rubref, m) {
     d["summary"] = to_python(branch_summary_json(req, res));
     return d;
   });
+}
 
+// Measurement records, read and written as the command line does.
+void bind_records(py::module_& m) {
   m.def("_read_record", [](const std::string& path) { return record_to_python(read_record(path)); });
 
   m.def("_write_record", [](const std::string& path, const std::map<std::string, std::vector<double>>& columns,
@@ -457,7 +466,10 @@ PYBIND11_MODULE(_rubref, m) {
     out.stage(path, text);
     out.commit();
   });
+}
 
+// Identification, golden-case validation and the virtual rig.
+void bind_identification(py::module_& m) {
   m.def("_identify", [](const std::vector<std::string>& paths, std::optional<double> clearance, std::optional<py::dict> linear,
                         const std::string& averaging, const std::string& law_method, const std::string& library, double rho, bool orbit_fit,
                         bool reidentify, const std::vector<std::string>& reid_fit, int bootstrap) {
@@ -508,7 +520,10 @@ PYBIND11_MODULE(_rubref, m) {
     d["truth"] = to_python(o.truth);
     return d;
   });
+}
 
+// The loop, on time records and on order-tracked tables.
+void bind_loop(py::module_& m) {
   m.def("_loop", [](const std::vector<std::string>& paths, std::optional<double> clearance, std::optional<double> mass, int max_effects,
                     const py::object& progress) {
     loop_settings s;
@@ -565,7 +580,10 @@ PYBIND11_MODULE(_rubref, m) {
     return to_python(to_json(r));
   });
   m.def("_is_order_table", [](const std::string& path) { return is_order_table_header(header_of(path)); });
+}
 
+// Parameter studies.
+void bind_studies(py::module_& m) {
   // A parameter study into the folder `out` (docs/studies.md): the points of `shard` not yet
   // there, then the results when that completes the study. No figures (the command line draws
   // them, or scripts/plot_study.py on the folder).
@@ -602,4 +620,19 @@ PYBIND11_MODULE(_rubref, m) {
     });
     return summary_of(out);
   });
+}
+
+}  // namespace
+
+PYBIND11_MODULE(_rubref, m) {
+  // The public functions are python/rubref/__init__.py's: they check keywords and types, carry the
+  // docstrings and the defaults, and call these with every argument given.
+  bind_module(m);
+  bind_settings(m);
+  bind_runs(m);
+  bind_orbits(m);
+  bind_records(m);
+  bind_identification(m);
+  bind_loop(m);
+  bind_studies(m);
 }

@@ -232,178 +232,195 @@ void run_plot_script(const reproduce_settings& s, const std::filesystem::path& d
   run_python_script(s.python.empty() ? default_python() : s.python, s.plot_script.empty() ? script_path("plot_figures.py") : s.plot_script, dir);
 }
 
-}  // namespace
+using steady_clock = std::chrono::steady_clock;
 
-void reproduce(const reproduce_settings& s) {
-  const auto t_start = std::chrono::steady_clock::now();
-  const auto since = [](auto t0) { return format_fixed(seconds(std::chrono::steady_clock::now() - t0).count(), 1) + " s"; };
-  staged_directory dir(s.out);
-  const parameters paper;  // every number below comes from the paper's defaults
-  json manifest, numbers;
-  numbers["generator"] = "rubref " + std::string(version()) + " reproduce";
-  numbers["commit"] = std::string(commit());
+std::string elapsed_since(steady_clock::time_point t0) { return format_fixed(seconds(steady_clock::now() - t0).count(), 1) + " s"; }
 
-  // 1. The range: the closed form's touching bands, then the period-1 branch at each clearance.
-  const closed_form_scan scan = scan_closed_form(paper);
-  std::vector<speed_ranges> touching;
+// The sweeps' speed range and what it rests on (stage 1).
+struct speed_range {
+  closed_form_scan scan;
+  std::vector<speed_ranges> touching;  // per clearance (kClearances)
+  std::vector<traced_branch> traced;   // per clearance
+  double lowest = 0.0, highest = 0.0;  // rpm: the lowest grazing, the highest fold or grazing
+  double from_rpm = 0.0, to_rpm = 0.0;
+};
+
+// 1. The range: the closed form's touching bands, then the period-1 branch at each clearance.
+speed_range find_speed_range(const parameters& paper, const reproduce_settings& s) {
+  speed_range r;
+  r.scan = scan_closed_form(paper);
   for (const double clearance : kClearances) {
-    touching.push_back(touching_band(scan, clearance));
-    if (touching.back().empty())
+    r.touching.push_back(touching_band(r.scan, clearance));
+    if (r.touching.back().empty())
       throw numerical_error("reproduce: the contact-free orbit never reaches the clearance " + format_fixed(clearance * 1e3, 1) + " mm");
   }
   s.progress("[1/6] periodic-orbit branches of the identified law at 0.2/0.3/0.4 mm (continuation in speed) ...");
-  auto t0 = std::chrono::steady_clock::now();
-  std::vector<traced_branch> traced(kClearances.size());
-  parallel_for(kClearances.size(), s.threads, [&](std::size_t i) { traced[i] = trace_branch(kClearances[i], touching[i]); });
-  double lowest = touching.front().front().first, highest = 0.0;
+  const auto t0 = steady_clock::now();
+  r.traced.resize(kClearances.size());
+  parallel_for(kClearances.size(), s.threads, [&](std::size_t i) { r.traced[i] = trace_branch(kClearances[i], r.touching[i]); });
+  r.lowest = r.touching.front().front().first;
   for (std::size_t i = 0; i < kClearances.size(); ++i) {
-    lowest = std::min(lowest, touching[i].front().first);
-    highest = std::max(highest, touching[i].back().second);
-    for (const double f : special_rpm(traced[i].result, special_kind::fold)) highest = std::max(highest, f);
+    r.lowest = std::min(r.lowest, r.touching[i].front().first);
+    r.highest = std::max(r.highest, r.touching[i].back().second);
+    for (const double f : special_rpm(r.traced[i].result, special_kind::fold)) r.highest = std::max(r.highest, f);
   }
-  const double pad = kRangePad * (highest - lowest);
-  const double from_rpm = std::floor((lowest - pad) / kRangeRoundRpm) * kRangeRoundRpm;
-  const double to_rpm = std::ceil((highest + pad) / kRangeRoundRpm) * kRangeRoundRpm;
+  const double pad = kRangePad * (r.highest - r.lowest);
+  r.from_rpm = std::floor((r.lowest - pad) / kRangeRoundRpm) * kRangeRoundRpm;
+  r.to_rpm = std::ceil((r.highest + pad) / kRangeRoundRpm) * kRangeRoundRpm;
   std::size_t branch_points = 0;
-  for (const auto& t : traced) branch_points += t.result.points.size();
-  s.progress("      done in " + since(t0) + " (" + std::to_string(branch_points) + " orbits); sweep range " + format_fixed(from_rpm, 0) + "–" +
-             format_fixed(to_rpm, 0) + " rpm");
+  for (const auto& t : r.traced) branch_points += t.result.points.size();
+  s.progress("      done in " + elapsed_since(t0) + " (" + std::to_string(branch_points) + " orbits); sweep range " + format_fixed(r.from_rpm, 0) +
+             "–" + format_fixed(r.to_rpm, 0) + " rpm");
+  return r;
+}
 
-  // 2. Every sweep the figures need, one branch per task, on all cores.
+// Every sweep the figures need, and the branches they gave (stage 2).
+struct paper_sweeps {
   std::vector<branch_task> tasks;
+  std::vector<sweep_branch> branches;  // in the tasks' order
+  sweep_settings frictionless;         // the identified law without friction
+  std::size_t frictionless_task = 0;
+  sweep_settings identification_record;  // the finely sampled record's (the last task)
+  double paper_mu = 0.0;
+
+  const sweep_settings& grid_settings() const { return tasks.front().settings; }
+  // A sweep on the range's grid with the paper's friction.
+  const sweep_branch& branch_of(const std::string& variant, double clearance, sweep_direction d) const {
+    for (std::size_t i = 0; i < tasks.size(); ++i)
+      if (tasks[i].settings.variant == variant && tasks[i].settings.params.clearance == clearance && tasks[i].direction == d &&
+          tasks[i].settings.samples_per_rev == grid_settings().samples_per_rev && tasks[i].settings.params.mu == paper_mu)
+        return branches[i];
+    throw numerical_error("reproduce: missing branch");
+  }
+};
+
+// 2. Every sweep the figures need, one branch per task, on all cores.
+paper_sweeps run_paper_sweeps(const speed_range& range, const parameters& paper, const reproduce_settings& s) {
+  const double from_rpm = range.from_rpm, to_rpm = range.to_rpm;
+  paper_sweeps sw;
+  sw.paper_mu = paper.mu;
   for (const double clearance : kClearances)
     for (const auto dir_kind : {sweep_direction::up, sweep_direction::down})
-      tasks.push_back({paper_sweep("identified", clearance, from_rpm, to_rpm), dir_kind});
+      sw.tasks.push_back({paper_sweep("identified", clearance, from_rpm, to_rpm), dir_kind});
   for (const std::string v : {"restitution", "piecewise-linear", "piecewise-nonlinear"})
-    tasks.push_back({paper_sweep(v, kPaperClearance, from_rpm, to_rpm), sweep_direction::up});
+    sw.tasks.push_back({paper_sweep(v, kPaperClearance, from_rpm, to_rpm), sweep_direction::up});
   // The identified law without friction: what friction adds to the backward whirl.
-  sweep_settings frictionless = paper_sweep("identified", kPaperClearance, from_rpm, to_rpm);
-  frictionless.params.mu = 0.0;
-  const std::size_t frictionless_task = tasks.size();
-  tasks.push_back({frictionless, sweep_direction::up});
-  sweep_settings id_sweep = paper_sweep("identified", kPaperClearance, kIdentifyFromRpm, kIdentifyToRpm);
-  id_sweep.step_rpm = kIdentifyStepRpm;
-  id_sweep.samples_per_rev = kIdentifySamplesPerRev;
-  tasks.push_back({id_sweep, sweep_direction::up});
-  const sweep_settings& grid_settings = tasks.front().settings;
-  const std::vector<double> grid = sweep_speeds(grid_settings);
+  sw.frictionless = paper_sweep("identified", kPaperClearance, from_rpm, to_rpm);
+  sw.frictionless.params.mu = 0.0;
+  sw.frictionless_task = sw.tasks.size();
+  sw.tasks.push_back({sw.frictionless, sweep_direction::up});
+  sw.identification_record = paper_sweep("identified", kPaperClearance, kIdentifyFromRpm, kIdentifyToRpm);
+  sw.identification_record.step_rpm = kIdentifyStepRpm;
+  sw.identification_record.samples_per_rev = kIdentifySamplesPerRev;
+  sw.tasks.push_back({sw.identification_record, sweep_direction::up});
   s.progress("[2/6] sweeps " + format_fixed(from_rpm, 0) + "–" + format_fixed(to_rpm, 0) + " rpm, step " + format_fixed(kSweepStepRpm, 0) +
              " rpm: identified at 0.2/0.3/0.4 mm up and down, restitution, both piecewise laws and the identified law without friction "
              "at 0.3 mm up, and a finely "
-             "sampled record for identification (" + std::to_string(tasks.size()) + " branches) ...");
-  t0 = std::chrono::steady_clock::now();
-  const std::vector<sweep_branch> branches = run_branches(tasks, s.threads);
+             "sampled record for identification (" + std::to_string(sw.tasks.size()) + " branches) ...");
+  const auto t0 = steady_clock::now();
+  sw.branches = run_branches(sw.tasks, s.threads);
   std::size_t steps = 0, shot = 0, points = 0;
-  for (const auto& b : branches) {
+  for (const auto& b : sw.branches) {
     steps += b.counts.steps;
     shot += b.orbit_starts;
     points += b.points.size();
   }
-  s.progress("      done in " + since(t0) + " (" + std::to_string(steps) + " steps; " + std::to_string(shot) + " of " +
+  s.progress("      done in " + elapsed_since(t0) + " (" + std::to_string(steps) + " steps; " + std::to_string(shot) + " of " +
              std::to_string(points) + " speeds started on a shot periodic orbit)");
+  return sw;
+}
 
-  const auto branch_of = [&](const std::string& variant, double clearance, sweep_direction d) -> const sweep_branch& {
-    for (std::size_t i = 0; i < tasks.size(); ++i)
-      if (tasks[i].settings.variant == variant && tasks[i].settings.params.clearance == clearance && tasks[i].direction == d &&
-          tasks[i].settings.samples_per_rev == grid_settings.samples_per_rev && tasks[i].settings.params.mu == paper.mu)
-        return branches[i];
-    throw numerical_error("reproduce: missing branch");
-  };
+// 3. Identification (§4) on the finely sampled record: Tables 1-2, Fig. 5. Returns its numbers.
+json identify_own_record(const paper_sweeps& sw, const parameters& paper, staged_directory& dir, json& manifest) {
+  const record rec = dwell_record(sw.identification_record, sw.branches.back());
+  identify_settings is;
+  is.linear = paper;
+  is.reference = paper;
+  is.law_route = law_method::samples;  // the paper's route, on a noise-free record (Table 1's ERRs)
+  is.average = averaging::never;       // the paper's samples as recorded, every revolution
+  is.reidentify = true;
+  const identification id = identify({{rec, "identified_0.3mm.csv"}}, is);
+  dir.write("data/identification_record_0.3mm.csv", to_csv(rec));
+  dir.write("data/identification.json", to_json(id, is).dump(2) + "\n");
+  table fig5;
+  fig5.metadata = {{"generator", "rubref " + std::string(version()) + " reproduce"}, {"source", "data/identification_record_0.3mm.csv"}};
+  fig5.columns = {"speed_rpm", "samples", "mu_mean", "mu_std", "mu_median", "max_penetration_m", "share_k1_z", "share_k3_z3", "share_c2_zd2"};
+  for (const auto& d : id.dwells) {
+    if (!d.friction) continue;
+    fig5.rows.push_back({format_number(d.rpm), std::to_string(d.friction->samples), format_number(d.friction->mean),
+                         format_number(d.friction->std_dev), format_number(d.friction->median), format_number(d.max_penetration),
+                         format_number(d.reference_shares[0].peak_share), format_number(d.reference_shares[1].peak_share),
+                         format_number(d.reference_shares[2].peak_share)});
+  }
+  dir.write("data/fig05_friction.csv", to_csv(fig5));
+  manifest["fig05"] = {{"file", "data/fig05_friction.csv"}, {"mu_input", paper.mu}, {"mu_mean", id.mu_mean}};
+  json ident = to_json(id, is);
+  ident["mu_mean"] = id.mu_mean;
+  ident["record"] = {{"from_rpm", kIdentifyFromRpm}, {"to_rpm", kIdentifyToRpm}, {"step_rpm", kIdentifyStepRpm},
+                     {"samples_per_rev", kIdentifySamplesPerRev}, {"clearance_mm", kPaperClearance * 1e3}};
+  ident["inputs"] = {{"k1", paper.k1}, {"k3", paper.k3}, {"c2", paper.c2}, {"mu", paper.mu}};
+  return ident;
+}
 
-  // 3. Identification (§4) on the finely sampled record: Tables 1-2, Fig. 5.
-  s.progress("[3/6] identification (ERR/FROLS, friction, output error) on rubref's own identified-law record ...");
-  t0 = std::chrono::steady_clock::now();
-  {
-    const record rec = dwell_record(id_sweep, branches.back());
-    identify_settings is;
-    is.linear = paper;
-    is.reference = paper;
-    is.law_route = law_method::samples;  // the paper's route, on a noise-free record (Table 1's ERRs)
-    is.average = averaging::never;       // the paper's samples as recorded, every revolution
-    is.reidentify = true;
-    const identification id = identify({{rec, "identified_0.3mm.csv"}}, is);
-    dir.write("data/identification_record_0.3mm.csv", to_csv(rec));
-    dir.write("data/identification.json", to_json(id, is).dump(2) + "\n");
-    table fig5;
-    fig5.metadata = {{"generator", "rubref " + std::string(version()) + " reproduce"}, {"source", "data/identification_record_0.3mm.csv"}};
-    fig5.columns = {"speed_rpm", "samples", "mu_mean", "mu_std", "mu_median", "max_penetration_m", "share_k1_z", "share_k3_z3", "share_c2_zd2"};
-    for (const auto& d : id.dwells) {
-      if (!d.friction) continue;
-      fig5.rows.push_back({format_number(d.rpm), std::to_string(d.friction->samples), format_number(d.friction->mean),
-                           format_number(d.friction->std_dev), format_number(d.friction->median), format_number(d.max_penetration),
-                           format_number(d.reference_shares[0].peak_share), format_number(d.reference_shares[1].peak_share),
-                           format_number(d.reference_shares[2].peak_share)});
-    }
-    dir.write("data/fig05_friction.csv", to_csv(fig5));
-    manifest["fig05"] = {{"file", "data/fig05_friction.csv"}, {"mu_input", paper.mu}, {"mu_mean", id.mu_mean}};
-    json ident = to_json(id, is);
-    ident["mu_mean"] = id.mu_mean;
-    ident["record"] = {{"from_rpm", kIdentifyFromRpm}, {"to_rpm", kIdentifyToRpm}, {"step_rpm", kIdentifyStepRpm},
-                       {"samples_per_rev", kIdentifySamplesPerRev}, {"clearance_mm", kPaperClearance * 1e3}};
-    ident["inputs"] = {{"k1", paper.k1}, {"k3", paper.k3}, {"c2", paper.c2}, {"mu", paper.mu}};
-    numbers["identification"] = ident;
+// The contact-free closed form: critical speeds, the whirl sense everywhere (its numbers), and its
+// response over the sweep range (data/contact_free_response.csv).
+json contact_free_response(const speed_range& range, const parameters& paper, staged_directory& dir, json& manifest) {
+  const closed_form_scan& scan = range.scan;
+  json cf;
+  cf["critical_rpm_x"] = std::sqrt(paper.k_x / paper.m) * 60.0 / (2.0 * std::numbers::pi);
+  cf["critical_rpm_y"] = std::sqrt(paper.k_y / paper.m) * 60.0 / (2.0 * std::numbers::pi);
+  cf["scan_rpm"] = {scan.rpm.front(), scan.rpm.back()};
+  cf["backward_whirl_rpm"] = ranges_json(contiguous_ranges(scan.rpm, [&](double rpm) {
+    return !ellipse_of(unbalance_response(paper, rpm_to_rad_s(rpm))).forward;
+  }));
+  table t;
+  t.metadata = {{"generator", "rubref " + std::string(version()) + " reproduce"},
+                {"description", "contact-free unbalance response of Eq. 1 (closed form, ref/model/closed_form.hpp)"}};
+  t.columns = {"speed_rpm", "x_amplitude_m", "y_amplitude_m", "max_radius_m", "forward_1x_m", "backward_1x_m", "tilt_rad"};
+  for (std::size_t i = 0; i < scan.rpm.size(); ++i) {
+    if (scan.rpm[i] < range.from_rpm || scan.rpm[i] > range.to_rpm) continue;
+    const auto& r = scan.response[i];
+    const whirl_ellipse e = ellipse_of(r);
+    t.rows.push_back({format_number(scan.rpm[i]), format_number(std::abs(r.x_phasor)), format_number(std::abs(r.y_phasor)),
+                      format_number(e.semi_major), format_number(std::abs(r.forward())), format_number(std::abs(r.backward())),
+                      format_number(e.tilt)});
   }
-  s.progress("      done in " + since(t0));
+  dir.write("data/contact_free_response.csv", to_csv(t));
+  manifest["contact_free"] = "data/contact_free_response.csv";
+  return cf;
+}
 
-  // 4. Data files and the numbers of the report.
-  s.progress("[4/6] data tables, orbits and the numbers of the report ...");
-  t0 = std::chrono::steady_clock::now();
-  numbers["settings"] = sweep_settings_json(grid_settings);
-  numbers["settings"]["settle_rounds"] = kSettleRounds;
-  numbers["range"] = {{"from_rpm", from_rpm}, {"to_rpm", to_rpm}, {"step_rpm", kSweepStepRpm}, {"lowest_grazing_rpm", lowest},
-                      {"highest_fold_or_grazing_rpm", highest}, {"pad_share", kRangePad}};
-  {
-    // The contact-free closed form: critical speeds, the whirl sense everywhere, Fig. 3's choice.
-    json cf;
-    cf["critical_rpm_x"] = std::sqrt(paper.k_x / paper.m) * 60.0 / (2.0 * std::numbers::pi);
-    cf["critical_rpm_y"] = std::sqrt(paper.k_y / paper.m) * 60.0 / (2.0 * std::numbers::pi);
-    cf["scan_rpm"] = {scan.rpm.front(), scan.rpm.back()};
-    cf["backward_whirl_rpm"] = ranges_json(contiguous_ranges(scan.rpm, [&](double rpm) {
-      return !ellipse_of(unbalance_response(paper, rpm_to_rad_s(rpm))).forward;
-    }));
-    numbers["closed_form"] = cf;
-    table t;
-    t.metadata = {{"generator", "rubref " + std::string(version()) + " reproduce"},
-                  {"description", "contact-free unbalance response of Eq. 1 (closed form, ref/model/closed_form.hpp)"}};
-    t.columns = {"speed_rpm", "x_amplitude_m", "y_amplitude_m", "max_radius_m", "forward_1x_m", "backward_1x_m", "tilt_rad"};
-    for (std::size_t i = 0; i < scan.rpm.size(); ++i) {
-      if (scan.rpm[i] < from_rpm || scan.rpm[i] > to_rpm) continue;
-      const auto& r = scan.response[i];
-      const whirl_ellipse e = ellipse_of(r);
-      t.rows.push_back({format_number(scan.rpm[i]), format_number(std::abs(r.x_phasor)), format_number(std::abs(r.y_phasor)),
-                        format_number(e.semi_major), format_number(std::abs(r.forward())), format_number(std::abs(r.backward())),
-                        format_number(e.tilt)});
-    }
-    dir.write("data/contact_free_response.csv", to_csv(t));
-    manifest["contact_free"] = "data/contact_free_response.csv";
+// Fig. 3: contact-free orbits at the chosen speeds, simulated (not the closed form) so they share the code path.
+void write_fig03_orbits(const json& fig03, unsigned threads, staged_directory& dir, json& manifest) {
+  std::vector<orbit> free_orbits(fig03.size());
+  parallel_for(free_orbits.size(), threads, [&](std::size_t i) {
+    run_request req;
+    req.params.clearance = kNoContactClearance;
+    req.rpm = fig03[i]["rpm"].get<double>();
+    req.record_revs = 2;
+    req.samples_per_rev = 256;
+    free_orbits[i] = simulate(req);
+  });
+  for (std::size_t i = 0; i < free_orbits.size(); ++i) {
+    const std::string f = "data/orbits/fig03_" + rpm_label(free_orbits[i].request.rpm) + ".csv";
+    dir.write(f, to_csv(to_record(free_orbits[i])));
+    manifest["fig03"].push_back({{"file", f}, {"rpm", free_orbits[i].request.rpm}, {"role", fig03[i]["role"]}});
   }
-  numbers["fig03"] = choose_fig03_speeds(scan, paper);
-  {
-    // Fig. 3: contact-free orbits at the chosen speeds, simulated (not the closed form) so they share the code path.
-    std::vector<orbit> free_orbits(numbers["fig03"].size());
-    parallel_for(free_orbits.size(), s.threads, [&](std::size_t i) {
-      run_request req;
-      req.params.clearance = kNoContactClearance;
-      req.rpm = numbers["fig03"][i]["rpm"].get<double>();
-      req.record_revs = 2;
-      req.samples_per_rev = 256;
-      free_orbits[i] = simulate(req);
-    });
-    for (std::size_t i = 0; i < free_orbits.size(); ++i) {
-      const std::string f = "data/orbits/fig03_" + rpm_label(free_orbits[i].request.rpm) + ".csv";
-      dir.write(f, to_csv(to_record(free_orbits[i])));
-      manifest["fig03"].push_back({{"file", f}, {"rpm", free_orbits[i].request.rpm}, {"role", numbers["fig03"][i]["role"]}});
-    }
-  }
+}
+
+// The identified law's sweeps and branches at every clearance, its waterfalls at the paper's and
+// the orbits of Fig. 12.
+void write_identified_sweeps(const speed_range& range, const paper_sweeps& sw, staged_directory& dir, json& manifest) {
   for (std::size_t c = 0; c < kClearances.size(); ++c) {
     const double clearance = kClearances[c];
-    const auto& up = branch_of("identified", clearance, sweep_direction::up);
-    const auto& down = branch_of("identified", clearance, sweep_direction::down);
+    const auto& up = sw.branch_of("identified", clearance, sweep_direction::up);
+    const auto& down = sw.branch_of("identified", clearance, sweep_direction::down);
     const std::string tag = "identified_" + mm_label(clearance);
-    const sweep_settings settings = paper_sweep("identified", clearance, from_rpm, to_rpm);
+    const sweep_settings settings = paper_sweep("identified", clearance, range.from_rpm, range.to_rpm);
+    const traced_branch& traced = range.traced[c];
     dir.write("data/sweep_" + tag + ".csv", to_csv(sweep_table(settings, {up, down})));
-    dir.write("data/branch_" + tag + ".csv", to_csv(branch_table(traced[c].request, traced[c].result)));
-    dir.write("data/branch_" + tag + ".json", branch_summary_json(traced[c].request, traced[c].result).dump(2) + "\n");
+    dir.write("data/branch_" + tag + ".csv", to_csv(branch_table(traced.request, traced.result)));
+    dir.write("data/branch_" + tag + ".json", branch_summary_json(traced.request, traced.result).dump(2) + "\n");
     manifest["sweeps"].push_back({{"file", "data/sweep_" + tag + ".csv"}, {"variant", "identified"}, {"clearance_mm", clearance * 1e3}});
     manifest["branches"].push_back({{"file", "data/branch_" + tag + ".csv"}, {"summary", "data/branch_" + tag + ".json"},
                                     {"clearance_mm", clearance * 1e3}});
@@ -419,10 +436,14 @@ void reproduce(const reproduce_settings& s) {
       manifest["fig12"].push_back({{"file", f}, {"clearance_mm", clearance * 1e3}, {"rpm", rpm}, {"period_revs", point_at(up, rpm).summary.period_revs}});
     }
   }
-  numbers["other_laws"] = json::object();
+}
+
+// The other laws' sweeps at the paper's clearance and their orbits (Figs. 6, 8). Returns their numbers.
+json other_laws(const speed_range& range, const paper_sweeps& sw, staged_directory& dir, json& manifest) {
+  json numbers = json::object();
   for (const std::string v : {"restitution", "piecewise-linear", "piecewise-nonlinear"}) {
-    const auto& up = branch_of(v, kPaperClearance, sweep_direction::up);
-    const sweep_settings settings = paper_sweep(v, kPaperClearance, from_rpm, to_rpm);
+    const auto& up = sw.branch_of(v, kPaperClearance, sweep_direction::up);
+    const sweep_settings settings = paper_sweep(v, kPaperClearance, range.from_rpm, range.to_rpm);
     const std::string f = "data/sweep_" + v + "_" + mm_label(kPaperClearance) + ".csv";
     dir.write(f, to_csv(sweep_table(settings, {up})));
     manifest["sweeps"].push_back({{"file", f}, {"variant", v}, {"clearance_mm", kPaperClearance * 1e3}});
@@ -432,77 +453,96 @@ void reproduce(const reproduce_settings& s) {
       manifest[v == "restitution" ? "fig06" : "fig08"].push_back(
           {{"file", of}, {"variant", v}, {"rpm", rpm}, {"period_revs", point_at(up, rpm).summary.period_revs}});
     }
-    numbers["other_laws"][v] = {{"friction", v != "restitution"},
-                                {"rub_up_rpm", ranges_json(rub_ranges(up))},
-                                {"backward_whirl_up_rpm", ranges_json(backward_whirl_ranges(up))},
-                                {"periods_up", period_bands_json(up)}};
+    numbers[v] = {{"friction", v != "restitution"},
+                  {"rub_up_rpm", ranges_json(rub_ranges(up))},
+                  {"backward_whirl_up_rpm", ranges_json(backward_whirl_ranges(up))},
+                  {"periods_up", period_bands_json(up)}};
   }
-  {
-    const sweep_branch& b = branches[frictionless_task];
-    const std::string f = "data/sweep_identified_" + mm_label(kPaperClearance) + "_mu0.csv";
-    dir.write(f, to_csv(sweep_table(frictionless, {b})));
-    numbers["frictionless"] = {{"variant", "identified"}, {"mu", 0.0}, {"file", f}, {"rub_up_rpm", ranges_json(rub_ranges(b))},
-                               {"backward_whirl_up_rpm", ranges_json(backward_whirl_ranges(b))}};
+  return numbers;
+}
+
+// The identified law without friction at the paper's clearance. Returns its numbers.
+json frictionless_sweep(const paper_sweeps& sw, staged_directory& dir) {
+  const sweep_branch& b = sw.branches[sw.frictionless_task];
+  const std::string f = "data/sweep_identified_" + mm_label(kPaperClearance) + "_mu0.csv";
+  dir.write(f, to_csv(sweep_table(sw.frictionless, {b})));
+  return {{"variant", "identified"}, {"mu", 0.0}, {"file", f}, {"rub_up_rpm", ranges_json(rub_ranges(b))},
+          {"backward_whirl_up_rpm", ranges_json(backward_whirl_ranges(b))}};
+}
+
+// Fig. 7: the stiffness laws over the penetrations reached, and the sizes of k3 z^3 and c2 zdot^2
+// there: at the paper's speeds (Figs. 6, 8) and over the whole run-up (up to its fold).
+// zdot is the fastest penetration rate among the recorded contact samples.
+json fig07_normal_force(const speed_range& range, const paper_sweeps& sw, const parameters& paper, staged_directory& dir, json& manifest) {
+  const auto reached = [&](double lo_rpm, double hi_rpm) {
+    double z = 0.0, zdot = 0.0;
+    for (const std::string v : {"piecewise-linear", "piecewise-nonlinear", "identified"})
+      for (const auto& p : sw.branch_of(v, kPaperClearance, sweep_direction::up).points) {
+        if (p.rpm < lo_rpm || p.rpm > hi_rpm) continue;
+        z = std::max(z, p.summary.max_penetration);
+        for (const auto& smp : p.samples)
+          if (smp.s[idx::y] > kPaperClearance) zdot = std::max(zdot, std::abs(smp.s[idx::vy]));
+      }
+    return json{{"from_rpm", lo_rpm}, {"to_rpm", hi_rpm}, {"max_penetration_um", z * 1e6},
+                {"cubic_share_at_max_penetration", paper.k3 * z * z / paper.k1}, {"k1_z_at_max_penetration_N", paper.k1 * z},
+                {"max_penetration_rate_m_s", zdot}, {"c2_zdot2_at_max_rate_N", paper.c2 * zdot * zdot}};
+  };
+  table t;
+  t.metadata = {{"generator", "rubref " + std::string(version()) + " reproduce"},
+                {"k1_N_m", format_number(paper.k1)}, {"k3_N_m3", format_number(paper.k3)}, {"c2_kg_m", format_number(paper.c2)}};
+  t.columns = {"z_m", "k1_z_N", "k3_z3_N", "fn_piecewise_linear_N", "fn_piecewise_nonlinear_N"};
+  const auto pl = piecewise_linear::from(paper);
+  const auto pnl = piecewise_nonlinear::from(paper);
+  // Log-spaced from 1e-8 m to 1e-3 m: below the finest probe resolution to past the clearance.
+  for (int i = 0; i <= 250; ++i) {
+    const double z = std::pow(10.0, -8.0 + 5.0 * i / 250.0);
+    t.rows.push_back({format_number(z), format_number(paper.k1 * z), format_number(paper.k3 * z * z * z),
+                      format_number(pl.normal_force(z, 0.0)), format_number(pnl.normal_force(z, 0.0))});
   }
-  // Fig. 7: the stiffness laws over the penetrations reached, and the sizes of k3 z^3 and c2 zdot^2
-  // there: at the paper's speeds (Figs. 6, 8) and over the whole run-up (up to its fold).
-  // zdot is the fastest penetration rate among the recorded contact samples.
-  {
-    const auto reached = [&](double lo_rpm, double hi_rpm) {
-      double z = 0.0, zdot = 0.0;
-      for (const std::string v : {"piecewise-linear", "piecewise-nonlinear", "identified"})
-        for (const auto& p : branch_of(v, kPaperClearance, sweep_direction::up).points) {
-          if (p.rpm < lo_rpm || p.rpm > hi_rpm) continue;
-          z = std::max(z, p.summary.max_penetration);
-          for (const auto& smp : p.samples)
-            if (smp.s[idx::y] > kPaperClearance) zdot = std::max(zdot, std::abs(smp.s[idx::vy]));
-        }
-      return json{{"from_rpm", lo_rpm}, {"to_rpm", hi_rpm}, {"max_penetration_um", z * 1e6},
-                  {"cubic_share_at_max_penetration", paper.k3 * z * z / paper.k1}, {"k1_z_at_max_penetration_N", paper.k1 * z},
-                  {"max_penetration_rate_m_s", zdot}, {"c2_zdot2_at_max_rate_N", paper.c2 * zdot * zdot}};
-    };
-    table t;
-    t.metadata = {{"generator", "rubref " + std::string(version()) + " reproduce"},
-                  {"k1_N_m", format_number(paper.k1)}, {"k3_N_m3", format_number(paper.k3)}, {"c2_kg_m", format_number(paper.c2)}};
-    t.columns = {"z_m", "k1_z_N", "k3_z3_N", "fn_piecewise_linear_N", "fn_piecewise_nonlinear_N"};
-    const auto pl = piecewise_linear::from(paper);
-    const auto pnl = piecewise_nonlinear::from(paper);
-    // Log-spaced from 1e-8 m to 1e-3 m: below the finest probe resolution to past the clearance.
-    for (int i = 0; i <= 250; ++i) {
-      const double z = std::pow(10.0, -8.0 + 5.0 * i / 250.0);
-      t.rows.push_back({format_number(z), format_number(paper.k1 * z), format_number(paper.k3 * z * z * z),
-                        format_number(pl.normal_force(z, 0.0)), format_number(pnl.normal_force(z, 0.0))});
-    }
-    dir.write("data/fig07_normal_force.csv", to_csv(t));
-    manifest["fig07"] = {{"file", "data/fig07_normal_force.csv"}};
-    numbers["fig07"] = {{"paper_speeds", reached(kOrbitSpeeds.front(), kOrbitSpeeds.back())},
-                        {"whole_run_up", reached(from_rpm, to_rpm)},
-                        {"z_cubic_one_percent_um", std::sqrt(0.01 * paper.k1 / paper.k3) * 1e6}};
-  }
-  // Fig. 8: how far apart the piecewise-linear and -nonlinear orbits are.
+  dir.write("data/fig07_normal_force.csv", to_csv(t));
+  manifest["fig07"] = {{"file", "data/fig07_normal_force.csv"}};
+  return {{"paper_speeds", reached(kOrbitSpeeds.front(), kOrbitSpeeds.back())},
+          {"whole_run_up", reached(range.from_rpm, range.to_rpm)},
+          {"z_cubic_one_percent_um", std::sqrt(0.01 * paper.k1 / paper.k3) * 1e6}};
+}
+
+// Fig. 8: how far apart the piecewise-linear and -nonlinear orbits are.
+json fig08_orbit_differences(const paper_sweeps& sw) {
+  json out = json::array();
   for (const double rpm : kOrbitSpeeds) {
-    const auto& a = point_at(branch_of("piecewise-linear", kPaperClearance, sweep_direction::up), rpm);
-    const auto& b = point_at(branch_of("piecewise-nonlinear", kPaperClearance, sweep_direction::up), rpm);
+    const auto& a = point_at(sw.branch_of("piecewise-linear", kPaperClearance, sweep_direction::up), rpm);
+    const auto& b = point_at(sw.branch_of("piecewise-nonlinear", kPaperClearance, sweep_direction::up), rpm);
     double diff = 0.0;
     for (std::size_t i = 0; i < a.samples.size(); ++i)
       diff = std::max(diff, std::hypot(a.samples[i].s[idx::x] - b.samples[i].s[idx::x], a.samples[i].s[idx::y] - b.samples[i].s[idx::y]));
-    numbers["fig08"].push_back({{"rpm", rpm}, {"max_orbit_difference_nm", diff * 1e9}, {"max_radius_mm", a.summary.max_radius * 1e3},
-                                {"max_penetration_um", b.summary.max_penetration * 1e6}});
+    out.push_back({{"rpm", rpm}, {"max_orbit_difference_nm", diff * 1e9}, {"max_radius_mm", a.summary.max_radius * 1e3},
+                   {"max_penetration_um", b.summary.max_penetration * 1e6}});
   }
+  return out;
+}
+
+// Fig. 6: the restitution law's orbits at the paper's speeds.
+json fig06_impacts(const paper_sweeps& sw) {
+  json out = json::array();
   for (const double rpm : kOrbitSpeeds) {
-    const auto& p = point_at(branch_of("restitution", kPaperClearance, sweep_direction::up), rpm);
-    numbers["fig06"].push_back({{"rpm", rpm}, {"impacts_per_rev", p.summary.contact_episodes_per_rev}, {"period_revs", p.summary.period_revs},
-                                {"whirl", p.summary.backward_whirl() ? "backward" : "forward"}, {"max_radius_mm", p.summary.max_radius * 1e3}});
+    const auto& p = point_at(sw.branch_of("restitution", kPaperClearance, sweep_direction::up), rpm);
+    out.push_back({{"rpm", rpm}, {"impacts_per_rev", p.summary.contact_episodes_per_rev}, {"period_revs", p.summary.period_revs},
+                   {"whirl", p.summary.backward_whirl() ? "backward" : "forward"}, {"max_radius_mm", p.summary.max_radius * 1e3}});
   }
-  // Per clearance: where the contact-free orbit reaches the stator, rub, whirl, periods, jumps, branch.
+  return out;
+}
+
+// Per clearance: where the contact-free orbit reaches the stator, rub, whirl, periods, jumps, branch.
+json clearance_numbers(const speed_range& range, const paper_sweeps& sw) {
+  json out = json::array();
   for (std::size_t ci = 0; ci < kClearances.size(); ++ci) {
     const double clearance = kClearances[ci];
-    const auto& up = branch_of("identified", clearance, sweep_direction::up);
-    const auto& down = branch_of("identified", clearance, sweep_direction::down);
+    const auto& up = sw.branch_of("identified", clearance, sweep_direction::up);
+    const auto& down = sw.branch_of("identified", clearance, sweep_direction::down);
     const jump_report jr = detect_jumps(up, down, kSweepStepRpm);
     json c;
     c["clearance_mm"] = clearance * 1e3;
-    c["contact_free_orbit_reaches_stator_rpm"] = ranges_json(touching[ci]);
+    c["contact_free_orbit_reaches_stator_rpm"] = ranges_json(range.touching[ci]);
     c["rub_up_rpm"] = ranges_json(rub_ranges(up));
     c["rub_down_rpm"] = ranges_json(rub_ranges(down));
     c["backward_whirl_up_rpm"] = ranges_json(backward_whirl_ranges(up));
@@ -516,11 +556,11 @@ void reproduce(const reproduce_settings& s) {
     for (const auto& j : jr.jumps)
       c["jumps"].push_back({{"sweep", to_string(j.sweep)}, {"from_rpm", j.from_rpm}, {"to_rpm", j.to_rpm},
                             {"amplitude_before_mm", j.amplitude_before * 1e3}, {"amplitude_after_mm", j.amplitude_after * 1e3}});
-    c["branch"] = branch_numbers(traced[ci]);
+    c["branch"] = branch_numbers(range.traced[ci]);
     // Both rub boundaries inside the range: the run-up ends clear of the stator and the run-down starts so.
     const auto rub = rub_ranges(up);
-    c["range_brackets_rub"] = !rub.empty() && rub.front().first > from_rpm && rub.back().second < to_rpm &&
-                              !rub_ranges(down).empty() && rub_ranges(down).front().first > from_rpm;
+    c["range_brackets_rub"] = !rub.empty() && rub.front().first > range.from_rpm && rub.back().second < range.to_rpm &&
+                              !rub_ranges(down).empty() && rub_ranges(down).front().first > range.from_rpm;
     for (const double rpm : kFig12Speeds) {
       const auto& pt = point_at(up, rpm);
       c["fig12"].push_back({{"rpm", rpm}, {"regime", to_string(pt.summary.regime)}, {"period_revs", pt.summary.period_revs},
@@ -530,16 +570,59 @@ void reproduce(const reproduce_settings& s) {
                             {"forward_1x_mm", std::abs(pt.summary.forward_1x) * 1e3},
                             {"backward_1x_mm", std::abs(pt.summary.backward_1x) * 1e3}});
     }
-    numbers["clearances"].push_back(c);
+    out.push_back(c);
   }
+  return out;
+}
+
+// 4. Data files and the numbers of the report.
+void write_data(const speed_range& range, const paper_sweeps& sw, const parameters& paper, const reproduce_settings& s, staged_directory& dir,
+                json& manifest, json& numbers) {
+  numbers["settings"] = sweep_settings_json(sw.grid_settings());
+  numbers["settings"]["settle_rounds"] = kSettleRounds;
+  numbers["range"] = {{"from_rpm", range.from_rpm}, {"to_rpm", range.to_rpm}, {"step_rpm", kSweepStepRpm}, {"lowest_grazing_rpm", range.lowest},
+                      {"highest_fold_or_grazing_rpm", range.highest}, {"pad_share", kRangePad}};
+  numbers["closed_form"] = contact_free_response(range, paper, dir, manifest);
+  numbers["fig03"] = choose_fig03_speeds(range.scan, paper);
+  write_fig03_orbits(numbers["fig03"], s.threads, dir, manifest);
+  write_identified_sweeps(range, sw, dir, manifest);
+  numbers["other_laws"] = other_laws(range, sw, dir, manifest);
+  numbers["frictionless"] = frictionless_sweep(sw, dir);
+  numbers["fig07"] = fig07_normal_force(range, sw, paper, dir, manifest);
+  numbers["fig08"] = fig08_orbit_differences(sw);
+  numbers["fig06"] = fig06_impacts(sw);
+  numbers["clearances"] = clearance_numbers(range, sw);
   manifest["clearance_mm"] = kPaperClearance * 1e3;
-  manifest["sweep_grid_rpm"] = {from_rpm, to_rpm, kSweepStepRpm};
+  manifest["sweep_grid_rpm"] = {range.from_rpm, range.to_rpm, kSweepStepRpm};
   dir.write("data/figures.json", manifest.dump(2) + "\n");
-  s.progress("      done in " + since(t0));
+}
+
+}  // namespace
+
+void reproduce(const reproduce_settings& s) {
+  const auto t_start = steady_clock::now();
+  staged_directory dir(s.out);
+  const parameters paper;  // every number below comes from the paper's defaults
+  json manifest, numbers;
+  numbers["generator"] = "rubref " + std::string(version()) + " reproduce";
+  numbers["commit"] = std::string(commit());
+
+  const speed_range range = find_speed_range(paper, s);
+  const paper_sweeps sweeps = run_paper_sweeps(range, paper, s);
+
+  s.progress("[3/6] identification (ERR/FROLS, friction, output error) on rubref's own identified-law record ...");
+  auto t0 = steady_clock::now();
+  numbers["identification"] = identify_own_record(sweeps, paper, dir, manifest);
+  s.progress("      done in " + elapsed_since(t0));
+
+  s.progress("[4/6] data tables, orbits and the numbers of the report ...");
+  t0 = steady_clock::now();
+  write_data(range, sweeps, paper, s, dir, manifest, numbers);
+  s.progress("      done in " + elapsed_since(t0));
   for (const auto& c : numbers["clearances"])
     if (!c["range_brackets_rub"].get<bool>())
       s.progress("warning: at clearance " + format_fixed(c["clearance_mm"].get<double>(), 1) + " mm a sweep still rubs at an end of " +
-                 format_fixed(from_rpm, 0) + "–" + format_fixed(to_rpm, 0) + " rpm: the range does not bracket both rub boundaries");
+                 format_fixed(range.from_rpm, 0) + "–" + format_fixed(range.to_rpm, 0) + " rpm: the range does not bracket both rub boundaries");
 
   // 5. The report: every number in it comes from `numbers` (reproduce.json).
   s.progress("[5/6] report.md ...");
@@ -549,14 +632,14 @@ void reproduce(const reproduce_settings& s) {
   // 6. Figures.
   if (s.figures) {
     s.progress("[6/6] figures (matplotlib, 300 dpi PNG and SVG) ...");
-    t0 = std::chrono::steady_clock::now();
+    t0 = steady_clock::now();
     run_plot_script(s, dir.path());
-    s.progress("      done in " + since(t0));
+    s.progress("      done in " + elapsed_since(t0));
   } else {
     s.progress("[6/6] figures skipped");
   }
   dir.commit();
-  s.progress("reproduce finished in " + since(t_start) + ": " + (dir.target() / "report.md").string());
+  s.progress("reproduce finished in " + elapsed_since(t_start) + ": " + (dir.target() / "report.md").string());
 }
 
 }  // namespace rubref

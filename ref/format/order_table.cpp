@@ -95,6 +95,298 @@ struct declared {
   std::string value, where;  // where: "file", "given"; empty value: not declared
 };
 
+[[noreturn]] void fail(const std::string& source, const std::string& what) { throw input_error(source + ": " + what); }
+
+// The conventions as declared: in the file's metadata, given from outside, or both (they must agree).
+struct declared_conventions {
+  declared amplitude_kind, phase_sense, amplitude_unit, phase_unit;
+  std::optional<double> scale;  // mV/um
+};
+
+declared_conventions conventions_declared(const record& r, const std::string& src, const order_conventions& given) {
+  const auto meta = [&](std::string_view key) -> std::string {
+    const std::string* v = r.find(key);
+    return v ? *v : std::string();
+  };
+  const auto resolve = [&](std::string_view key, const std::string& outside, std::string_view what) {
+    declared d;
+    const std::string in_file = meta(key);
+    if (!in_file.empty() && !outside.empty() && lower(in_file) != lower(outside))
+      fail(src, "the " + std::string(what) + " is '" + in_file + "' in the file ('# " + std::string(key) + "') but given as '" + outside + "': say it once");
+    if (!in_file.empty()) d = {in_file, "file"};
+    else if (!outside.empty()) d = {outside, "given"};
+    return d;
+  };
+  declared_conventions out;
+  out.amplitude_kind = resolve("amplitude", given.amplitude, "amplitude convention");
+  out.phase_sense = resolve("phase", given.phase, "phase convention");
+  out.amplitude_unit = resolve("amplitude_unit", given.amplitude_unit, "amplitude unit");
+  out.phase_unit = resolve("phase_unit", given.phase_unit, "phase unit");
+  out.scale = given.scale_mV_per_um;
+  if (const std::string s = meta("scale_mV_per_um"); !s.empty()) {
+    const double v = r.number("scale_mV_per_um");
+    if (out.scale && *out.scale != v) fail(src, "the probe sensitivity is " + s + " mV/um in the file but given as " + format_digits(*out.scale) + ": say it once");
+    out.scale = v;
+  }
+  if (out.scale && !(*out.scale > 0.0 && std::isfinite(*out.scale))) fail(src, "the probe sensitivity (scale_mV_per_um) must be a positive number");
+  return out;
+}
+
+// An order's amplitude and phase columns.
+struct pair_columns {
+  std::vector<std::size_t> amplitudes, phases;
+};
+
+// The columns: one speed, amplitude and phase pairs per probe and order, the rest ignored.
+struct table_columns {
+  std::size_t speed;  // the column count if there is none
+  double speed_factor = 1.0;  // to rpm
+  std::map<std::pair<std::string, int>, pair_columns> pairs;
+  std::vector<std::pair<std::string, int>> pair_order;  // in header order
+  std::vector<std::string> ignored;
+};
+
+table_columns columns_of(const record& r, const std::string& src) {
+  table_columns out;
+  out.speed = r.columns.size();
+  for (std::size_t c = 0; c < r.columns.size(); ++c) {
+    const std::string& name = r.columns[c];
+    if (is_speed_column(name)) {
+      if (out.speed != r.columns.size()) fail(src, "two speed columns ('" + r.columns[out.speed] + "' and '" + name + "'): keep one");
+      out.speed = c, out.speed_factor = name == "speed_hz" ? 60.0 : 1.0;
+      continue;
+    }
+    const auto oc = parse_order_column(name);
+    if (!oc) {
+      out.ignored.push_back(name);
+      continue;
+    }
+    const auto key = std::pair{oc->probe, oc->order};
+    if (!out.pairs.count(key)) out.pair_order.push_back(key);
+    (oc->amplitude ? out.pairs[key].amplitudes : out.pairs[key].phases).push_back(c);
+  }
+  return out;
+}
+
+// The conventions every order needs, known and understood.
+struct table_reading {
+  double kind_factor;               // to 0-to-peak
+  std::string sense;                // lead, lag
+  std::string phase_unit_declared;  // deg, rad, or "" (each phase column's suffix then)
+};
+
+table_reading check_conventions(const declared_conventions& d, const std::string& src) {
+  if (d.amplitude_kind.value.empty())
+    fail(src, "the amplitude convention is not declared: give it (" + setting("amplitude") + " 0-peak|pk-pk|rms, or '# amplitude: ...' in the file)");
+  const auto kind_factor = to_zero_peak(d.amplitude_kind.value);
+  if (!kind_factor) fail(src, "unknown amplitude convention '" + d.amplitude_kind.value + "' (0-peak, pk-pk, rms)");
+  if (d.phase_sense.value.empty())
+    fail(src, "the phase convention is not declared: give it (" + setting("phase") + " lead if the signal is A cos(k theta + phi), lag if A cos(k theta - phi), theta the shaft "
+              "angle after the keyphasor; or '# phase: ...' in the file)");
+  const std::string sense = lower(d.phase_sense.value);
+  if (sense != "lead" && sense != "lag") fail(src, "unknown phase convention '" + d.phase_sense.value + "' (lead, lag)");
+  if (!d.amplitude_unit.value.empty() && !amplitude_unit(d.amplitude_unit.value))
+    fail(src, "unknown amplitude unit '" + d.amplitude_unit.value + "' (" + std::string(kAmplitudeUnitList) + ")");
+  const std::string phase_unit_declared = lower(d.phase_unit.value);
+  if (!phase_unit_declared.empty() && phase_unit_declared != "deg" && phase_unit_declared != "rad")
+    fail(src, "unknown phase unit '" + d.phase_unit.value + "' (deg, rad)");
+  return {*kind_factor, sense, phase_unit_declared};
+}
+
+// The probes and their angles.
+struct probe_angles {
+  std::vector<std::string> probes;
+  std::map<std::string, double> degrees;  // "" for the table's only probe
+};
+
+probe_angles probes_of(const record& r, const table_columns& columns, const order_conventions& given, const std::string& src) {
+  probe_angles out;
+  for (const auto& [key, _] : columns.pairs)
+    if (std::find(out.probes.begin(), out.probes.end(), key.first) == out.probes.end()) out.probes.push_back(key.first);
+  auto& angles = out.degrees;
+  for (const auto& [key, value] : r.metadata) {
+    if (key != "probe_angle_deg" && key.rfind("probe_angle_deg.", 0) != 0) continue;
+    const std::string probe = key == "probe_angle_deg" ? std::string() : key.substr(16);
+    angles[probe] = r.number(key);
+  }
+  for (const auto& [probe, deg] : given.probe_angles_deg) {
+    if (!std::isfinite(deg)) fail(src, "the probe angle of '" + probe + "' is not a finite number");
+    if (angles.count(probe) && angles[probe] != deg) fail(src, "the probe angle of '" + probe + "' is in the file and given otherwise: say it once");
+    angles[probe] = deg;
+  }
+  for (const auto& [probe, deg] : angles) {
+    const bool known = std::find(out.probes.begin(), out.probes.end(), probe) != out.probes.end() || (probe.empty() && out.probes.size() == 1);
+    if (!known) {
+      std::string list;
+      for (const auto& p : out.probes) list += (list.empty() ? "'" : ", '") + p + "'";
+      fail(src, probe.empty() ? "a probe angle without a probe name, but the table has " + std::to_string(out.probes.size()) + " probes (" + list + "): name it, probe=deg"
+                              : "a probe angle for '" + probe + "', which is no probe of this table (" + list + ")" + did_you_mean(probe, out.probes));
+    }
+  }
+  return out;
+}
+
+// The rows in rising speed, and what their order says.
+struct speed_rows {
+  std::vector<std::size_t> order;  // row indices, in rising speed
+  std::vector<double> rpm;
+  std::vector<std::size_t> line;
+  std::vector<std::string> notes;
+};
+
+speed_rows rows_by_speed(const record& r, const table_columns& columns, const std::string& src) {
+  if (columns.speed == r.columns.size()) fail(src, "no speed column");
+  const std::size_t n = r.rows();
+  speed_rows out;
+  out.order.resize(n);
+  std::iota(out.order.begin(), out.order.end(), 0);
+  const auto& speed = r.data[columns.speed];
+  for (std::size_t i = 0; i < n; ++i)
+    if (!(speed[i] > 0.0)) throw input_error(r.where_row(i) + "speed '" + r.columns[columns.speed] + "' must be positive");
+  std::stable_sort(out.order.begin(), out.order.end(), [&](std::size_t a, std::size_t b) { return speed[a] < speed[b]; });
+  std::size_t drops = 0, rises = 0;
+  for (std::size_t i = 1; i < n; ++i) {
+    if (speed[i] < speed[i - 1]) ++drops;
+    if (speed[i] > speed[i - 1]) ++rises;
+  }
+  if (drops > 0 && rises == 0) out.notes.push_back("a coast-down (the speed falls through the file): read in rising speed");
+  else if (drops > 0)
+    out.notes.push_back("rows are not in speed order (the speed falls " + std::to_string(drops) + " times between rows): read in rising speed");
+  out.rpm.reserve(n), out.line.reserve(n);
+  for (const std::size_t i : out.order) out.rpm.push_back(speed[i] * columns.speed_factor), out.line.push_back(r.first_data_line + i);
+  std::size_t repeats = 0;
+  for (std::size_t i = 1; i < n; ++i) repeats += out.rpm[i] == out.rpm[i - 1];
+  if (repeats > 0)
+    out.notes.push_back(std::to_string(repeats) + " rows repeat another row's speed exactly: each is kept as a measurement of its own");
+  return out;
+}
+
+// An amplitude column that can be read, with its unit and where the unit came from.
+struct readable_amplitude {
+  std::size_t column;
+  std::string unit, from;
+};
+
+// The amplitude columns read, and notes on those that are not.
+struct amplitude_reading {
+  std::vector<readable_amplitude> columns;  // the first gives the amplitude, the others check it
+  std::vector<std::string> notes;
+};
+
+// The amplitude: each column's unit from its suffix, else the declared one; columns without
+// either are not read when another gives the amplitude.
+amplitude_reading amplitude_columns(const record& r, const pair_columns& pc, const declared& declared_unit, const std::string& label,
+                                    const std::string& src) {
+  amplitude_reading out;
+  std::vector<readable_amplitude>& amps = out.columns;
+  std::vector<std::string> unread;
+  for (const std::size_t c : pc.amplitudes) {
+    const std::string suffix = parse_order_column(r.columns[c])->unit;
+    if (!suffix.empty()) {
+      if (!amplitude_unit(suffix))
+        fail(src, "column '" + r.columns[c] + "': unknown amplitude unit '" + suffix + "' (" + std::string(kAmplitudeUnitList) + ")");
+      amps.push_back({c, suffix, "column name"});
+    } else if (!declared_unit.value.empty()) {
+      amps.push_back({c, declared_unit.value, declared_unit.where == "file" ? "file" : "given"});
+    } else {
+      unread.push_back(r.columns[c]);
+    }
+  }
+  if (amps.empty())
+    fail(src, "column '" + unread.front() + "' has no unit: declare it (" + setting("amplitude_unit") + " " + std::string(kAmplitudeUnitList) +
+              ", or '# amplitude_unit: ...' in the file)");
+  for (const auto& u : unread)
+    out.notes.push_back("column '" + u + "' not read: its unit is not declared, and '" + r.columns[amps.front().column] + "' gives the " + label + " amplitude");
+  return out;
+}
+
+// One probe's order as complex vectors in metres, 0-to-peak, lead, with what was read and noted.
+struct read_order {
+  tracked_order order;
+  std::string units;  // the columns' units and their sources, for order_table::conventions
+  std::vector<std::string> notes;
+};
+
+read_order order_of(const record& r, const std::pair<std::string, int>& key, const pair_columns& pc, const declared_conventions& conventions,
+                    const table_reading& reading, const probe_angles& probes, const speed_rows& rows, const std::string& src) {
+  read_order out;
+  const std::string label = (key.first.empty() ? "" : key.first + " ") + std::to_string(key.second) + "X";
+  if (pc.amplitudes.empty()) fail(src, "no amplitude column for " + label + " (its phase column is '" + r.columns[pc.phases.front()] + "')");
+  if (pc.phases.empty()) fail(src, "no phase column for " + label + " (its amplitude column is '" + r.columns[pc.amplitudes.front()] + "')");
+  amplitude_reading amplitude = amplitude_columns(r, pc, conventions.amplitude_unit, label, src);
+  out.notes = std::move(amplitude.notes);
+  const std::vector<readable_amplitude>& amps = amplitude.columns;
+  const auto metres_of = [&](const readable_amplitude& a, std::size_t row) {
+    const amplitude_unit_info& u = *amplitude_unit(a.unit);
+    const double v = r.data[a.column][row];
+    if (u.metres > 0.0) return v * u.metres;
+    if (!conventions.scale)
+      fail(src, "column '" + r.columns[a.column] + "' is in volts: declare the probe sensitivity (" + setting("scale") + " in mV/um, or '# scale_mV_per_um: ...')");
+    return v * u.volts * 1e3 / *conventions.scale * 1e-6;
+  };
+  // The phase: its unit from the suffix, else the declared one.
+  const std::size_t phase_col = pc.phases.front();
+  std::string phase_unit = lower(parse_order_column(r.columns[phase_col])->unit);
+  std::string phase_from = "column name";
+  if (phase_unit.empty()) phase_unit = reading.phase_unit_declared, phase_from = conventions.phase_unit.where;
+  if (phase_unit.empty())
+    fail(src, "column '" + r.columns[phase_col] + "' has no unit: declare it (" + setting("phase_unit") + " deg|rad, or '# phase_unit: ...' in the file)");
+  if (phase_unit != "deg" && phase_unit != "rad") fail(src, "column '" + r.columns[phase_col] + "': unknown phase unit '" + phase_unit + "' (deg, rad)");
+  if (pc.phases.size() > 1) {
+    std::string list;
+    for (std::size_t i = 1; i < pc.phases.size(); ++i) list += (i > 1 ? ", '" : "'") + r.columns[pc.phases[i]] + "'";
+    out.notes.push_back("for " + label + " the phase is read from '" + r.columns[phase_col] + "'; not read: " + list);
+  }
+  const double to_rad = phase_unit == "deg" ? std::numbers::pi / 180.0 : 1.0;
+  const double sign = reading.sense == "lead" ? 1.0 : -1.0;
+
+  tracked_order& o = out.order;
+  o.probe = key.first, o.order = key.second;
+  o.amplitude_column = r.columns[amps.front().column], o.phase_column = r.columns[phase_col];
+  const auto angle = probes.degrees.find(key.first);
+  if (angle != probes.degrees.end()) o.probe_angle = angle->second * std::numbers::pi / 180.0;
+  else if (probes.probes.size() == 1 && probes.degrees.count("")) o.probe_angle = probes.degrees.at("") * std::numbers::pi / 180.0;
+  o.vector.reserve(rows.order.size());
+  for (const std::size_t i : rows.order) {
+    const double a = metres_of(amps.front(), i);
+    if (a < 0.0)
+      throw input_error(r.where_row(i) + "column '" + r.columns[amps.front().column] + "': a negative amplitude (write a sign into the phase)");
+    // Two amplitude columns with units must say the same (a wrong declared unit shows here).
+    for (std::size_t k = 1; k < amps.size(); ++k) {
+      const double b = metres_of(amps[k], i);
+      if (std::abs(a - b) > 1e-6 * std::max(std::abs(a), std::abs(b)) + 1e-15)
+        throw input_error(r.where_row(i) + "columns '" + r.columns[amps.front().column] + "' (" + amps.front().unit + ", from the " + amps.front().from + ") and '" +
+                          r.columns[amps[k].column] + "' (" + amps[k].unit + ", from the " + amps[k].from + ") disagree: " + format_digits(a) + " m and " +
+                          format_digits(b) + " m; is the declared unit right?");
+    }
+    o.vector.push_back(std::polar(a * reading.kind_factor, sign * r.data[phase_col][i] * to_rad));
+  }
+  const auto source_of = [](const std::string& from) { return from == "given" ? std::string("given") : "from the " + from; };
+  out.units = label + ": '" + o.amplitude_column + "' in " + amps.front().unit + " (" + source_of(amps.front().from) + "), '" + o.phase_column + "' in " +
+              phase_unit + " (" + source_of(phase_from) + ")";
+  return out;
+}
+
+// Dwells: the longest run of rows, in file order, within 1 % of its first row's speed. Said, so
+// a reader knows where the table's weight lies; the fit takes every row as one measurement.
+std::optional<std::string> dwell_note(const record& r, const table_columns& columns) {
+  const auto& speed = r.data[columns.speed];
+  const std::size_t n = r.rows();
+  std::size_t best_from = 0, best_length = 0;
+  for (std::size_t i = 0; i < n && best_length < n - i; ++i) {
+    std::size_t j = i + 1;
+    while (j < n && std::abs(speed[j] - speed[i]) <= 0.01 * speed[i]) ++j;
+    if (j - i > best_length) best_from = i, best_length = j - i;
+  }
+  if (!(best_length >= 10 && best_length * 10 >= n)) return std::nullopt;
+  double lo = speed[best_from], hi = lo;
+  for (std::size_t i = best_from; i < best_from + best_length; ++i) lo = std::min(lo, speed[i]), hi = std::max(hi, speed[i]);
+  return "lines " + std::to_string(r.first_data_line + best_from) + "-" + std::to_string(r.first_data_line + best_from + best_length - 1) + ": " +
+         std::to_string(best_length) + " rows (" + format_fixed(100.0 * static_cast<double>(best_length) / static_cast<double>(n), 0) +
+         " % of the table) dwell at " + format_fixed(columns.speed_factor * lo, 0) + "-" + format_fixed(columns.speed_factor * hi, 0) +
+         " rpm; each is one measurement, and where the amplitude is near the noise its phase scatters";
+}
+
 }  // namespace
 
 bool is_order_table_header(const std::vector<std::string>& columns) {
@@ -133,232 +425,33 @@ order_table parse_order_table(std::string_view text, std::string_view source, co
     return std::string();
   });
   const std::string src(source);
-  const auto fail = [&](const std::string& what) -> void { throw input_error(src + ": " + what); };
-  const auto meta = [&](std::string_view key) -> std::string {
-    const std::string* v = r.find(key);
-    return v ? *v : std::string();
-  };
-  const auto resolve = [&](std::string_view key, const std::string& outside, std::string_view what) {
-    declared d;
-    const std::string in_file = meta(key);
-    if (!in_file.empty() && !outside.empty() && lower(in_file) != lower(outside))
-      fail("the " + std::string(what) + " is '" + in_file + "' in the file ('# " + std::string(key) + "') but given as '" + outside + "': say it once");
-    if (!in_file.empty()) d = {in_file, "file"};
-    else if (!outside.empty()) d = {outside, "given"};
-    return d;
-  };
-  const declared amplitude_kind = resolve("amplitude", given.amplitude, "amplitude convention");
-  const declared phase_sense = resolve("phase", given.phase, "phase convention");
-  const declared declared_amplitude_unit = resolve("amplitude_unit", given.amplitude_unit, "amplitude unit");
-  const declared declared_phase_unit = resolve("phase_unit", given.phase_unit, "phase unit");
-  std::optional<double> scale = given.scale_mV_per_um;
-  if (const std::string s = meta("scale_mV_per_um"); !s.empty()) {
-    const double v = r.number("scale_mV_per_um");
-    if (scale && *scale != v) fail("the probe sensitivity is " + s + " mV/um in the file but given as " + format_digits(*scale) + ": say it once");
-    scale = v;
-  }
-  if (scale && !(*scale > 0.0 && std::isfinite(*scale))) fail("the probe sensitivity (scale_mV_per_um) must be a positive number");
-
+  const declared_conventions conventions = conventions_declared(r, src, given);
   order_table t;
   t.source = src;
   t.metadata = r.metadata;
 
-  // The columns: one speed, amplitude and phase pairs per probe and order, the rest ignored.
-  std::size_t speed_column = r.columns.size();
-  double speed_factor = 1.0;
-  struct pair_columns {
-    std::vector<std::size_t> amplitudes, phases;
-  };
-  std::map<std::pair<std::string, int>, pair_columns> pairs;
-  std::vector<std::pair<std::string, int>> pair_order;
-  std::vector<std::string> ignored;
-  for (std::size_t c = 0; c < r.columns.size(); ++c) {
-    const std::string& name = r.columns[c];
-    if (is_speed_column(name)) {
-      if (speed_column != r.columns.size()) fail("two speed columns ('" + r.columns[speed_column] + "' and '" + name + "'): keep one");
-      speed_column = c, speed_factor = name == "speed_hz" ? 60.0 : 1.0;
-      continue;
-    }
-    const auto oc = parse_order_column(name);
-    if (!oc) {
-      ignored.push_back(name);
-      continue;
-    }
-    const auto key = std::pair{oc->probe, oc->order};
-    if (!pairs.count(key)) pair_order.push_back(key);
-    (oc->amplitude ? pairs[key].amplitudes : pairs[key].phases).push_back(c);
-  }
-  if (!ignored.empty()) {
+  const table_columns columns = columns_of(r, src);
+  if (!columns.ignored.empty()) {
     std::string list;
-    for (const auto& n : ignored) list += (list.empty() ? "'" : ", '") + n + "'";
+    for (const auto& n : columns.ignored) list += (list.empty() ? "'" : ", '") + n + "'";
     t.notes.push_back("columns not read (neither the speed nor a [probe_]amp_<k>x / phase_<k>x column): " + list);
   }
+  const table_reading reading = check_conventions(conventions, src);
+  const probe_angles probes = probes_of(r, columns, given, src);
+  const speed_rows rows = rows_by_speed(r, columns, src);
+  t.rpm = rows.rpm, t.line = rows.line;
+  t.notes.insert(t.notes.end(), rows.notes.begin(), rows.notes.end());
 
-  // Conventions every order needs.
-  if (amplitude_kind.value.empty())
-    fail("the amplitude convention is not declared: give it (" + setting("amplitude") + " 0-peak|pk-pk|rms, or '# amplitude: ...' in the file)");
-  const auto kind_factor = to_zero_peak(amplitude_kind.value);
-  if (!kind_factor) fail("unknown amplitude convention '" + amplitude_kind.value + "' (0-peak, pk-pk, rms)");
-  if (phase_sense.value.empty())
-    fail("the phase convention is not declared: give it (" + setting("phase") + " lead if the signal is A cos(k theta + phi), lag if A cos(k theta - phi), theta the shaft "
-         "angle after the keyphasor; or '# phase: ...' in the file)");
-  const std::string sense = lower(phase_sense.value);
-  if (sense != "lead" && sense != "lag") fail("unknown phase convention '" + phase_sense.value + "' (lead, lag)");
-  if (!declared_amplitude_unit.value.empty() && !amplitude_unit(declared_amplitude_unit.value))
-    fail("unknown amplitude unit '" + declared_amplitude_unit.value + "' (" + std::string(kAmplitudeUnitList) + ")");
-  const std::string phase_unit_declared = lower(declared_phase_unit.value);
-  if (!phase_unit_declared.empty() && phase_unit_declared != "deg" && phase_unit_declared != "rad")
-    fail("unknown phase unit '" + declared_phase_unit.value + "' (deg, rad)");
-
-  // The probes and their angles.
-  std::vector<std::string> probes;
-  for (const auto& [key, _] : pairs)
-    if (std::find(probes.begin(), probes.end(), key.first) == probes.end()) probes.push_back(key.first);
-  std::map<std::string, double> angles;  // degrees
-  for (const auto& [key, value] : r.metadata) {
-    if (key != "probe_angle_deg" && key.rfind("probe_angle_deg.", 0) != 0) continue;
-    const std::string probe = key == "probe_angle_deg" ? std::string() : key.substr(16);
-    angles[probe] = r.number(key);
-  }
-  for (const auto& [probe, deg] : given.probe_angles_deg) {
-    if (!std::isfinite(deg)) fail("the probe angle of '" + probe + "' is not a finite number");
-    if (angles.count(probe) && angles[probe] != deg) fail("the probe angle of '" + probe + "' is in the file and given otherwise: say it once");
-    angles[probe] = deg;
-  }
-  for (const auto& [probe, deg] : angles) {
-    const bool known = std::find(probes.begin(), probes.end(), probe) != probes.end() || (probe.empty() && probes.size() == 1);
-    if (!known) {
-      std::string list;
-      for (const auto& p : probes) list += (list.empty() ? "'" : ", '") + p + "'";
-      fail(probe.empty() ? "a probe angle without a probe name, but the table has " + std::to_string(probes.size()) + " probes (" + list + "): name it, probe=deg"
-                         : "a probe angle for '" + probe + "', which is no probe of this table (" + list + ")" + did_you_mean(probe, probes));
-    }
-  }
-
-  // The rows, in speed order.
-  if (speed_column == r.columns.size()) fail("no speed column");
-  const std::size_t n = r.rows();
-  std::vector<std::size_t> order(n);
-  std::iota(order.begin(), order.end(), 0);
-  const auto& speed = r.data[speed_column];
-  for (std::size_t i = 0; i < n; ++i)
-    if (!(speed[i] > 0.0)) throw input_error(r.where_row(i) + "speed '" + r.columns[speed_column] + "' must be positive");
-  std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return speed[a] < speed[b]; });
-  std::size_t drops = 0, rises = 0;
-  for (std::size_t i = 1; i < n; ++i) {
-    if (speed[i] < speed[i - 1]) ++drops;
-    if (speed[i] > speed[i - 1]) ++rises;
-  }
-  if (drops > 0 && rises == 0) t.notes.push_back("a coast-down (the speed falls through the file): read in rising speed");
-  else if (drops > 0)
-    t.notes.push_back("rows are not in speed order (the speed falls " + std::to_string(drops) + " times between rows): read in rising speed");
-  t.rpm.reserve(n), t.line.reserve(n);
-  for (const std::size_t i : order) t.rpm.push_back(speed[i] * speed_factor), t.line.push_back(r.first_data_line + i);
-  std::size_t repeats = 0;
-  for (std::size_t i = 1; i < n; ++i) repeats += t.rpm[i] == t.rpm[i - 1];
-  if (repeats > 0)
-    t.notes.push_back(std::to_string(repeats) + " rows repeat another row's speed exactly: each is kept as a measurement of its own");
-
-  // Each probe's orders as complex vectors in metres, 0-to-peak, lead.
   std::string units_used;
-  for (const auto& key : pair_order) {
-    const pair_columns& pc = pairs[key];
-    const std::string label = (key.first.empty() ? "" : key.first + " ") + std::to_string(key.second) + "X";
-    if (pc.amplitudes.empty()) fail("no amplitude column for " + label + " (its phase column is '" + r.columns[pc.phases.front()] + "')");
-    if (pc.phases.empty()) fail("no phase column for " + label + " (its amplitude column is '" + r.columns[pc.amplitudes.front()] + "')");
-    // The amplitude: each column's unit from its suffix, else the declared one; columns without
-    // either are not read when another gives the amplitude.
-    struct readable {
-      std::size_t column;
-      std::string unit, from;
-    };
-    std::vector<readable> amps;
-    std::vector<std::string> unread;
-    for (const std::size_t c : pc.amplitudes) {
-      const std::string suffix = parse_order_column(r.columns[c])->unit;
-      if (!suffix.empty()) {
-        if (!amplitude_unit(suffix))
-          fail("column '" + r.columns[c] + "': unknown amplitude unit '" + suffix + "' (" + std::string(kAmplitudeUnitList) + ")");
-        amps.push_back({c, suffix, "column name"});
-      } else if (!declared_amplitude_unit.value.empty()) {
-        amps.push_back({c, declared_amplitude_unit.value, declared_amplitude_unit.where == "file" ? "file" : "given"});
-      } else {
-        unread.push_back(r.columns[c]);
-      }
-    }
-    if (amps.empty())
-      fail("column '" + unread.front() + "' has no unit: declare it (" + setting("amplitude_unit") + " " + std::string(kAmplitudeUnitList) +
-           ", or '# amplitude_unit: ...' in the file)");
-    for (const auto& u : unread)
-      t.notes.push_back("column '" + u + "' not read: its unit is not declared, and '" + r.columns[amps.front().column] + "' gives the " + label + " amplitude");
-    const auto metres_of = [&](const readable& a, std::size_t row) {
-      const amplitude_unit_info& u = *amplitude_unit(a.unit);
-      const double v = r.data[a.column][row];
-      if (u.metres > 0.0) return v * u.metres;
-      if (!scale) fail("column '" + r.columns[a.column] + "' is in volts: declare the probe sensitivity (" + setting("scale") + " in mV/um, or '# scale_mV_per_um: ...')");
-      return v * u.volts * 1e3 / *scale * 1e-6;
-    };
-    // The phase: its unit from the suffix, else the declared one.
-    const std::size_t phase_col = pc.phases.front();
-    std::string phase_unit = lower(parse_order_column(r.columns[phase_col])->unit);
-    std::string phase_from = "column name";
-    if (phase_unit.empty()) phase_unit = phase_unit_declared, phase_from = declared_phase_unit.where;
-    if (phase_unit.empty())
-      fail("column '" + r.columns[phase_col] + "' has no unit: declare it (" + setting("phase_unit") + " deg|rad, or '# phase_unit: ...' in the file)");
-    if (phase_unit != "deg" && phase_unit != "rad") fail("column '" + r.columns[phase_col] + "': unknown phase unit '" + phase_unit + "' (deg, rad)");
-    if (pc.phases.size() > 1) {
-      std::string list;
-      for (std::size_t i = 1; i < pc.phases.size(); ++i) list += (i > 1 ? ", '" : "'") + r.columns[pc.phases[i]] + "'";
-      t.notes.push_back("for " + label + " the phase is read from '" + r.columns[phase_col] + "'; not read: " + list);
-    }
-    const double to_rad = phase_unit == "deg" ? std::numbers::pi / 180.0 : 1.0;
-    const double sign = sense == "lead" ? 1.0 : -1.0;
-
-    tracked_order o;
-    o.probe = key.first, o.order = key.second;
-    o.amplitude_column = r.columns[amps.front().column], o.phase_column = r.columns[phase_col];
-    const auto angle = angles.find(key.first);
-    if (angle != angles.end()) o.probe_angle = angle->second * std::numbers::pi / 180.0;
-    else if (probes.size() == 1 && angles.count("")) o.probe_angle = angles[""] * std::numbers::pi / 180.0;
-    o.vector.reserve(n);
-    for (const std::size_t i : order) {
-      const double a = metres_of(amps.front(), i);
-      if (a < 0.0)
-        throw input_error(r.where_row(i) + "column '" + r.columns[amps.front().column] + "': a negative amplitude (write a sign into the phase)");
-      // Two amplitude columns with units must say the same (a wrong declared unit shows here).
-      for (std::size_t k = 1; k < amps.size(); ++k) {
-        const double b = metres_of(amps[k], i);
-        if (std::abs(a - b) > 1e-6 * std::max(std::abs(a), std::abs(b)) + 1e-15)
-          throw input_error(r.where_row(i) + "columns '" + r.columns[amps.front().column] + "' (" + amps.front().unit + ", from the " + amps.front().from + ") and '" +
-                            r.columns[amps[k].column] + "' (" + amps[k].unit + ", from the " + amps[k].from + ") disagree: " + format_digits(a) + " m and " +
-                            format_digits(b) + " m; is the declared unit right?");
-      }
-      o.vector.push_back(std::polar(a * *kind_factor, sign * r.data[phase_col][i] * to_rad));
-    }
-    const auto source_of = [](const std::string& from) { return from == "given" ? std::string("given") : "from the " + from; };
-    units_used += (units_used.empty() ? "" : "; ") + label + ": '" + o.amplitude_column + "' in " + amps.front().unit + " (" + source_of(amps.front().from) +
-                  "), '" + o.phase_column + "' in " + phase_unit + " (" + source_of(phase_from) + ")";
-    t.orders.push_back(std::move(o));
+  for (const auto& key : columns.pair_order) {
+    read_order o = order_of(r, key, columns.pairs.at(key), conventions, reading, probes, rows, src);
+    t.notes.insert(t.notes.end(), o.notes.begin(), o.notes.end());
+    units_used += (units_used.empty() ? "" : "; ") + o.units;
+    t.orders.push_back(std::move(o.order));
   }
-  t.conventions = "amplitude " + amplitude_kind.value + " (" + (amplitude_kind.where == "file" ? "from the file" : "given") + "), phase " + sense + " (" +
-                  (phase_sense.where == "file" ? "from the file" : "given") + "); " + units_used;
-
-  // Dwells: the longest run of rows, in file order, within 1 % of its first row's speed. Said, so
-  // a reader knows where the table's weight lies; the fit takes every row as one measurement.
-  std::size_t best_from = 0, best_length = 0;
-  for (std::size_t i = 0; i < n && best_length < n - i; ++i) {
-    std::size_t j = i + 1;
-    while (j < n && std::abs(speed[j] - speed[i]) <= 0.01 * speed[i]) ++j;
-    if (j - i > best_length) best_from = i, best_length = j - i;
-  }
-  if (best_length >= 10 && best_length * 10 >= n) {
-    double lo = speed[best_from], hi = lo;
-    for (std::size_t i = best_from; i < best_from + best_length; ++i) lo = std::min(lo, speed[i]), hi = std::max(hi, speed[i]);
-    t.notes.push_back("lines " + std::to_string(r.first_data_line + best_from) + "-" + std::to_string(r.first_data_line + best_from + best_length - 1) + ": " +
-                      std::to_string(best_length) + " rows (" + format_fixed(100.0 * static_cast<double>(best_length) / static_cast<double>(n), 0) +
-                      " % of the table) dwell at " + format_fixed(speed_factor * lo, 0) + "-" + format_fixed(speed_factor * hi, 0) +
-                      " rpm; each is one measurement, and where the amplitude is near the noise its phase scatters");
-  }
+  t.conventions = "amplitude " + conventions.amplitude_kind.value + " (" + (conventions.amplitude_kind.where == "file" ? "from the file" : "given") +
+                  "), phase " + reading.sense + " (" + (conventions.phase_sense.where == "file" ? "from the file" : "given") + "); " + units_used;
+  if (auto note = dwell_note(r, columns)) t.notes.push_back(std::move(*note));
   return t;
 }
 

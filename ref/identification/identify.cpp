@@ -11,6 +11,7 @@
 #include "ref/base/portable_random.hpp"
 #include "ref/format/record.hpp"
 #include "ref/identification/term_library.hpp"
+#include "ref/inference/evidence.hpp"
 
 namespace rubref {
 
@@ -200,35 +201,108 @@ struct weak_form_rank_error : input_error {
   std::string detail;
 };
 
-// What identify_law's steps (below, in order) share: the dwells that touch, their synchronous
-// averages, the route, the contact forces, the pooled contact samples, the regression and the
-// terms kept.
-struct law_context {
-  law_context(identification& result, const identify_settings& settings) : id(result), s(settings), library(parse_library(settings.library)) {}
+// identify_law's steps (below, in order) each take what they need and return what they find;
+// identify_law_by passes the values from one to the next and assembles the identification.
 
-  identification& id;
-  const identify_settings& s;
-  std::vector<candidate_term> library;
-  std::vector<const dwell*> touching;
-  std::vector<std::size_t> touching_index;  // each one's place in identify_law's dwells
-  std::vector<dwell> retimed_free;  // contact-free dwells put on one shaft angle (shaft_angle_shifts)
-  std::vector<dwell> retimed_touching;  // the dwells in contact likewise (one_x_shift), when the free ones were
-  std::vector<dwell_noise> noise;  // each touching dwell's own
+// A law of the library's terms: f_N = sum_j coef_j phi_j(z, z_dot).
+struct contact_law {
+  std::vector<candidate_term> terms;
+  std::vector<double> coef;
+  double operator()(double z, double zd) const {
+    double f = 0.0;
+    for (std::size_t j = 0; j < terms.size(); ++j) f += coef[j] * terms[j](z, zd);
+    return f;
+  }
+};
+
+template <class T>
+void append(std::vector<T>& to, const std::vector<T>& from) {
+  to.insert(to.end(), from.begin(), from.end());
+}
+
+bool touches(const dwell& d) {
+  return std::any_of(d.y.begin(), d.y.end(), [&](double y) { return y > d.clearance; });
+}
+
+// The linear part refitted on the re-timed contact-free dwells, and the note saying so.
+struct free_dwells_retimed {
+  linear_fit refit;
+  bool untimed = false;  // some have no keyphasor
+  std::string note;
+};
+
+// Contact-free dwells whose 1X phases reject one shaft angle (linear_fit::phase_chi2) put on one
+// (shaft_angle_shifts), and the linear part fitted again on them.
+std::optional<free_dwells_retimed> put_free_on_one_angle(const std::vector<const dwell*>& free, const linear_fit& first,
+                                                         const identify_settings& s) {
+  if (!(first.phase_dof > 0 && first.phase_chi2 > first.phase_limit)) return std::nullopt;
+  const std::vector<double> shift = shaft_angle_shifts(free, s.mass);
+  std::vector<dwell> retimed_free;
+  for (std::size_t k = 0; k < free.size(); ++k) {
+    dwell c = *free[k];
+    for (double& t : c.t) t += shift[k];
+    retimed_free.push_back(std::move(c));
+  }
+  std::vector<const dwell*> retimed;
+  for (const auto& c : retimed_free) retimed.push_back(&c);
+  const linear_fit refit = fit_linear_part(retimed, s.mass, s.derivative, s.linear_route);
+  const bool untimed = std::any_of(retimed_free.begin(), retimed_free.end(), [](const dwell& d) { return !std::isfinite(d.timing_sigma); });
+  return free_dwells_retimed{
+      refit, untimed,
+      "linear part: the contact-free dwells' 1X phases disagreed with one unbalance phase (chi^2 " + format_digits(first.phase_chi2) +
+          " for " + std::to_string(first.phase_dof) + " dof, 99.9 % limit " + format_digits(first.phase_limit) +
+          "), so each dwell's times were shifted to one shaft angle by its own phase (after: chi^2 " + format_digits(refit.phase_chi2) +
+          "); c and k then rest on the 1X amplitudes across speeds and each dwell's x-y phase"};
+}
+
+// The linear part of Eq. 1: given, or fitted to the contact-free dwells (on one shaft angle).
+struct linear_stage {
+  linear_part value{};
+  std::string source;                   // "given" or "fitted"
+  std::optional<linear_fit> fitted;
+  std::vector<dwell_noise> free_noise;  // the contact-free dwells' own, in fitted's order
+  bool free_retimed_untimed = false;    // they were put on one shaft angle, and some have no keyphasor
+  std::vector<std::string> notes;
+};
+
+linear_stage linear_part_of(const std::vector<dwell>& dwells, const identify_settings& s) {
+  linear_stage out;
+  if (s.linear) {
+    const parameters& p = *s.linear;
+    out.value = {p.m, p.c_x, p.c_y, p.k_x, p.k_y, p.e, p.unbalance_phase};
+    out.source = "given";
+    return out;
+  }
+  std::vector<const dwell*> free;
+  for (const auto& d : dwells)
+    if (!touches(d)) free.push_back(&d);
+  for (const auto* d : free) out.free_noise.push_back(estimate_dwell_noise(*d));
+  out.fitted = fit_linear_part(free, s.mass, s.derivative, s.linear_route);
+  if (auto retimed = put_free_on_one_angle(free, *out.fitted, s)) {
+    out.fitted = std::move(retimed->refit);
+    out.free_retimed_untimed = retimed->untimed;
+    out.notes.push_back(std::move(retimed->note));
+  }
+  out.value = out.fitted->value;
+  out.source = "fitted";
+  return out;
+}
+
+// The dwells that touch, each with its own noise, and their synchronous averages (dwells with at
+// least one whole revolution).
+struct touching_dwells {
+  std::vector<const dwell*> given;            // identify_law's
+  std::vector<std::size_t> index;             // each one's place in identify_law's dwells
+  std::vector<std::optional<dwell>> retimed;  // its copy on the linear part's shaft angle (one_x_shift), where it was put there
+  std::vector<dwell_noise> noise;             // each one's own
   std::vector<std::optional<averaged_dwell>> averages;
-  std::vector<bool> averaged;
-  std::vector<std::string> averaging_reason;
-  bool weak = false;   // the weak form's route
-  derivative_settings velocity;
-  std::vector<dwell_forces> forces;
-  std::vector<contact_sample> pooled;
-  std::vector<std::vector<contact_sample>> per_dwell;
-  double fxfn = 0.0, fnfn = 0.0;
-  std::vector<double> mu_means;
-  Eigen::MatrixXd P;
-  Eigen::VectorXd y;
-  weak_form_system sys;
-  std::vector<candidate_term> kept_terms;
-  std::vector<double> kept_coef;
+  double probe_noise = 0.0;                   // m, RMS of their noise
+  std::string note;                           // on the re-timing, if any
+
+  std::size_t size() const { return given.size(); }
+  // The dwell as the steps use it: re-timed, or as given.
+  const dwell& at(std::size_t k) const { return retimed[k] ? *retimed[k] : *given[k]; }
+  bool any_retimed() const { return std::any_of(retimed.begin(), retimed.end(), [](const auto& d) { return d.has_value(); }); }
 
   // Noise of a sample: the dwell's own, or an average's, measured by its revolutions' spread
   // around their mean (spread^2 = s^2 (R - 1) / R for R revolutions of noise s, the average's
@@ -243,362 +317,365 @@ struct law_context {
     const double white = a.revolutions >= 2 ? a.spread / std::sqrt(static_cast<double>(a.revolutions - 1)) : n.sigma;
     return std::max(white, n.quantisation / std::sqrt(12.0));
   }
-  // The identified law's f_N.
-  double law(double z, double zd) const {
-    double f = 0.0;
-    for (std::size_t j = 0; j < kept_terms.size(); ++j) f += kept_coef[j] * kept_terms[j](z, zd);
-    return f;
-  }
-  // The start of either output-error stage: the identified linear part and the first dwell's
-  // clearance on the reference law's other parameters.
-  parameters output_error_start() const {
-    parameters p = s.reference;
-    p.m = id.linear.m;
-    p.c_x = id.linear.c_x;
-    p.c_y = id.linear.c_y;
-    p.k_x = id.linear.k_x;
-    p.k_y = id.linear.k_y;
-    p.e = id.linear.e;
-    p.clearance = forces.front().source->clearance;
-    return p;
-  }
 };
-
-bool touches(const dwell& d) {
-  return std::any_of(d.y.begin(), d.y.end(), [&](double y) { return y > d.clearance; });
-}
-
-// Contact-free dwells whose 1X phases reject one shaft angle (linear_fit::phase_chi2) put on one
-// (shaft_angle_shifts), and the linear part fitted again on them.
-void put_free_on_one_angle(law_context& ctx, const std::vector<const dwell*>& free) {
-  identification& id = ctx.id;
-  const identify_settings& s = ctx.s;
-  const linear_fit first = *id.linear_fitted;  // a copy: refitted below
-  if (!(first.phase_dof > 0 && first.phase_chi2 > first.phase_limit)) return;
-  const std::vector<double> shift = shaft_angle_shifts(free, s.mass);
-  for (std::size_t k = 0; k < free.size(); ++k) {
-    dwell c = *free[k];
-    for (double& t : c.t) t += shift[k];
-    ctx.retimed_free.push_back(std::move(c));
-  }
-  std::vector<const dwell*> retimed;
-  for (const auto& c : ctx.retimed_free) retimed.push_back(&c);
-  id.linear_fitted = fit_linear_part(retimed, s.mass, s.derivative, s.linear_route);
-  id.notes.push_back("linear part: the contact-free dwells' 1X phases disagreed with one unbalance phase (chi^2 " + format_digits(first.phase_chi2) +
-                     " for " + std::to_string(first.phase_dof) + " dof, 99.9 % limit " + format_digits(first.phase_limit) +
-                     "), so each dwell's times were shifted to one shaft angle by its own phase (after: chi^2 " +
-                     format_digits(id.linear_fitted->phase_chi2) + "); c and k then rest on the 1X amplitudes across speeds and each dwell's x-y phase");
-}
 
 // Contact-free dwells without a keyphasor were not on one shaft angle, so neither are the
 // touching ones without one (tested there, presumed here): each starts on the linear part's by
 // its 1X, and the orbit fit searches and refines its forcing phase. (Keyphasor-timed dwells keep
 // their angle: the free ones' shifts were small, their mean taken out.)
-void put_touching_on_the_free_angle(law_context& ctx) {
-  const bool free_untimed = std::any_of(ctx.retimed_free.begin(), ctx.retimed_free.end(), [](const dwell& d) { return !std::isfinite(d.timing_sigma); });
-  if (!free_untimed) return;
+struct touching_retimed {
+  std::vector<std::optional<dwell>> dwells;  // each one's re-timed copy, where it has no keyphasor
+  std::string note;                          // empty if none was re-timed
+};
+
+touching_retimed put_touching_on_the_free_angle(const std::vector<const dwell*>& touching, const linear_part& lin, bool free_untimed) {
+  touching_retimed out{std::vector<std::optional<dwell>>(touching.size()), {}};
+  if (!free_untimed) return out;
   double largest = 0.0;
-  ctx.retimed_touching.reserve(ctx.touching.size());  // no reallocation: touching points into it
-  for (auto*& d : ctx.touching) {
-    if (std::isfinite(d->timing_sigma)) continue;
-    dwell c = *d;
-    const double shift = one_x_shift(c, ctx.id.linear);
+  bool any = false;
+  for (std::size_t k = 0; k < touching.size(); ++k) {
+    if (std::isfinite(touching[k]->timing_sigma)) continue;
+    dwell c = *touching[k];
+    const double shift = one_x_shift(c, lin);
     for (double& t : c.t) t += shift;
     largest = std::max(largest, std::abs(std::remainder(shift * c.omega(), 2.0 * std::numbers::pi)));
-    ctx.retimed_touching.push_back(std::move(c));
-    d = &ctx.retimed_touching.back();
+    out.dwells[k] = std::move(c);
+    any = true;
   }
-  if (!ctx.retimed_touching.empty())
-    ctx.id.notes.push_back("dwells in contact without a keyphasor: presumed off one shaft angle like the contact-free ones (not tested on them), "
-                           "each re-timed by its 1X against the linear part's (up to " + format_digits(largest) +
-                           " rad) as a start the orbit fit searches and refines");
+  if (any)
+    out.note = "dwells in contact without a keyphasor: presumed off one shaft angle like the contact-free ones (not tested on them), "
+               "each re-timed by its 1X against the linear part's (up to " + format_digits(largest) +
+               " rad) as a start the orbit fit searches and refines";
+  return out;
 }
 
-// The linear part (given, or fitted to the contact-free dwells, on one shaft angle); the dwells
-// that touch, each with its own noise, and their synchronous averages (dwells with at least one
-// whole revolution).
-void linear_part_and_touching(law_context& ctx, const std::vector<dwell>& dwells) {
-  identification& id = ctx.id;
-  const identify_settings& s = ctx.s;
-  if (s.linear) {
-    const parameters& p = *s.linear;
-    id.linear = {p.m, p.c_x, p.c_y, p.k_x, p.k_y, p.e, p.unbalance_phase};
-    id.linear_source = "given";
-  } else {
-    std::vector<const dwell*> free;
-    for (const auto& d : dwells)
-      if (!touches(d)) free.push_back(&d);
-    for (const auto* d : free) id.free_noise.push_back(estimate_dwell_noise(*d));
-    id.linear_fitted = fit_linear_part(free, s.mass, s.derivative, s.linear_route);
-    put_free_on_one_angle(ctx, free);
-    id.linear = id.linear_fitted->value;
-    id.linear_source = "fitted";
-  }
+touching_dwells touching_of(const std::vector<dwell>& dwells, const linear_stage& linear) {
+  touching_dwells out;
   for (std::size_t i = 0; i < dwells.size(); ++i)
-    if (touches(dwells[i])) ctx.touching.push_back(&dwells[i]), ctx.touching_index.push_back(i);
-  if (ctx.touching.empty()) throw input_error("no dwell reaches its clearance: there is no contact to identify");
-  put_touching_on_the_free_angle(ctx);
+    if (touches(dwells[i])) out.given.push_back(&dwells[i]), out.index.push_back(i);
+  if (out.given.empty()) throw input_error("no dwell reaches its clearance: there is no contact to identify");
+  touching_retimed retimed = put_touching_on_the_free_angle(out.given, linear.value, linear.free_retimed_untimed);
+  out.retimed = std::move(retimed.dwells);
+  out.note = std::move(retimed.note);
   double sq = 0.0;
-  for (const auto* d : ctx.touching) {
-    ctx.noise.push_back(estimate_dwell_noise(*d));
-    sq += ctx.noise.back().sigma * ctx.noise.back().sigma;
+  for (std::size_t k = 0; k < out.size(); ++k) {
+    out.noise.push_back(estimate_dwell_noise(out.at(k)));
+    sq += out.noise.back().sigma * out.noise.back().sigma;
   }
-  id.probe_noise = std::sqrt(sq / static_cast<double>(ctx.touching.size()));
-  ctx.averages.resize(ctx.touching.size());
-  for (std::size_t k = 0; k < ctx.touching.size(); ++k) {
+  out.probe_noise = std::sqrt(sq / static_cast<double>(out.size()));
+  out.averages.resize(out.size());
+  for (std::size_t k = 0; k < out.size(); ++k) {
     try {
-      ctx.averages[k] = synchronous_average(*ctx.touching[k]);
+      out.averages[k] = synchronous_average(out.at(k));
     } catch (const input_error&) {
     }
   }
+  return out;
 }
+
+// Which touching dwells are averaged, and why.
+struct averaging_choice {
+  std::vector<bool> averaged;
+  std::vector<std::string> reason;
+};
 
 // Which touching dwells are averaged, and why (identify_settings::average). Automatic: a dwell
 // whose whole revolutions repeat within its own noise holds a periodic orbit plus noise, and its
 // average keeps the orbit and divides the noise by sqrt(revolutions); one that does not repeat
 // (a transient, a subharmonic) would be smeared by it.
-void decide_averaging(law_context& ctx) {
-  const std::size_t n = ctx.touching.size();
-  ctx.averaged.assign(n, false);
-  ctx.averaging_reason.assign(n, {});
+averaging_choice decide_averaging(const touching_dwells& touching, averaging mode) {
+  const std::size_t n = touching.size();
+  averaging_choice out{std::vector<bool>(n, false), std::vector<std::string>(n)};
   for (std::size_t k = 0; k < n; ++k) {
-    const auto& a = ctx.averages[k];
-    std::string& why = ctx.averaging_reason[k];
+    const auto& a = touching.averages[k];
+    std::string& why = out.reason[k];
     if (!a) {
       why = "not averaged: no whole revolution of 8 or more samples";
       continue;
     }
     const std::string revs = std::to_string(a->revolutions) + " whole revolutions";
-    const double limit = kSteadySpread * ctx.noise[k].sigma + kSteadyFloor;
+    const double limit = kSteadySpread * touching.noise[k].sigma + kSteadyFloor;
     const std::string spread = "differ from their mean by " + format_digits(a->spread) + " m RMS, ";
     const std::string noise = " twice the dwell's noise + " + format_digits(kSteadyFloor) + " m (" + format_digits(limit) + " m)";
-    switch (ctx.s.average) {
+    switch (mode) {
       case averaging::never: why = "not averaged: averaging off (settings)"; break;
-      case averaging::always: ctx.averaged[k] = true, why = "averaged: averaging on (settings); its " + revs + " " + spread + "limit" + noise; break;
+      case averaging::always: out.averaged[k] = true, why = "averaged: averaging on (settings); its " + revs + " " + spread + "limit" + noise; break;
       case averaging::automatic:
         if (a->revolutions < 2) why = "not averaged: one whole revolution, nothing to average";
         else if (a->spread > limit) why = "not averaged: its " + revs + " " + spread + "above" + noise + ": not periodic at 1X";
-        else ctx.averaged[k] = true, why = "averaged: its " + revs + " " + spread + "within" + noise;
+        else out.averaged[k] = true, why = "averaged: its " + revs + " " + spread + "within" + noise;
         break;
     }
   }
+  return out;
 }
+
+struct route_choice {
+  law_method method;
+  std::string reason;
+};
 
 // The route: the one asked for; automatic is decided by identify_law (the weak form where its
 // rows can rank the library, else the samples).
-void choose_route(law_context& ctx) {
-  ctx.id.law_route = ctx.s.law_route;
-  ctx.id.law_route_reason = "chosen (law_method)";
-  ctx.weak = ctx.id.law_route == law_method::weak_form;
-}
+route_choice choose_route(const identify_settings& s) { return {s.law_route, "chosen (law_method)"}; }
+
+// Every touching dwell's contact forces and the noise of the samples they come from.
+struct contact_force_set {
+  derivative_settings velocity;      // z_dot's
+  std::vector<dwell_forces> dwells;  // in the touching dwells' order
+  std::vector<double> noise;         // m, each one's sample noise (touching_dwells::sample_noise)
+};
 
 // Every touching dwell's contact forces, from its average where it is averaged.
-void contact_forces_of(law_context& ctx) {
-  const identify_settings& s = ctx.s;
-  ctx.velocity = s.derivative;  // the weak form takes only z_dot: a wider window
-  if (ctx.weak) ctx.velocity.half_width = std::max(ctx.velocity.half_width, s.weak.velocity_half_width);
-  for (std::size_t k = 0; k < ctx.touching.size(); ++k) {
-    const dwell& d = ctx.averaged[k] ? ctx.averages[k]->cycle : *ctx.touching[k];
-    ctx.forces.push_back(contact_forces(d, ctx.id.linear, d.clearance, ctx.velocity));
+contact_force_set contact_forces_of(const touching_dwells& touching, const std::vector<bool>& averaged, const linear_part& lin,
+                                    const identify_settings& s, bool weak) {
+  contact_force_set out;
+  out.velocity = s.derivative;  // the weak form takes only z_dot: a wider window
+  if (weak) out.velocity.half_width = std::max(out.velocity.half_width, s.weak.velocity_half_width);
+  for (std::size_t k = 0; k < touching.size(); ++k) {
+    const dwell& d = averaged[k] ? touching.averages[k]->cycle : touching.at(k);
+    out.dwells.push_back(contact_forces(d, lin, d.clearance, out.velocity));
+    out.noise.push_back(touching.sample_noise(k, averaged[k]));
   }
+  return out;
 }
 
-// Friction per speed (Fig. 5) and the pooled contact samples.
-void pool_contacts(law_context& ctx) {
-  identification& id = ctx.id;
-  ctx.per_dwell.assign(ctx.forces.size(), {});
-  for (std::size_t k = 0; k < ctx.forces.size(); ++k) {
-    const auto& f = ctx.forces[k];
-    dwell_report rep{f.source->rpm, f.source->clearance, ctx.noise[k], 0, 0.0, ctx.averaging_reason[k], f.source->size(), 0, 0, 0.0, std::nullopt, {}, {}};
-    if (ctx.averages[k]) rep.average_spread = ctx.averages[k]->spread;
-    if (ctx.averaged[k]) rep.averaged_revolutions = ctx.averages[k]->revolutions;
-    if (!ctx.weak) {
+// The contact samples, per dwell and pooled, and each dwell's report.
+struct pooled_contacts {
+  std::vector<dwell_report> reports;                   // identification::dwells, before the shares
+  std::vector<std::vector<contact_sample>> per_dwell;  // f_N as measured
+  std::vector<contact_sample> pooled;
+  std::size_t episodes = 0;
+  double fx_fn = 0.0, fn_fn = 0.0;                     // sums of f_x f_N and f_N^2: the pooled friction slope's
+};
+
+// Friction per speed (Fig. 5, the samples route's) and the pooled contact samples.
+pooled_contacts pool_contacts(const contact_force_set& forces, const touching_dwells& touching, const averaging_choice& averaging, bool weak) {
+  pooled_contacts out;
+  out.per_dwell.assign(forces.dwells.size(), {});
+  for (std::size_t k = 0; k < forces.dwells.size(); ++k) {
+    const auto& f = forces.dwells[k];
+    dwell_report rep{f.source->rpm, f.source->clearance, touching.noise[k], 0, 0.0, averaging.reason[k], f.source->size(), 0, 0, 0.0, std::nullopt, {}, {}};
+    if (touching.averages[k]) rep.average_spread = touching.averages[k]->spread;
+    if (averaging.averaged[k]) rep.averaged_revolutions = touching.averages[k]->revolutions;
+    if (!weak) {
       const friction_estimate fe = estimate_friction(f);
-      if (fe.samples > 0) {
-        rep.friction = fe;
-        ctx.mu_means.push_back(fe.mean);
-      }
+      if (fe.samples > 0) rep.friction = fe;
     }
     for (std::size_t i = 0; i < f.fn.size(); ++i) {
       if (!f.contact[i]) continue;
       // A new episode starts where contact starts (a periodic cycle may wrap one around its end).
-      if (i == 0 || !f.contact[i - 1]) ++id.episodes, ++rep.episodes;
-      ctx.per_dwell[k].push_back({f.z[i], f.vy[i], f.fn[i], id.episodes - 1});
+      if (i == 0 || !f.contact[i - 1]) ++out.episodes, ++rep.episodes;
+      out.per_dwell[k].push_back({f.z[i], f.vy[i], f.fn[i], out.episodes - 1});
       rep.max_penetration = std::max(rep.max_penetration, f.z[i]);
-      ctx.fxfn += f.fx[i] * f.fn[i];
-      ctx.fnfn += f.fn[i] * f.fn[i];
+      out.fx_fn += f.fx[i] * f.fn[i];
+      out.fn_fn += f.fn[i] * f.fn[i];
     }
-    rep.contact_samples = ctx.per_dwell[k].size();
-    ctx.pooled.insert(ctx.pooled.end(), ctx.per_dwell[k].begin(), ctx.per_dwell[k].end());
-    id.dwells.push_back(std::move(rep));
+    rep.contact_samples = out.per_dwell[k].size();
+    out.pooled.insert(out.pooled.end(), out.per_dwell[k].begin(), out.per_dwell[k].end());
+    out.reports.push_back(std::move(rep));
   }
-  if (!ctx.weak) {
-    const auto& mu_means = ctx.mu_means;
-    for (double m : mu_means) id.mu_mean += m / mu_means.size();
-    for (double m : mu_means) id.mu_spread += (m - id.mu_mean) * (m - id.mu_mean);
-    id.mu_spread = mu_means.size() > 1 ? std::sqrt(id.mu_spread / (mu_means.size() - 1)) : 0.0;
-    id.mu_slope = ctx.fnfn > 0.0 ? ctx.fxfn / ctx.fnfn : 0.0;
-    id.mu = id.mu_mean;
-    if (mu_means.size() > 1) id.mu_standard_error = id.mu_spread / std::sqrt(static_cast<double>(mu_means.size()));
-  }
+  return out;
 }
 
+// The friction coefficient the identification reports (identification::mu and its kin).
+struct friction_summary {
+  double mu_mean = 0.0, mu_spread = 0.0, mu_slope = 0.0, mu = 0.0;
+  double mu_standard_error = kNaN;
+};
+
+// The mean and standard deviation of the per-speed means.
+friction_summary per_speed(const std::vector<double>& mu_means) {
+  friction_summary out;
+  for (double m : mu_means) out.mu_mean += m / mu_means.size();
+  for (double m : mu_means) out.mu_spread += (m - out.mu_mean) * (m - out.mu_mean);
+  out.mu_spread = mu_means.size() > 1 ? std::sqrt(out.mu_spread / (mu_means.size() - 1)) : 0.0;
+  return out;
+}
+
+// The samples route's friction: the mean of the per-speed means (the paper's Fig. 5), and the
+// pooled slope.
+friction_summary samples_friction(const pooled_contacts& contacts) {
+  std::vector<double> mu_means;
+  for (const auto& rep : contacts.reports)
+    if (rep.friction) mu_means.push_back(rep.friction->mean);
+  friction_summary out = per_speed(mu_means);
+  out.mu_slope = contacts.fn_fn > 0.0 ? contacts.fx_fn / contacts.fn_fn : 0.0;
+  out.mu = out.mu_mean;
+  if (mu_means.size() > 1) out.mu_standard_error = out.mu_spread / std::sqrt(static_cast<double>(mu_means.size()));
+  return out;
+}
+
+// The regression's rows and targets.
+struct regression {
+  Eigen::MatrixXd P;
+  Eigen::VectorXd y;
+  weak_form_system sys;  // the weak form's (its route only)
+};
 
 // The regression: contact samples (the paper's) or the weak form's integrals.
-void regression_rows(law_context& ctx) {
-  identification& id = ctx.id;
-  const identify_settings& s = ctx.s;
-  const auto& library = ctx.library;
-  const bool weak = ctx.weak;
-  const auto& averaged = ctx.averaged;
-  const auto& forces = ctx.forces;
-  auto& pooled = ctx.pooled;
+regression regression_rows(const contact_force_set& forces, const std::vector<contact_sample>& pooled, const std::vector<candidate_term>& library,
+                           const linear_part& lin, const identify_settings& s, bool weak) {
   const Eigen::Index m = static_cast<Eigen::Index>(library.size());
-  Eigen::MatrixXd& P = ctx.P;
-  Eigen::VectorXd& y = ctx.y;
-  weak_form_system& sys = ctx.sys;
+  regression out;
   if (weak) {
     std::vector<weak_form_input> in;
-    for (std::size_t k = 0; k < forces.size(); ++k) in.push_back({&forces[k], ctx.sample_noise(k, averaged[k])});
-    sys = weak_form(in, id.linear, library, s.weak);
-    if (sys.A.rows() <= static_cast<Eigen::Index>(library.size()))
-      throw weak_form_rank_error(std::to_string(sys.A.rows()) + " rows from " + std::to_string(sys.episodes) +
+    for (std::size_t k = 0; k < forces.dwells.size(); ++k) in.push_back({&forces.dwells[k], forces.noise[k]});
+    out.sys = weak_form(in, lin, library, s.weak);
+    if (out.sys.A.rows() <= static_cast<Eigen::Index>(library.size()))
+      throw weak_form_rank_error(std::to_string(out.sys.A.rows()) + " rows from " + std::to_string(out.sys.episodes) +
                                  " contact episodes cannot rank " + std::to_string(library.size()) + " candidate terms");
-    P = sys.A;
-    y = sys.b;
+    out.P = out.sys.A;
+    out.y = out.sys.b;
   } else {
-    P.resize(static_cast<Eigen::Index>(pooled.size()), m);
-    y.resize(static_cast<Eigen::Index>(pooled.size()));
-    for (Eigen::Index i = 0; i < P.rows(); ++i) {
-      for (Eigen::Index j = 0; j < m; ++j) P(i, j) = library[j](pooled[i].z, pooled[i].zd);
-      y[i] = pooled[i].fn;
+    out.P.resize(static_cast<Eigen::Index>(pooled.size()), m);
+    out.y.resize(static_cast<Eigen::Index>(pooled.size()));
+    for (Eigen::Index i = 0; i < out.P.rows(); ++i) {
+      for (Eigen::Index j = 0; j < m; ++j) out.P(i, j) = library[j](pooled[i].z, pooled[i].zd);
+      out.y[i] = pooled[i].fn;
     }
   }
-  id.contact_samples = pooled.size();
+  return out;
+}
+
+// FROLS's terms and what they leave.
+struct term_selection {
+  frols_stop stop = frols_stop::err_sum;
+  frols_result frols;
+  std::vector<std::string> candidates, candidates_pretty;
+  std::vector<double> first_step_err, paper_order_err;
+  contact_law law;  // the kept terms
+  double residual_rms = 0.0, force_rms = 0.0;
+};
+
+// Each candidate's ERR at the first step, and in the order of the paper's Table 1 (empty unless
+// the library is Eq. 4's).
+struct candidate_errs {
+  std::vector<double> first_step, paper_order;
+};
+
+candidate_errs errs_of_candidates(const regression& rows, const std::vector<std::string>& candidates) {
+  candidate_errs out;
+  for (Eigen::Index j = 0; j < rows.P.cols(); ++j) {
+    const double pp = rows.P.col(j).squaredNorm();
+    out.first_step.push_back(pp > 0.0 ? std::pow(rows.P.col(j).dot(rows.y), 2) / (pp * rows.y.squaredNorm()) : 0.0);
+  }
+  // The paper's Table 1 ranks z^3 (0.568) above z (0.392): its values in that order.
+  const std::vector<std::string> paper_order{"z3", "z1", "zd2", "z2", "zd1", "zd3", "z4", "zd4"};
+  std::vector<std::size_t> order;
+  for (const auto& name : paper_order)
+    for (std::size_t c = 0; c < candidates.size(); ++c)
+      if (candidates[c] == name) order.push_back(c);
+  if (order.size() == paper_order.size() && candidates.size() == paper_order.size()) {
+    const std::vector<double> err = err_in_order(rows.P, rows.y, order);
+    out.paper_order.assign(candidates.size(), 0.0);
+    for (std::size_t k = 0; k < order.size(); ++k) out.paper_order[order[k]] = err[k];
+  }
+  return out;
 }
 
 // The terms by FROLS (Eq. 3-4), their ERR at the first step and in the paper's order, and what
 // the law leaves of each contact sample's f_N.
-void select_terms(law_context& ctx) {
-  identification& id = ctx.id;
-  const identify_settings& s = ctx.s;
-  const auto& library = ctx.library;
-  const bool weak = ctx.weak;
-  auto& pooled = ctx.pooled;
-  const Eigen::MatrixXd& P = ctx.P;
-  const Eigen::VectorXd& y = ctx.y;
-  const weak_form_system& sys = ctx.sys;
-  const Eigen::Index m = static_cast<Eigen::Index>(library.size());
+term_selection select_terms(const regression& rows, const std::vector<candidate_term>& library, const std::vector<contact_sample>& pooled,
+                            const identify_settings& s, bool weak) {
+  term_selection out;
   // The weak form's rows carry a known noise: its terms are selected by significance (the
   // paper's rho and 1 % threshold are shares of per-sample variance, not of the integrals').
   frols_settings fs = s.frols;
   if (weak) {
     if (fs.stop == frols_stop::err_sum) fs.stop = frols_stop::significance;
-    fs.noise_variance = sys.noise * sys.noise;
+    fs.noise_variance = rows.sys.noise * rows.sys.noise;
   }
-  id.stop = fs.stop;
-  id.frols = frols(P, y, fs);
+  out.stop = fs.stop;
+  out.frols = frols(rows.P, rows.y, fs);
   for (const auto& t : library) {
-    id.candidates.push_back(t.name());
-    id.candidates_pretty.push_back(t.pretty());
+    out.candidates.push_back(t.name());
+    out.candidates_pretty.push_back(t.pretty());
   }
-  for (Eigen::Index j = 0; j < m; ++j) {
-    const double pp = P.col(j).squaredNorm();
-    id.first_step_err.push_back(pp > 0.0 ? std::pow(P.col(j).dot(y), 2) / (pp * y.squaredNorm()) : 0.0);
+  candidate_errs errs = errs_of_candidates(rows, out.candidates);
+  out.first_step_err = std::move(errs.first_step);
+  out.paper_order_err = std::move(errs.paper_order);
+  for (std::size_t j = 0; j < out.frols.kept.size(); ++j) {
+    out.law.terms.push_back(library[out.frols.kept[j]]);
+    out.law.coef.push_back(out.frols.coefficients[j]);
   }
-  {
-    // The paper's Table 1 ranks z^3 (0.568) above z (0.392): its values in that order.
-    const std::vector<std::string> paper_order{"z3", "z1", "zd2", "z2", "zd1", "zd3", "z4", "zd4"};
-    std::vector<std::size_t> order;
-    for (const auto& name : paper_order)
-      for (std::size_t c = 0; c < id.candidates.size(); ++c)
-        if (id.candidates[c] == name) order.push_back(c);
-    if (order.size() == paper_order.size() && id.candidates.size() == paper_order.size()) {
-      const std::vector<double> err = err_in_order(P, y, order);
-      id.paper_order_err.assign(id.candidates.size(), 0.0);
-      for (std::size_t k = 0; k < order.size(); ++k) id.paper_order_err[order[k]] = err[k];
-    }
-  }
-  const auto& kept = id.frols.kept;
-  auto& kept_terms = ctx.kept_terms;
-  auto& kept_coef = ctx.kept_coef;
-  for (std::size_t j = 0; j < kept.size(); ++j) {
-    kept_terms.push_back(library[kept[j]]);
-    kept_coef.push_back(id.frols.coefficients[j]);
-  }
-  {
-    // Per contact sample: what the law leaves of the measured f_N (on the weak route that f_N is
-    // noise-dominated; the fit's own residual is weak_form_report's).
-    double sq = 0.0, fsq = 0.0;
-    for (const auto& c : pooled) sq += std::pow(c.fn - ctx.law(c.z, c.zd), 2), fsq += c.fn * c.fn;
-    id.residual_rms = std::sqrt(sq / std::max<std::size_t>(1, pooled.size()));
-    id.force_rms = std::sqrt(fsq / std::max<std::size_t>(1, pooled.size()));
-  }
-
+  // Per contact sample: what the law leaves of the measured f_N (on the weak route that f_N is
+  // noise-dominated; the fit's own residual is weak_form_report's).
+  double sq = 0.0, fsq = 0.0;
+  for (const auto& c : pooled) sq += std::pow(c.fn - out.law(c.z, c.zd), 2), fsq += c.fn * c.fn;
+  out.residual_rms = std::sqrt(sq / std::max<std::size_t>(1, pooled.size()));
+  out.force_rms = std::sqrt(fsq / std::max<std::size_t>(1, pooled.size()));
+  return out;
 }
 
-// The weak form's intervals, its report and its friction (Eq. 2 on every row).
-void weak_form_estimates(law_context& ctx) {
-  identification& id = ctx.id;
-  const identify_settings& s = ctx.s;
-  const auto& library = ctx.library;
-  const auto& averaged = ctx.averaged;
-  const auto& velocity = ctx.velocity;
-  const auto& forces = ctx.forces;
-  auto& pooled = ctx.pooled;
-  auto& per_dwell = ctx.per_dwell;
-  auto& mu_means = ctx.mu_means;
-  const Eigen::MatrixXd& P = ctx.P;
-  const weak_form_system& sys = ctx.sys;
-  const auto& kept_terms = ctx.kept_terms;
-  const auto& kept_coef = ctx.kept_coef;
-  const auto& kept = id.frols.kept;
-  const Eigen::Index n = P.rows();
+// The weak form's estimates with their intervals, and its report.
+struct weak_form_fit {
+  std::vector<term_estimate> estimates;
+  weak_form_report report;
+  std::vector<std::string> warnings;
+};
+
+// The weak form's intervals and its report.
+weak_form_fit weak_form_estimates(const regression& rows, const term_selection& sel, const std::vector<candidate_term>& library,
+                                  const contact_force_set& forces, const linear_part& lin, const identify_settings& s) {
+  weak_form_fit out;
+  const auto& kept = sel.frols.kept;
+  const Eigen::Index n = rows.P.rows();
   // Intervals on the whitened rows: the residual variance, but never below the noise's (few
   // rows can fit the noise by chance), with Student's t for the rows left.
   const Eigen::Index p = static_cast<Eigen::Index>(kept.size());
   const Eigen::Index dof = std::max<Eigen::Index>(1, n - p);
-  const double s2 = id.frols.residual.squaredNorm() / static_cast<double>(dof), noise2 = sys.noise * sys.noise;
+  const double s2 = sel.frols.residual.squaredNorm() / static_cast<double>(dof), noise2 = rows.sys.noise * rows.sys.noise;
   const double var = std::max(s2, noise2);
   const double tq = boost::math::quantile(boost::math::students_t(static_cast<double>(dof)), 0.975);
   Eigen::MatrixXd Ak(n, p);
-  for (Eigen::Index j = 0; j < p; ++j) Ak.col(j) = P.col(static_cast<Eigen::Index>(kept[j]));
+  for (Eigen::Index j = 0; j < p; ++j) Ak.col(j) = rows.P.col(static_cast<Eigen::Index>(kept[j]));
   const Eigen::MatrixXd cov = p > 0 ? Eigen::MatrixXd(var * (Ak.transpose() * Ak).completeOrthogonalDecomposition().pseudoInverse())
                                     : Eigen::MatrixXd();
   perturbation_spread spread{Eigen::MatrixXd::Zero(p, p), 0.0, 0};
-  if (p > 0 && sys.noise > 0.0) {
+  if (p > 0 && rows.sys.noise > 0.0) {
     std::vector<std::pair<const dwell*, double>> used;
-    for (std::size_t k = 0; k < forces.size(); ++k) used.push_back({forces[k].source, ctx.sample_noise(k, averaged[k])});
-    spread = perturbation_covariance(used, id.linear, kept_terms, velocity, s.weak, s2, s.seed);
+    for (std::size_t k = 0; k < forces.dwells.size(); ++k) used.push_back({forces.dwells[k].source, forces.noise[k]});
+    spread = perturbation_covariance(used, lin, sel.law.terms, forces.velocity, s.weak, s2, s.seed);
     // Perturbations that left no usable episode: the data sit at the edge of what the weak
     // form can use, and the intervals below count only the rows' noise.
     if (2 * spread.done < kSpreadRepeats)
-      id.warnings.push_back("weak form: only " + std::to_string(spread.done) + " of " + std::to_string(kSpreadRepeats) +
-                            " noise perturbations of the data could be fitted; the intervals omit the regressors' noise");
+      out.warnings.push_back("weak form: only " + std::to_string(spread.done) + " of " + std::to_string(kSpreadRepeats) +
+                             " noise perturbations of the data could be fitted; the intervals omit the regressors' noise");
   }
+  const auto& coef = sel.law.coef;
   for (std::size_t j = 0; j < kept.size(); ++j) {
     const auto jj = static_cast<Eigen::Index>(j);
     // The larger of the rows' covariance and the perturbations' spread (which also holds the
     // regressors' noise).
     const double se = std::sqrt(std::max(cov(jj, jj), spread.cov(jj, jj)));
-    id.estimates.push_back({library[kept[j]].name(), library[kept[j]].pretty(), kept_coef[j], se, kept_coef[j] - tq * se,
-                            kept_coef[j] + tq * se});
+    out.estimates.push_back({library[kept[j]].name(), library[kept[j]].pretty(), coef[j], se, coef[j] - tq * se, coef[j] + tq * se});
   }
-  weak_form_report wr;
+  weak_form_report& wr = out.report;
   wr.rows = static_cast<std::size_t>(n);
-  wr.episodes = sys.episodes;
-  wr.noise = sys.noise;
-  wr.residual_rms = std::sqrt(id.frols.residual.squaredNorm() / static_cast<double>(std::max<Eigen::Index>(1, n)));
+  wr.episodes = rows.sys.episodes;
+  wr.noise = rows.sys.noise;
+  wr.residual_rms = std::sqrt(sel.frols.residual.squaredNorm() / static_cast<double>(std::max<Eigen::Index>(1, n)));
   // Against what the noise leaves in the residual: the rows' noise, or (larger, when the
   // regressors' noise counts) what one more dose of it adds.
   const double expected = std::max(noise2, spread.residual_variance);
   wr.chi2_per_dof = expected > 0.0 ? s2 / expected : std::numeric_limits<double>::infinity();
   wr.chi2_limit = boost::math::quantile(boost::math::chi_squared(static_cast<double>(dof)), 0.999) / static_cast<double>(dof);
-  id.weak = wr;
+  return out;
+}
 
-  // Friction: int f_x psi = mu int f_N psi on every row (Eq. 2), both sides from the data. The
-  // noise in the regressor's sum of squares (rows x noise^2) is taken out, else it biases mu
-  // towards 0.
+// The weak form's friction, pooled and per dwell.
+struct weak_form_friction_result {
+  friction_summary friction;
+  std::vector<std::optional<friction_estimate>> per_dwell;  // each touching dwell's, from its rows
+};
+
+// Friction: int f_x psi = mu int f_N psi on every row (Eq. 2), both sides from the data. The
+// noise in the regressor's sum of squares (rows x noise^2) is taken out, else it biases mu
+// towards 0.
+weak_form_friction_result weak_form_friction(const weak_form_system& sys, const contact_force_set& forces) {
+  weak_form_friction_result out;
+  const double noise2 = sys.noise * sys.noise;
   const auto friction = [&](const std::vector<Eigen::Index>& rows, double& se) {
     double bb = 0.0, bxb = 0.0;
     for (const auto r : rows) bb += sys.b[r] * sys.b[r], bxb += sys.bx[r] * sys.b[r];
@@ -612,104 +689,112 @@ void weak_form_estimates(law_context& ctx) {
     return mu;
   };
   std::vector<Eigen::Index> all_rows;
-  std::vector<std::vector<Eigen::Index>> rows_of(forces.size());
-  for (Eigen::Index r = 0; r < n; ++r) {
+  std::vector<std::vector<Eigen::Index>> rows_of(forces.dwells.size());
+  for (Eigen::Index r = 0; r < sys.A.rows(); ++r) {
     all_rows.push_back(r);
     rows_of[sys.dwell_of_row[static_cast<std::size_t>(r)]].push_back(r);
   }
-  id.mu = id.mu_slope = friction(all_rows, id.mu_standard_error);
-  for (std::size_t k = 0; k < forces.size(); ++k) {
+  double mu_standard_error = kNaN;
+  const double mu_slope = friction(all_rows, mu_standard_error);
+  std::vector<double> mu_means;
+  out.per_dwell.assign(forces.dwells.size(), std::nullopt);
+  for (std::size_t k = 0; k < forces.dwells.size(); ++k) {
     if (rows_of[k].empty()) continue;
     double se = 0.0;
     const double mu = friction(rows_of[k], se);
-    id.dwells[k].friction = friction_estimate{forces[k].source->rpm, rows_of[k].size(), mu, se, mu, mu};
+    out.per_dwell[k] = friction_estimate{forces.dwells[k].source->rpm, rows_of[k].size(), mu, se, mu, mu};
     mu_means.push_back(mu);
   }
-  for (double v : mu_means) id.mu_mean += v / mu_means.size();
-  for (double v : mu_means) id.mu_spread += (v - id.mu_mean) * (v - id.mu_mean);
-  id.mu_spread = mu_means.size() > 1 ? std::sqrt(id.mu_spread / (mu_means.size() - 1)) : 0.0;
-  // The shares below compare with the law's own f_N: the measured one is noise here.
-  for (auto* v : {&pooled})
-    for (auto& c : *v) c.fn = ctx.law(c.z, c.zd);
-  for (auto& d : per_dwell)
-    for (auto& c : d) c.fn = ctx.law(c.z, c.zd);
+  out.friction = per_speed(mu_means);
+  out.friction.mu = out.friction.mu_slope = mu_slope;
+  out.friction.mu_standard_error = mu_standard_error;
+  return out;
 }
+
+// The samples route's estimates with their intervals, and its residual tests.
+struct samples_result {
+  std::vector<term_estimate> estimates;
+  std::vector<correlation_test> validity;
+};
 
 // The samples route's intervals (an episode bootstrap) and its residual tests (the weak form's
 // intervals are weak_form_estimates').
-void samples_estimates(law_context& ctx) {
-  identification& id = ctx.id;
-  const identify_settings& s = ctx.s;
-  const auto& library = ctx.library;
-  auto& pooled = ctx.pooled;
-  const Eigen::MatrixXd& P = ctx.P;
-  const Eigen::VectorXd& y = ctx.y;
-  const auto& kept = id.frols.kept;
+samples_result samples_estimates(const regression& rows, const term_selection& sel, const std::vector<candidate_term>& library,
+                                 const pooled_contacts& contacts, const identify_settings& s) {
+  const auto& pooled = contacts.pooled;
+  const std::size_t episodes = contacts.episodes;
+  const Eigen::MatrixXd& P = rows.P;
+  const Eigen::VectorXd& y = rows.y;
+  const auto& kept = sel.frols.kept;
   const Eigen::Index m = static_cast<Eigen::Index>(library.size());
   const Eigen::Index n = P.rows();
+  samples_result out;
   // Episode bootstrap: contact samples within an episode are correlated, whole episodes are not.
   std::vector<std::vector<double>> boot(kept.size());
-  if (s.bootstrap > 0 && id.episodes > 1 && !kept.empty()) {
-    std::vector<std::vector<Eigen::Index>> rows_of(id.episodes);
+  if (s.bootstrap > 0 && episodes > 1 && !kept.empty()) {
+    std::vector<std::vector<Eigen::Index>> rows_of(episodes);
     for (Eigen::Index i = 0; i < n; ++i) rows_of[pooled[i].episode].push_back(i);
     portable_stream rng(s.seed, kBootstrapStream);  // the same resamples on any toolchain: same intervals everywhere
     for (int b = 0; b < s.bootstrap; ++b) {
-      std::vector<Eigen::Index> rows;
-      for (std::size_t e = 0; e < id.episodes; ++e) {
-        const auto& r = rows_of[rng.below(id.episodes)];
-        rows.insert(rows.end(), r.begin(), r.end());
+      std::vector<Eigen::Index> picked;
+      for (std::size_t e = 0; e < episodes; ++e) {
+        const auto& r = rows_of[rng.below(episodes)];
+        picked.insert(picked.end(), r.begin(), r.end());
       }
-      if (rows.size() <= kept.size()) continue;
-      Eigen::MatrixXd Pb(rows.size(), m);
-      Eigen::VectorXd yb(rows.size());
-      for (std::size_t i = 0; i < rows.size(); ++i) {
-        Pb.row(i) = P.row(rows[i]);
-        yb[i] = y[rows[i]];
+      if (picked.size() <= kept.size()) continue;
+      Eigen::MatrixXd Pb(picked.size(), m);
+      Eigen::VectorXd yb(picked.size());
+      for (std::size_t i = 0; i < picked.size(); ++i) {
+        Pb.row(i) = P.row(picked[i]);
+        yb[i] = y[picked[i]];
       }
       const least_squares_fit fb = least_squares(Pb, yb, kept);
       for (std::size_t j = 0; j < kept.size(); ++j) boot[j].push_back(fb.coefficients[j]);
     }
   }
   for (std::size_t j = 0; j < kept.size(); ++j)
-    id.estimates.push_back({library[kept[j]].name(), library[kept[j]].pretty(), id.frols.coefficients[j], id.frols.standard_errors[j],
-                            percentile(boot[j], 0.025), percentile(boot[j], 0.975)});
+    out.estimates.push_back({library[kept[j]].name(), library[kept[j]].pretty(), sel.frols.coefficients[j], sel.frols.standard_errors[j],
+                             percentile(boot[j], 0.025), percentile(boot[j], 0.975)});
 
   // Residual correlation tests, episode by episode (samples route: the residual is per sample).
-  std::vector<std::vector<double>> e(id.episodes), z(id.episodes), zd(id.episodes);
+  std::vector<std::vector<double>> e(episodes), z(episodes), zd(episodes);
   for (Eigen::Index i = 0; i < n; ++i) {
-    e[pooled[i].episode].push_back(id.frols.residual[i]);
+    e[pooled[i].episode].push_back(sel.frols.residual[i]);
     z[pooled[i].episode].push_back(pooled[i].z);
     zd[pooled[i].episode].push_back(pooled[i].zd);
   }
-  id.validity = residual_tests(e, z, zd, s.correlation_lags);
+  out.validity = residual_tests(e, z, zd, s.correlation_lags);
+  return out;
 }
 
 // Term shares per speed, and whether the law pulls the rotor into the stator.
-void shares_and_pull(law_context& ctx) {
-  identification& id = ctx.id;
-  const identify_settings& s = ctx.s;
-  const auto& forces = ctx.forces;
-  auto& pooled = ctx.pooled;
-  auto& per_dwell = ctx.per_dwell;
-  const auto& kept_terms = ctx.kept_terms;
-  const auto& kept_coef = ctx.kept_coef;
+struct shares_and_pull_result {
+  std::vector<std::vector<term_share>> reference, identified;  // per touching dwell
+  std::vector<std::string> warnings;
+};
+
+// Term shares per speed, and whether the law pulls the rotor into the stator. On the weak route
+// the shares compare with the law's own f_N: the measured one is noise there.
+shares_and_pull_result shares_and_pull(const pooled_contacts& contacts, const contact_law& law, bool law_force, const parameters& reference) {
+  shares_and_pull_result out;
   // Term shares per speed: the reference law (Table 2) and the identified one.
   const std::vector<candidate_term> reference_terms = parse_library("z1,z3,zd2");
-  for (std::size_t k = 0; k < forces.size(); ++k) {
-    id.dwells[k].reference_shares = shares(reference_terms, {s.reference.k1, s.reference.k3, s.reference.c2}, per_dwell[k]);
-    id.dwells[k].identified_shares = shares(kept_terms, kept_coef, per_dwell[k]);
+  for (std::vector<contact_sample> samples : contacts.per_dwell) {
+    if (law_force)
+      for (auto& c : samples) c.fn = law(c.z, c.zd);
+    out.reference.push_back(shares(reference_terms, {reference.k1, reference.k3, reference.c2}, samples));
+    out.identified.push_back(shares(law.terms, law.coef, samples));
   }
 
-  {
-    double peak = 0.0, least = 0.0;
-    for (const auto& c : pooled) {
-      const double f = ctx.law(c.z, c.zd);
-      peak = std::max(peak, f), least = std::min(least, f);
-    }
-    if (!kept_terms.empty() && least < -kPullShare * peak)
-      id.warnings.push_back("the identified law pulls the rotor into the stator: its f_N falls to " + format_digits(least) +
-                            " N over the contact samples (peak " + format_digits(peak) + " N); a contact force cannot pull");
+  double peak = 0.0, least = 0.0;
+  for (const auto& c : contacts.pooled) {
+    const double f = law(c.z, c.zd);
+    peak = std::max(peak, f), least = std::min(least, f);
   }
+  if (!law.terms.empty() && least < -kPullShare * peak)
+    out.warnings.push_back("the identified law pulls the rotor into the stator: its f_N falls to " + format_digits(least) +
+                           " N over the contact samples (peak " + format_digits(peak) + " N); a contact force cannot pull");
+  return out;
 }
 
 // Eq. 5's family, the laws the orbit fit can simulate: library name and parameter.
@@ -722,9 +807,6 @@ std::string family_parameter(std::string_view term) {
     if (name == term) return std::string(param);
   return {};
 }
-// A structure another comes within this BIC of is not decided by the data: 10 is "very strong"
-// evidence on Kass and Raftery's scale (the tables' loop uses the same, docs/real-data.md).
-constexpr double kDecisiveBic = 10.0;
 // The orbit fit's start for a term the weak form puts at <= 0: this share of the peak force, a
 // term large enough to matter and small enough not to move the orbit far from the others' law.
 constexpr double kRestartShare = 0.1;
@@ -741,210 +823,314 @@ std::string structure_text(const std::vector<std::string>& terms, const std::vec
   return out + "}";
 }
 
-// The weak form's estimates refined by the averaged cycles' periodic orbits, and the law's
-// structure chosen by them: every structure of Eq. 5's family in the library that has a
-// stiffness (z or z^3), each started from the weak form's least squares on its own terms, is
-// fitted; the lowest BIC (chi^2 + unknowns ln residuals, chi^2 against each cycle's own noise)
-// is reported, the others as runners-up. The weak form's selection is one candidate among them:
-// at micrometre noise its significance test can drop a term the orbits resolve (z_dot^2 at 5 um)
-// or take one they do not (z_dot^4).
-void refine_by_orbits(law_context& ctx) {
-  identification& id = ctx.id;
-  const identify_settings& s = ctx.s;
-  if (!ctx.weak || !s.orbit_fit || id.estimates.empty()) return;
-  const auto& forces = ctx.forces;
-  std::vector<orbit_fit_cycle> cycles;
-  for (std::size_t k = 0; k < forces.size(); ++k)
-    if (ctx.averaged[k]) cycles.push_back({&forces[k], ctx.sample_noise(k, true)});
-  if (cycles.empty()) {
-    id.notes.push_back("orbit fit: not run, no dwell is averaged (each dwell's averaging says why); the weak form's estimates stand");
-    return;
-  }
-  if (cycles.size() < forces.size())
-    id.notes.push_back("orbit fit: " + std::to_string(forces.size() - cycles.size()) + " dwell(s) not averaged left out (each dwell's averaging says why)");
+// The start of either output-error stage: the identified linear part and the first dwell's
+// clearance on the reference law's other parameters.
+parameters output_error_start(const identify_settings& s, const linear_part& lin, const contact_force_set& forces) {
+  parameters p = s.reference;
+  p.m = lin.m;
+  p.c_x = lin.c_x;
+  p.c_y = lin.c_y;
+  p.k_x = lin.k_x;
+  p.k_y = lin.k_y;
+  p.e = lin.e;
+  p.clearance = forces.dwells.front().source->clearance;
+  return p;
+}
 
-  // The candidates: the family's terms present in the library, every subset with a stiffness
-  // (or, without the comparison, the weak form's selection when it lies in the family).
+// What the orbit fit refines: the weak form's law, its rows and the data it came from.
+struct weak_law {
+  const std::vector<candidate_term>& library;
+  const linear_part& linear;
+  const contact_force_set& forces;
+  const std::vector<contact_sample>& pooled;
+  const weak_form_system& sys;
+  const std::vector<term_estimate>& estimates;
+  const contact_law& law;
+  double mu, mu_standard_error;
+};
+
+// The structures the orbit fit compares: the family's terms present in the library, every subset
+// with a stiffness (or, without the comparison, the weak form's selection when it lies in the
+// family).
+struct structure_family {
   std::vector<std::size_t> column;  // library index of each family term present
   std::vector<std::string> present;
-  for (const auto& [name, param] : kFamily)
-    for (std::size_t c = 0; c < ctx.library.size(); ++c)
-      if (ctx.library[c].name() == name) column.push_back(c), present.push_back(std::string(name));
   std::vector<std::vector<std::size_t>> subsets;  // indices into present
-  for (unsigned mask = 1; mask < (1u << present.size()); ++mask) {
+};
+
+structure_family structures_to_compare(const weak_law& weak, bool compare_structures) {
+  structure_family out;
+  for (const auto& [name, param] : kFamily)
+    for (std::size_t c = 0; c < weak.library.size(); ++c)
+      if (weak.library[c].name() == name) out.column.push_back(c), out.present.push_back(std::string(name));
+  const auto& estimates = weak.estimates;
+  for (unsigned mask = 1; mask < (1u << out.present.size()); ++mask) {
     std::vector<std::size_t> sub;
     bool stiffness = false, selected = true;
-    for (std::size_t b = 0; b < present.size(); ++b) {
+    for (std::size_t b = 0; b < out.present.size(); ++b) {
       const bool in = (mask & (1u << b)) != 0;
-      if (in) sub.push_back(b), stiffness = stiffness || present[b] != "zd2";
-      const bool kept = std::any_of(id.estimates.begin(), id.estimates.end(), [&](const term_estimate& e) { return e.name == present[b]; });
+      if (in) sub.push_back(b), stiffness = stiffness || out.present[b] != "zd2";
+      const bool kept = std::any_of(estimates.begin(), estimates.end(), [&](const term_estimate& e) { return e.name == out.present[b]; });
       selected = selected && in == kept;
     }
-    const bool in_family = std::all_of(id.estimates.begin(), id.estimates.end(), [](const term_estimate& e) { return !family_parameter(e.name).empty(); });
-    if (s.compare_structures ? stiffness : selected && in_family) subsets.push_back(sub);
+    const bool in_family = std::all_of(estimates.begin(), estimates.end(), [](const term_estimate& e) { return !family_parameter(e.name).empty(); });
+    if (compare_structures ? stiffness : selected && in_family) out.subsets.push_back(sub);
   }
-  if (subsets.empty()) {
-    id.notes.push_back(s.compare_structures ? "orbit fit: not run, the library holds no stiffness of Eq. 5's family (z, z^3), the only laws it simulates"
-                                            : "orbit fit: not run, the weak form's selection lies outside Eq. 5's family (z, z^3, z_dot^2), the only laws it simulates");
-    return;
-  }
-  std::vector<std::string> weak_terms;
-  for (const auto& e : id.estimates) weak_terms.push_back(e.name);
+  return out;
+}
 
-  struct trial {
-    structure_candidate report;
-    std::vector<term_estimate> start;  // the weak form's least squares on these terms
-    std::optional<orbit_fit_result> fit;
-  };
-  const Eigen::Index dof_rows = ctx.sys.A.rows();
-  // The weak law's peak force over the contact samples (their f_N is the law's here).
-  double peak_force = 0.0;
-  for (const auto& c : ctx.pooled) peak_force = std::max(peak_force, std::abs(c.fn));
-  // Every structure fitted, lowest BIC first (structures without one after, in their order).
-  const auto fit_structures = [&](int phase_search) {
-    std::vector<trial> trials;
-    for (const auto& sub : subsets) {
-      trial t;
-      std::vector<std::size_t> cols;
-      for (const auto b : sub) t.report.terms.push_back(present[b]), cols.push_back(column[b]);
-      const least_squares_fit ls = least_squares(ctx.sys.A, ctx.sys.b, cols);
-      parameters start = ctx.output_error_start();
-      start.unbalance_phase = id.linear.phase;
-      start.mu = std::isfinite(id.mu) && id.mu > 0.0 ? id.mu : 0.0;
-      start.k1 = start.k3 = start.c2 = 0.0;
-      std::vector<std::string> members;
-      std::string restarted;
-      for (std::size_t j = 0; j < cols.size(); ++j) {
-        const auto& term = ctx.library[cols[j]];
-        double v = ls.coefficients[static_cast<Eigen::Index>(j)];
-        const double se = ls.standard_errors[static_cast<Eigen::Index>(j)];
-        if (!(v > 0.0)) {
-          // A contact law's terms are > 0: a term the weak form puts at <= 0 starts where it
-          // carries kRestartShare of the weak law's peak force over the contact samples.
-          double peak_term = 0.0;
-          for (const auto& c : ctx.pooled) peak_term = std::max(peak_term, std::abs(term(c.z, c.zd)));
-          restarted += (restarted.empty() ? "" : ", ") + term.pretty() + " from " + format_digits(v);
-          v = peak_term > 0.0 ? kRestartShare * peak_force / peak_term : 0.0;
-        }
-        t.start.push_back({term.name(), term.pretty(), v, se, kNaN, kNaN});
-        members.push_back(family_parameter(term.name()));
-        start.*law_member(term.name()) = v;
-      }
-      if (dof_rows <= static_cast<Eigen::Index>(cols.size()) || std::any_of(t.start.begin(), t.start.end(), [](const term_estimate& e) { return !(e.value > 0.0); })) {
-        t.report.status = "not fitted: no positive start from the weak form's rows";
-        trials.push_back(std::move(t));
-        continue;
-      }
-      orbit_fit_settings os = s.orbit;
-      os.phase_search = std::max(os.phase_search, phase_search);
-      const orbit_fit_result fit = fit_periodic_orbits(cycles, start, members, os);
-      t.report.fitted = true;
-      t.report.converged = fit.converged;
-      t.report.chi2_per_dof = fit.final_chi2;
-      t.report.status = fit.status + (restarted.empty() ? "" : "; started at " + format_digits(100.0 * kRestartShare) +
-                                                                " % of the peak force where the weak form's least squares gave <= 0: " + restarted);
-      if (fit.converged && std::isfinite(fit.final_chi2))
-        t.report.bic = fit.final_chi2 * static_cast<double>(fit.residuals - fit.unknowns) +
-                       static_cast<double>(fit.unknowns) * std::log(static_cast<double>(fit.residuals));
-      t.fit = fit;
-      trials.push_back(std::move(t));
+// One structure's orbit fit, and the weak form's least squares on its terms it started from.
+struct structure_trial {
+  structure_candidate report;
+  std::vector<term_estimate> start;
+  std::optional<orbit_fit_result> fit;
+};
+
+// The orbit fit of one structure (`sub` of the family), started from the weak form's least
+// squares on its own terms.
+structure_trial fit_structure(const weak_law& weak, const std::vector<orbit_fit_cycle>& cycles, const structure_family& family,
+                              const std::vector<std::size_t>& sub, double peak_force, const identify_settings& s, int phase_search) {
+  structure_trial t;
+  std::vector<std::size_t> cols;
+  for (const auto b : sub) t.report.terms.push_back(family.present[b]), cols.push_back(family.column[b]);
+  const least_squares_fit ls = least_squares(weak.sys.A, weak.sys.b, cols);
+  parameters start = output_error_start(s, weak.linear, weak.forces);
+  start.unbalance_phase = weak.linear.phase;
+  start.mu = std::isfinite(weak.mu) && weak.mu > 0.0 ? weak.mu : 0.0;
+  start.k1 = start.k3 = start.c2 = 0.0;
+  std::vector<std::string> members;
+  std::string restarted;
+  for (std::size_t j = 0; j < cols.size(); ++j) {
+    const auto& term = weak.library[cols[j]];
+    double v = ls.coefficients[static_cast<Eigen::Index>(j)];
+    const double se = ls.standard_errors[static_cast<Eigen::Index>(j)];
+    if (!(v > 0.0)) {
+      // A contact law's terms are > 0: a term the weak form puts at <= 0 starts where it
+      // carries kRestartShare of the weak law's peak force over the contact samples.
+      double peak_term = 0.0;
+      for (const auto& c : weak.pooled) peak_term = std::max(peak_term, std::abs(term(c.z, c.zd)));
+      restarted += (restarted.empty() ? "" : ", ") + term.pretty() + " from " + format_digits(v);
+      v = peak_term > 0.0 ? kRestartShare * peak_force / peak_term : 0.0;
     }
-    std::stable_sort(trials.begin(), trials.end(), [](const trial& a, const trial& b) {
-      const bool fa = std::isfinite(a.report.bic), fb = std::isfinite(b.report.bic);
-      return fa != fb ? fa : fa && a.report.bic < b.report.bic;
-    });
-    return trials;
-  };
-  // Times not on one shaft angle (the contact-free dwells' test): each cycle's phase searched from
-  // the start. Otherwise searched only when the cycles' given phases leave no fit within the noise
-  // (no convergence, or chi^2 above its limit): the dwells in contact may not be on the linear
-  // part's shaft angle (no keyphasor, t_s not shaft-synchronous), and the search changes only the
-  // start, so the same model's lower chi^2 decides.
-  const bool unknown_angle = !ctx.retimed_touching.empty();
-  id.phases_searched = unknown_angle;
-  std::vector<trial> trials = fit_structures(unknown_angle ? kPhaseSearch : 0);
-  const auto within_noise = [](const std::vector<trial>& ts) {
+    t.start.push_back({term.name(), term.pretty(), v, se, kNaN, kNaN});
+    members.push_back(family_parameter(term.name()));
+    start.*law_member(term.name()) = v;
+  }
+  if (weak.sys.A.rows() <= static_cast<Eigen::Index>(cols.size()) ||
+      std::any_of(t.start.begin(), t.start.end(), [](const term_estimate& e) { return !(e.value > 0.0); })) {
+    t.report.status = "not fitted: no positive start from the weak form's rows";
+    return t;
+  }
+  orbit_fit_settings os = s.orbit;
+  os.phase_search = std::max(os.phase_search, phase_search);
+  const orbit_fit_result fit = fit_periodic_orbits(cycles, start, members, os);
+  t.report.fitted = true;
+  t.report.converged = fit.converged;
+  t.report.chi2_per_dof = fit.final_chi2;
+  t.report.status = fit.status + (restarted.empty() ? "" : "; started at " + format_digits(100.0 * kRestartShare) +
+                                                            " % of the peak force where the weak form's least squares gave <= 0: " + restarted);
+  if (fit.converged && std::isfinite(fit.final_chi2))
+    t.report.bic = information_criterion(fit.final_chi2 * static_cast<double>(fit.residuals - fit.unknowns), static_cast<double>(fit.residuals),
+                                         fit.unknowns);
+  t.fit = fit;
+  return t;
+}
+
+// Every structure fitted, lowest BIC first (structures without one after, in their order).
+std::vector<structure_trial> fit_structures(const weak_law& weak, const std::vector<orbit_fit_cycle>& cycles, const structure_family& family,
+                                            const identify_settings& s, int phase_search) {
+  // The weak law's peak force over the contact samples.
+  double peak_force = 0.0;
+  for (const auto& c : weak.pooled) peak_force = std::max(peak_force, std::abs(weak.law(c.z, c.zd)));
+  std::vector<structure_trial> trials;
+  for (const auto& sub : family.subsets) trials.push_back(fit_structure(weak, cycles, family, sub, peak_force, s, phase_search));
+  std::stable_sort(trials.begin(), trials.end(), [](const structure_trial& a, const structure_trial& b) {
+    const bool fa = std::isfinite(a.report.bic), fb = std::isfinite(b.report.bic);
+    return fa != fb ? fa : fa && a.report.bic < b.report.bic;
+  });
+  return trials;
+}
+
+// The structures' fits, and whether the cycles' phases were searched.
+struct structure_fits {
+  std::vector<structure_trial> trials;  // lowest BIC first
+  bool phases_searched = false;
+  std::vector<std::string> notes;
+};
+
+// Times not on one shaft angle (the contact-free dwells' test): each cycle's phase searched from
+// the start. Otherwise searched only when the cycles' given phases leave no fit within the noise
+// (no convergence, or chi^2 above its limit): the dwells in contact may not be on the linear
+// part's shaft angle (no keyphasor, t_s not shaft-synchronous), and the search changes only the
+// start, so the same model's lower chi^2 decides.
+structure_fits fit_structures_on_their_angles(const weak_law& weak, const std::vector<orbit_fit_cycle>& cycles, const structure_family& family,
+                                              const identify_settings& s, bool unknown_angle) {
+  structure_fits out;
+  out.phases_searched = unknown_angle;
+  out.trials = fit_structures(weak, cycles, family, s, unknown_angle ? kPhaseSearch : 0);
+  const auto within_noise = [](const std::vector<structure_trial>& ts) {
     return std::isfinite(ts.front().report.bic) && ts.front().fit->final_chi2 <= orbit_fit_chi2_limit(*ts.front().fit);
   };
-  if (!unknown_angle && !within_noise(trials)) {
-    std::vector<trial> searched = fit_structures(kPhaseSearch);
+  if (!unknown_angle && !within_noise(out.trials)) {
+    std::vector<structure_trial> searched = fit_structures(weak, cycles, family, s, kPhaseSearch);
     const bool better = std::isfinite(searched.front().report.bic) &&
-                        (!std::isfinite(trials.front().report.bic) || searched.front().report.bic < trials.front().report.bic);
-    id.notes.push_back(std::string("orbit fit: the cycles' forcing phases from the linear part left no fit within the noise; with each "
-                                   "cycle's phase searched (") + std::to_string(kPhaseSearch) + " starts) the fits " +
-                       (better ? "improved and are reported (the dwells in contact were not on the linear part's shaft angle)"
-                               : "did not improve, and the first are reported"));
-    if (better) trials = std::move(searched), id.phases_searched = true;
+                        (!std::isfinite(out.trials.front().report.bic) || searched.front().report.bic < out.trials.front().report.bic);
+    out.notes.push_back(std::string("orbit fit: the cycles' forcing phases from the linear part left no fit within the noise; with each "
+                                    "cycle's phase searched (") + std::to_string(kPhaseSearch) + " starts) the fits " +
+                        (better ? "improved and are reported (the dwells in contact were not on the linear part's shaft angle)"
+                                : "did not improve, and the first are reported"));
+    if (better) out.trials = std::move(searched), out.phases_searched = true;
   }
-  for (const auto& t : trials) id.structures.push_back(t.report);
+  return out;
+}
 
-  // The weak form's own selection, when the orbit fit could not choose (or it is outside the family).
-  const auto same = [&](const std::vector<std::string>& terms) {
-    std::vector<std::string> a = terms, b = weak_terms;
-    std::sort(a.begin(), a.end()), std::sort(b.begin(), b.end());
-    return a == b;
-  };
-  const trial* best = std::isfinite(trials.front().report.bic) ? &trials.front() : nullptr;
-  id.weak_estimates = id.estimates;
-  id.weak_mu = id.mu;
-  id.weak_mu_standard_error = id.mu_standard_error;
-  if (!best) {
-    for (const auto& t : trials)
-      if (t.fit && same(t.report.terms)) id.orbit = *t.fit;  // for its warning
-    id.structure_reason = "no structure's orbit fit converged: the weak form's selection " + structure_text(weak_terms, ctx.library) + " and estimates stand";
-    return;
+bool same_terms(std::vector<std::string> a, std::vector<std::string> b) {
+  std::sort(a.begin(), a.end()), std::sort(b.begin(), b.end());
+  return a == b;
+}
+
+// The structure the orbit fits choose, and the verdict on it.
+struct structure_choice {
+  const structure_trial* best = nullptr;  // none when no structure's fit converged
+  verdict decision;
+};
+
+// The excess over the noise an orbit fit leaves: chi^2 - dof.
+double excess_of(const orbit_fit_result& f) { return f.final_chi2 * static_cast<double>(f.residuals - f.unknowns) - static_cast<double>(f.residuals - f.unknowns); }
+
+// The lowest criterion, by the evidence rules (ref/inference/evidence.hpp) and their verdict: the
+// claim "full" where its orbits leave the noise, "partial" where its terms remove claim_share of
+// what the simplest structure fitted (the fewest terms: k1 z, the piecewise-linear law) leaves,
+// tentative with a rival within min_criterion_rise (a superset of the chosen terms is no rival:
+// it trails by ~ln(residuals) minus what its extra term explains, the term is not needed).
+// Without a converged fit, the weak form's own selection stands, tentatively.
+structure_choice choose_structure(const std::vector<structure_trial>& trials, const std::vector<std::string>& weak_terms,
+                                  const std::vector<candidate_term>& library) {
+  const evidence_rules rules;
+  if (!std::isfinite(trials.front().report.bic)) {
+    claim_inputs unfitted;
+    unfitted.plausible = false;
+    return {nullptr, decide("law terms", weak_terms, unfitted, rules, {},
+                            {"no structure's orbit fit converged: the weak form's selection " + structure_text(weak_terms, library) + " and estimates stand"})};
   }
-  id.orbit = *best->fit;
-  // Decisive when no rival comes within kDecisiveBic; a superset of the chosen terms is no rival
-  // (it trails by ~ln(residuals) minus what its extra term explains: the term is not needed).
+  const structure_trial* best = &trials.front();
   const auto superset = [&](const std::vector<std::string>& terms) {
     return std::all_of(best->report.terms.begin(), best->report.terms.end(),
                        [&](const std::string& t) { return std::find(terms.begin(), terms.end(), t) != terms.end(); });
   };
-  const trial* rival = nullptr;
+  const structure_trial* rival = nullptr;
   for (std::size_t k = 1; k < trials.size() && !rival; ++k)
     if (std::isfinite(trials[k].report.bic) && !superset(trials[k].report.terms)) rival = &trials[k];
+  const structure_trial* simplest = best;
+  for (const auto& t : trials)
+    if (std::isfinite(t.report.bic) && t.report.terms.size() < simplest->report.terms.size()) simplest = &t;
   const double gap = rival ? rival->report.bic - best->report.bic : kNaN;
-  id.structure_decisive = !rival || gap >= kDecisiveBic;
-  id.structure_reason = "orbit fit: " + structure_text(best->report.terms, ctx.library) + " has the lowest BIC (chi^2/dof " +
-                        format_digits(best->report.chi2_per_dof) + ")" +
-                        (rival ? "; the nearest rival that is not a superset of it, " + structure_text(rival->report.terms, ctx.library) +
-                                     ", is " + format_digits(gap) + " above" +
-                                     (id.structure_decisive ? "" : " (within " + format_digits(kDecisiveBic) + ": not decisive)")
-                               : std::string("; no rival that is not a superset of it was fitted"));
-  if (!same(best->report.terms))
-    id.notes.push_back("structure: the orbit fit chose " + structure_text(best->report.terms, ctx.library) + " over the weak form's selection " +
-                       structure_text(weak_terms, ctx.library) + " (every structure's BIC: identification.json, structures)");
-  // The chosen structure's estimates: the orbit fit's values and normal 95 % intervals.
-  const orbit_fit_result& fit = *id.orbit;
-  id.estimates.clear();
-  ctx.kept_terms.clear();
-  ctx.kept_coef.clear();
-  for (std::size_t j = 0; j < best->start.size(); ++j) {
+  const bool is_decisive = !rival || decisive(best->report.bic, rival->report.bic, rules);
+  claim_inputs in;
+  in.residual_is_noise = best->fit->final_chi2 <= orbit_fit_chi2_limit(*best->fit);
+  in.explained_share = simplest == best ? (in.residual_is_noise ? 1.0 : 0.0) : explained_share(excess_of(*simplest->fit), excess_of(*best->fit));
+  const std::string reason =
+      "orbit fit: " + structure_text(best->report.terms, library) + " has the lowest BIC (chi^2/dof " + format_digits(best->report.chi2_per_dof) + ")" +
+      (rival ? "; the nearest rival that is not a superset of it, " + structure_text(rival->report.terms, library) + ", is " + format_digits(gap) +
+                   " above" + (is_decisive ? "" : " (within " + format_digits(rules.min_criterion_rise) + ": not decisive)")
+             : std::string("; no rival that is not a superset of it was fitted"));
+  return {best, decide("law terms", best->report.terms, in, rules, is_decisive ? std::string() : structure_text(rival->report.terms, library), {reason})};
+}
+
+// The chosen structure's estimates: the orbit fit's values and normal 95 % intervals.
+struct refined_law {
+  std::vector<term_estimate> estimates;
+  contact_law law;
+  double mu = 0.0, mu_standard_error = 0.0;
+};
+
+refined_law law_of(const structure_trial& best, const std::vector<candidate_term>& library) {
+  const orbit_fit_result& fit = *best.fit;
+  refined_law out;
+  for (std::size_t j = 0; j < best.start.size(); ++j) {
     const auto& p = fit.parameters[j];
-    const auto& st = best->start[j];
-    id.estimates.push_back({st.name, st.pretty, p.value, p.standard_error, p.value - kInterval95 * p.standard_error,
-                            p.value + kInterval95 * p.standard_error});
-    for (const auto& c : ctx.library)
-      if (c.name() == st.name) ctx.kept_terms.push_back(c);
-    ctx.kept_coef.push_back(p.value);
+    const auto& st = best.start[j];
+    out.estimates.push_back({st.name, st.pretty, p.value, p.standard_error, p.value - kInterval95 * p.standard_error,
+                             p.value + kInterval95 * p.standard_error});
+    for (const auto& c : library)
+      if (c.name() == st.name) out.law.terms.push_back(c);
+    out.law.coef.push_back(p.value);
   }
-  id.weak_estimates = best->start;
-  const auto& mu = fit.parameters[best->start.size()];
-  id.mu = mu.value;
-  id.mu_standard_error = mu.standard_error;
-  // The shares and the pull check (shares_and_pull) see the chosen law's own f_N.
-  for (auto& c : ctx.pooled) c.fn = ctx.law(c.z, c.zd);
-  for (auto& d : ctx.per_dwell)
-    for (auto& c : d) c.fn = ctx.law(c.z, c.zd);
+  const auto& mu = fit.parameters[best.start.size()];
+  out.mu = mu.value;
+  out.mu_standard_error = mu.standard_error;
+  return out;
+}
+
+// What the orbit fit found: the structures it compared, the one it chose and its law.
+struct orbit_refinement {
+  std::vector<std::string> notes;
+  bool phases_searched = false;
+  std::vector<structure_candidate> structures;
+  std::optional<orbit_fit_result> orbit;
+  std::optional<verdict> structure;           // the verdict on the structure chosen (when the orbit fit compared structures)
+  std::vector<term_estimate> weak_estimates;  // the chosen structure's start, or the weak form's estimates
+  double weak_mu = kNaN, weak_mu_standard_error = kNaN;
+  std::optional<refined_law> chosen;  // when a structure's fit converged
+};
+
+// The weak form's estimates refined by the averaged cycles' periodic orbits, and the law's
+// structure chosen by them: every structure of Eq. 5's family in the library that has a
+// stiffness (z or z^3), each started from the weak form's least squares on its own terms, is
+// fitted; the lowest information criterion (ref/inference/evidence.hpp, chi^2 against each cycle's
+// own noise) is reported, the others as runners-up. The weak form's selection is one candidate among them:
+// at micrometre noise its significance test can drop a term the orbits resolve (z_dot^2 at 5 um)
+// or take one they do not (z_dot^4).
+orbit_refinement refine_by_orbits(const weak_law& weak, const std::vector<bool>& averaged, bool unknown_angle, const identify_settings& s) {
+  orbit_refinement out;
+  if (!s.orbit_fit || weak.estimates.empty()) return out;
+  const auto& forces = weak.forces.dwells;
+  std::vector<orbit_fit_cycle> cycles;
+  for (std::size_t k = 0; k < forces.size(); ++k)
+    if (averaged[k]) cycles.push_back({&forces[k], weak.forces.noise[k]});
+  if (cycles.empty()) {
+    out.notes.push_back("orbit fit: not run, no dwell is averaged (each dwell's averaging says why); the weak form's estimates stand");
+    return out;
+  }
+  if (cycles.size() < forces.size())
+    out.notes.push_back("orbit fit: " + std::to_string(forces.size() - cycles.size()) + " dwell(s) not averaged left out (each dwell's averaging says why)");
+  const structure_family family = structures_to_compare(weak, s.compare_structures);
+  if (family.subsets.empty()) {
+    out.notes.push_back(s.compare_structures ? "orbit fit: not run, the library holds no stiffness of Eq. 5's family (z, z^3), the only laws it simulates"
+                                             : "orbit fit: not run, the weak form's selection lies outside Eq. 5's family (z, z^3, z_dot^2), the only laws it simulates");
+    return out;
+  }
+  std::vector<std::string> weak_terms;
+  for (const auto& e : weak.estimates) weak_terms.push_back(e.name);
+
+  structure_fits fits = fit_structures_on_their_angles(weak, cycles, family, s, unknown_angle);
+  append(out.notes, fits.notes);
+  out.phases_searched = fits.phases_searched;
+  for (const auto& t : fits.trials) out.structures.push_back(t.report);
+  out.weak_estimates = weak.estimates;
+  out.weak_mu = weak.mu;
+  out.weak_mu_standard_error = weak.mu_standard_error;
+
+  const structure_choice choice = choose_structure(fits.trials, weak_terms, weak.library);
+  out.structure = choice.decision;
+  if (!choice.best) {
+    // The weak form's own selection, when the orbit fit could not choose: its fit, for its warning.
+    for (const auto& t : fits.trials)
+      if (t.fit && same_terms(t.report.terms, weak_terms)) out.orbit = *t.fit;
+    return out;
+  }
+  out.orbit = *choice.best->fit;
+  if (!same_terms(choice.best->report.terms, weak_terms))
+    out.notes.push_back("structure: the orbit fit chose " + structure_text(choice.best->report.terms, weak.library) + " over the weak form's selection " +
+                        structure_text(weak_terms, weak.library) + " (every structure's BIC: identification.json, structures)");
+  out.chosen = law_of(*choice.best, weak.library);
+  out.weak_estimates = choice.best->start;
+  return out;
 }
 
 // The output-error re-identification of Eq. 5's family (reidentify).
-void reidentify_law(law_context& ctx) {
-  identification& id = ctx.id;
-  const identify_settings& s = ctx.s;
-  const auto& forces = ctx.forces;
-  parameters start = ctx.output_error_start();
+reid_result reidentify_law(const identification& id, const contact_force_set& forces, const identify_settings& s) {
+  parameters start = output_error_start(s, id.linear, forces);
   start.mu = id.mu;
   start.k1 = start.k3 = start.c2 = 0.0;
   for (const auto& est : id.estimates) {
@@ -959,7 +1145,7 @@ void reidentify_law(law_context& ctx) {
     return (name == "k1" && !(start.k1 > 0)) || (name == "k3" && !(start.k3 > 0)) || (name == "c2" && !(start.c2 > 0)) ||
            (name == "mu" && !(start.mu > 0));
   });
-  id.reid = reidentify(forces, start, id.linear.phase, rs);
+  return reidentify(forces.dwells, start, id.linear.phase, rs);
 }
 
 
@@ -972,43 +1158,88 @@ identification identify_law_by(const std::vector<dwell>& dwells, const identify_
 // times it then found wrong, and its law (the orbit fit's start, and the structures' starts) with
 // them. The dwells are put on the angles the orbit fit found (as if timed by a keyphasor) and
 // everything runs again once, the notes of the first pass kept.
-identification again_on_the_orbits_angles(const law_context& ctx, const std::vector<dwell>& dwells) {
+identification again_on_the_orbits_angles(const identification& first, const touching_dwells& touching, const std::vector<bool>& averaged,
+                                          const std::vector<dwell>& dwells, const identify_settings& s) {
   std::vector<dwell> timed = dwells;
-  const auto& phase = ctx.id.orbit->phase;
+  const auto& phase = first.orbit->phase;
   std::size_t cycle = 0;
-  for (std::size_t k = 0; k < ctx.touching.size(); ++k) {
-    if (!ctx.averaged[k]) continue;
-    const dwell& used = *ctx.touching[k];  // as the first pass had it (1X-shifted, perhaps)
-    dwell& d = timed[ctx.touching_index[k]];
-    const double shift = used.t.front() - d.t.front() + std::remainder(phase[cycle++] - ctx.id.linear.phase, 2.0 * std::numbers::pi) / d.omega();
+  for (std::size_t k = 0; k < touching.size(); ++k) {
+    if (!averaged[k]) continue;
+    const dwell& used = touching.at(k);  // as the first pass had it (1X-shifted, perhaps)
+    dwell& d = timed[touching.index[k]];
+    const double shift = used.t.front() - d.t.front() + std::remainder(phase[cycle++] - first.linear.phase, 2.0 * std::numbers::pi) / d.omega();
     for (double& t : d.t) t += shift;
     d.timing_sigma = 0.0;  // timed by the first pass's orbit fit
   }
-  identification id = identify_law_by(timed, ctx.s, false);
-  std::vector<std::string> notes = ctx.id.notes;
+  identification id = identify_law_by(timed, s, false);
+  std::vector<std::string> notes = first.notes;
   notes.push_back("the dwells in contact were put on the shaft angles the orbit fit found and identified again (the notes below are that pass's)");
   for (const auto& n : id.notes)
-    if (std::find(ctx.id.notes.begin(), ctx.id.notes.end(), n) == ctx.id.notes.end()) notes.push_back(n);
+    if (std::find(first.notes.begin(), first.notes.end(), n) == first.notes.end()) notes.push_back(n);
   id.notes = std::move(notes);
   return id;
 }
 
+void put_friction(identification& id, const friction_summary& f) {
+  id.mu_mean = f.mu_mean, id.mu_spread = f.mu_spread, id.mu_slope = f.mu_slope, id.mu = f.mu, id.mu_standard_error = f.mu_standard_error;
+}
+
 identification identify_law_by(const std::vector<dwell>& dwells, const identify_settings& s, bool first_pass) {
+  const std::vector<candidate_term> library = parse_library(s.library);
   identification id;
-  law_context ctx(id, s);
-  linear_part_and_touching(ctx, dwells);
-  decide_averaging(ctx);
-  choose_route(ctx);
-  contact_forces_of(ctx);
-  pool_contacts(ctx);
-  regression_rows(ctx);
-  select_terms(ctx);
-  if (ctx.weak) weak_form_estimates(ctx);
-  else samples_estimates(ctx);
-  refine_by_orbits(ctx);
-  if (first_pass && id.phases_searched && id.orbit && id.orbit->converged) return again_on_the_orbits_angles(ctx, dwells);
-  shares_and_pull(ctx);
-  if (s.reidentify) reidentify_law(ctx);
+  const linear_stage linear = linear_part_of(dwells, s);
+  id.linear = linear.value, id.linear_source = linear.source, id.linear_fitted = linear.fitted, id.free_noise = linear.free_noise;
+  append(id.notes, linear.notes);
+
+  const touching_dwells touching = touching_of(dwells, linear);
+  if (!touching.note.empty()) id.notes.push_back(touching.note);
+  id.probe_noise = touching.probe_noise;
+  const averaging_choice averaging = decide_averaging(touching, s.average);
+  const route_choice route = choose_route(s);
+  id.law_route = route.method, id.law_route_reason = route.reason;
+  const bool weak = route.method == law_method::weak_form;
+
+  const contact_force_set forces = contact_forces_of(touching, averaging.averaged, id.linear, s, weak);
+  const pooled_contacts contacts = pool_contacts(forces, touching, averaging, weak);
+  id.dwells = contacts.reports, id.episodes = contacts.episodes;
+  const regression rows = regression_rows(forces, contacts.pooled, library, id.linear, s, weak);
+  id.contact_samples = contacts.pooled.size();
+
+  const term_selection selection = select_terms(rows, library, contacts.pooled, s, weak);
+  id.stop = selection.stop, id.frols = selection.frols;
+  id.candidates = selection.candidates, id.candidates_pretty = selection.candidates_pretty;
+  id.first_step_err = selection.first_step_err, id.paper_order_err = selection.paper_order_err;
+  id.residual_rms = selection.residual_rms, id.force_rms = selection.force_rms;
+
+  orbit_refinement orbits;
+  if (weak) {
+    const weak_form_fit fit = weak_form_estimates(rows, selection, library, forces, id.linear, s);
+    id.estimates = fit.estimates, id.weak = fit.report;
+    append(id.warnings, fit.warnings);
+    const weak_form_friction_result friction = weak_form_friction(rows.sys, forces);
+    put_friction(id, friction.friction);
+    for (std::size_t k = 0; k < friction.per_dwell.size(); ++k)
+      if (friction.per_dwell[k]) id.dwells[k].friction = friction.per_dwell[k];
+    orbits = refine_by_orbits({library, id.linear, forces, contacts.pooled, rows.sys, id.estimates, selection.law, id.mu, id.mu_standard_error},
+                              averaging.averaged, touching.any_retimed(), s);
+  } else {
+    const samples_result r = samples_estimates(rows, selection, library, contacts, s);
+    id.estimates = r.estimates, id.validity = r.validity;
+    put_friction(id, samples_friction(contacts));
+  }
+  append(id.notes, orbits.notes);
+  id.phases_searched = orbits.phases_searched, id.structures = orbits.structures, id.orbit = orbits.orbit;
+  id.structure = orbits.structure;
+  id.weak_estimates = orbits.weak_estimates, id.weak_mu = orbits.weak_mu, id.weak_mu_standard_error = orbits.weak_mu_standard_error;
+  if (orbits.chosen) id.estimates = orbits.chosen->estimates, id.mu = orbits.chosen->mu, id.mu_standard_error = orbits.chosen->mu_standard_error;
+  if (first_pass && id.phases_searched && id.orbit && id.orbit->converged) return again_on_the_orbits_angles(id, touching, averaging.averaged, dwells, s);
+
+  // The shares and the pull check see the law reported: the orbit fit's where it chose one.
+  const shares_and_pull_result shares = shares_and_pull(contacts, orbits.chosen ? orbits.chosen->law : selection.law, weak, s.reference);
+  for (std::size_t k = 0; k < id.dwells.size(); ++k)
+    id.dwells[k].reference_shares = shares.reference[k], id.dwells[k].identified_shares = shares.identified[k];
+  append(id.warnings, shares.warnings);
+  if (s.reidentify) id.reid = reidentify_law(id, forces, s);
   return id;
 }
 
@@ -1073,8 +1304,8 @@ void add_warnings(identification& id, const identify_settings& s) {
                   format_digits(e.standard_error) + (std::isfinite(e.ci_low) ? ", bootstrap [" + format_digits(e.ci_low) + ", " +
                   format_digits(e.ci_high) + "]" : std::string()) + "): the data do not determine it");
   }
-  if (!id.structures.empty() && !id.orbit)
-    w.push_back("orbit fit: " + id.structure_reason + " (statuses in identification.json, structure)");
+  if (!id.structures.empty() && !id.orbit && id.structure)
+    w.push_back(id.structure->reasons.front() + " (statuses in identification.json, structure)");
   if (id.orbit && !id.orbit->converged)
     w.push_back("orbit fit: " + id.orbit->status + " (" + std::to_string(id.orbit->failed_evaluations) +
                 " failed orbit evaluations); the weak form's estimates are reported");

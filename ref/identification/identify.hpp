@@ -24,6 +24,7 @@
 #include "ref/identification/output_error.hpp"
 #include "ref/identification/validity.hpp"
 #include "ref/identification/weak_form.hpp"
+#include "ref/inference/verdict.hpp"
 #include "ref/model/parameters.hpp"
 
 namespace rubref {
@@ -140,8 +141,9 @@ struct identification {
   std::optional<orbit_fit_result> orbit;
   // The structures the orbit fit compared, lowest BIC first, and what chose the one reported.
   std::vector<structure_candidate> structures;
-  std::string structure_reason;
-  bool structure_decisive = false;  // no other structure within kDecisiveBic of the chosen one
+  // The verdict on the structure chosen (ref/inference/verdict.hpp: the terms named, the claim,
+  // the rival within min_criterion_rise, the reason), when the orbit fit compared structures.
+  std::optional<verdict> structure;
   bool phases_searched = false;     // the orbit fit found the touching dwells' forcing phases by search (not the linear part's)
   std::vector<term_estimate> weak_estimates;
   double weak_mu = std::numeric_limits<double>::quiet_NaN(), weak_mu_standard_error = std::numeric_limits<double>::quiet_NaN();

@@ -100,7 +100,7 @@ nlohmann::ordered_json to_json(const identification& id, const identify_settings
     j["orbit_fit"]["weak_form_mu"] = num(id.weak_mu);
   }
   if (!id.structures.empty()) {
-    j["structure"] = {{"reason", id.structure_reason}, {"decisive", id.structure_decisive}};
+    j["structure"] = {{"verdict", id.structure ? to_json(*id.structure) : nlohmann::ordered_json(nullptr)}};
     for (const auto& c : id.structures)
       j["structure"]["candidates"].push_back({{"terms", c.terms}, {"fitted", c.fitted}, {"converged", c.converged},
                                               {"chi2_per_dof", num(c.chi2_per_dof)}, {"bic", num(c.bic)}, {"status", c.status}});
@@ -182,8 +182,9 @@ std::string to_markdown(const identification& id) {
     md << "\n";
   }
   if (!id.structures.empty()) {
-    md << "## Structure (§5: every law of Eq. 5's family with a stiffness, by the orbit fit's BIC)\n\n" << id.structure_reason
-       << ".\n\n| terms | χ²/dof | BIC | status |\n|---|---|---|---|\n";
+    md << "## Structure (§5: every law of Eq. 5's family with a stiffness, by the orbit fit's BIC)\n\n";
+    if (id.structure) md << to_markdown(*id.structure);
+    md << "| terms | χ²/dof | BIC | status |\n|---|---|---|---|\n";
     for (const auto& c : id.structures) {
       md << "| ";
       for (std::size_t k = 0; k < c.terms.size(); ++k) md << (k ? ", " : "") << c.terms[k];

@@ -14,6 +14,7 @@ void evidence_rules::validate() const {
   check({"evidence", "claim_share"}, claim_share);
   check({"evidence", "max_interval_ratio"}, max_interval_ratio);
   check({"evidence", "max_cancellation"}, max_cancellation);
+  check({"evidence", "min_documented_level"}, min_documented_level);
 }
 
 double information_criterion(double chi2, double observations, std::size_t coordinates) {

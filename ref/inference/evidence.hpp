@@ -22,6 +22,7 @@ struct evidence_rules {
   double claim_share = default_of("evidence", "claim_share");                // of the base fit's excess, for a partial claim
   double max_interval_ratio = default_of("evidence", "max_interval_ratio");  // a positive quantity's 95 % interval, end to end
   double max_cancellation = default_of("evidence", "max_cancellation");      // a model's parts over their sum
+  double min_documented_level = default_of("evidence", "min_documented_level");  // an effect's size over its weakest documented level
   // input_error naming the rule, its range and its reason.
   void validate() const;
 };

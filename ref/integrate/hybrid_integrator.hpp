@@ -243,6 +243,10 @@ decltype(auto) probe_system(const System& sys) {
 template <class System>
 using head_state_t = state_of<std::remove_cvref_t<decltype(probe_system(std::declval<const System&>()))>>;
 
+// function-length: one pass over the steps. Stepping, exit location, sampling and the event
+// transitions share the stepper, the phase's system, the hybrid state and the sample cursor; as
+// closures over them in one template body, every call in the hot loop is a direct one the
+// compiler can inline (no std::function, no state object handed between functions).
 template <contact_system System, class Stepper, class Observer>
   requires dense_stepper<Stepper, System>
 basic_hybrid_state<state_of<System>> hybrid_loop(const System& base, Stepper& st, basic_hybrid_state<state_of<System>> hs,

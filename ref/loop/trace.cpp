@@ -125,10 +125,10 @@ significance test(const round_context& c, const fitted_model& without, const fit
 }
 
 // How strong an effect is at m, in units of the weakest level the library documents for it (its
-// largest switch): below a tenth of that the library calls it invisible, and a fit that puts it
+// largest switch): below the evidence rules' min_documented_level (a tenth) the library calls it
+// invisible, and a fit that puts it
 // there is using it to absorb something else (a contact angle of 0.0006 rad next to an
 // unexplained Hertz law).
-constexpr double kMinDocumentedLevel = 0.1;
 double documented_strength(const effect_info& e, const model_point& m) {
   double strength = 0.0;
   for (const auto& f : e.fit)
@@ -624,7 +624,7 @@ void try_refit(trace_run& run, std::vector<scored>& cands, std::size_t i, bool s
     cand.verdict = sig.judged.reason;
     return;
   }
-  if (const double strength = documented_strength(*cands[i].effect, fitted->at); strength < kMinDocumentedLevel) {
+  if (const double strength = documented_strength(*cands[i].effect, fitted->at); strength < c.s.rules.min_documented_level) {
     cand.verdict = "its fitted level is " + format_digits(strength, 2) + " of the weakest it documents: not an effect of this size";
     return;
   }
@@ -840,7 +840,7 @@ void exchange_stand_ins(trace_run& run) {
       const fit_result f = fit(problem, problem.of(from), c.s.max_jacobians, &run.current.orbits);
       if (!f.ok) continue;
       auto judged = judge(c, f.at, coords, &f);
-      if (!judged || documented_strength(by, judged->at) < kMinDocumentedLevel || outside_fit_range(by, judged->at)) continue;
+      if (!judged || documented_strength(by, judged->at) < c.s.rules.min_documented_level || outside_fit_range(by, judged->at)) continue;
       if (const double b = criterion_of(c, *judged); b < best_criterion && decisive(b, now, c.s.rules))
         best_criterion = b, best = exchange{a, &by, std::move(*judged)};
     }

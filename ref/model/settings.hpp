@@ -156,6 +156,9 @@ inline constexpr auto settings_registry = std::to_array<setting_info>({
      "resampled or filtered data share samples over a few neighbours; 0: residuals taken as independent"},
 
     // The evidence rules (ref/inference/evidence.hpp): one set for records, tables and the law's structure.
+    {"evidence", "min_documented_level", "", "min_documented_level", "-", 0.1, range::unit_interval,
+     "a plausible effect's fitted size, at least this share of the weakest level its library row documents",
+     "below a tenth the library calls the effect invisible: a fit that puts it there uses it to absorb something else"},
     {"evidence", "min_criterion_rise", "", "min_criterion_rise", "-", 10.0, range::positive,
      "a part is significant when the information criterion rises by more than this without it; two models within it explain the data alike",
      "Kass & Raftery (1995): a BIC difference above 10 is very strong evidence"},
@@ -231,8 +234,8 @@ inline constexpr auto settings_registry = std::to_array<setting_info>({
      "significance stop: the least share of y'y a kept term explains", "a share of the output's variance"},
     {"weak_form", "test_functions", "", "test_functions", "-", 6, range::count_in(1, 20), "test functions per contact episode",
      "moments up to s^5 resolve the force pulse's shape; more than 20 only fit the noise"},
-    {"weak_form", "bump_power", "", "bump_power", "-", 6, range::count_in(2, 20), "smoothness power of the test functions at the support's ends",
-     "the integration by parts needs psi and psi' to vanish there"},
+    {"weak_form", "bump_power", "", "bump_power", "-", 6, range::count_in(3, 20), "smoothness power of the test functions at the support's ends",
+     "Eq. 1's second derivative is moved onto psi by parts: psi, psi' and psi'' must vanish there"},
     {"weak_form", "velocity_half_width", "", "velocity_half_width", "samples", 8, range::count_in(1, 1000),
      "Savitzky-Golay half-width of z_dot, the only derivative the weak form takes", "a window has a centre and a side"},
     {"weak_form", "margin", "", "margin", "-", 0.5, {.lo = 0.0, .hi = 10.0}, "the support's extension beyond each contact episode, a share of its duration",
