@@ -215,6 +215,7 @@ struct contact_law {
   }
 };
 
+// A step's notes or warnings after those before it.
 template <class T>
 void append(std::vector<T>& to, const std::vector<T>& from) {
   to.insert(to.end(), from.begin(), from.end());
@@ -1180,6 +1181,7 @@ identification again_on_the_orbits_angles(const identification& first, const tou
   return id;
 }
 
+// The route's friction, as the identification reports it.
 void put_friction(identification& id, const friction_summary& f) {
   id.mu_mean = f.mu_mean, id.mu_spread = f.mu_spread, id.mu_slope = f.mu_slope, id.mu = f.mu, id.mu_standard_error = f.mu_standard_error;
 }
