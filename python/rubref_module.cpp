@@ -479,13 +479,12 @@ void bind_identification(py::module_& m) {
     s.average = parse_averaging(averaging);
     s.law_route = parse_law_method(law_method);
     s.library = library;
-    if (!(rho >= 0.0 && rho < 1.0)) throw input_error("rho must be in [0, 1) (got " + format_digits(rho) + ")");
     s.frols.rho = rho;
     s.orbit_fit = orbit_fit;
     s.reidentify = reidentify;
     s.reid.fit = reid_fit;
-    if (bootstrap < 0) throw input_error("bootstrap must be >= 0 (got " + std::to_string(bootstrap) + ")");
     s.bootstrap = bootstrap;
+    s.validate();  // every setting by its registry row (the message names the keyword), before the records are read
     const auto records = read_records(paths);
     const identification id = interruptible(py::none(), [&](const auto&) { return identify(records, s); });
     for (const auto& w : id.warnings) warn(w);
@@ -529,8 +528,8 @@ void bind_loop(py::module_& m) {
     loop_settings s;
     if (clearance) s.clearance = *clearance;
     if (mass) s.mass = *mass;
-    if (max_effects < 0) throw input_error("max_effects must be >= 0 (got " + std::to_string(max_effects) + ")");
     s.max_effects = max_effects;
+    s.validate();  // every setting by its registry row (the message names the keyword), before the records are read
     const auto records = read_records(paths);
     const loop_result r = interruptible(progress, [&](const auto& report) {
       loop_settings with_progress = s;

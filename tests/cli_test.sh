@@ -222,6 +222,11 @@ grep -q '^# clearance_m: 1$' "$work/free.csv" || fail "rig record lacks its clea
 grep -q 'effects' "$work/free.csv" && fail "rig record names its effects"
 expect_error "no dwell reaches its clearance" loop "$work/free.csv" --out "$work/loop"
 expect_error "short.csv" loop "$work/short.csv" --clearance 3e-4 --out "$work/loop"
+# The loop's and identification's settings are checked by their registry rows (issue 62), the
+# message naming the flag, before any work.
+expect_error "--max-effects must be a whole number in [0, 11]" loop "$work/free.csv" --max-effects 12 --out "$work/loop"
+expect_error "--bootstrap must be a whole number in [0, 1e+05]" identify "$work/free.csv" --bootstrap -1 --out "$work/loop"
+expect_error "--rho must be finite and in [0, 1)" identify "$work/free.csv" --rho 1 --out "$work/loop"
 [ ! -e "$work/loop" ] || fail "loop left a report behind"
 # A drive that does not hold its speed: every dwell is left out with its reason, and the loop says
 # it had nothing to score (no NaN error) and that the residual is unexplained.

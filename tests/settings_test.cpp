@@ -9,6 +9,11 @@
 #include <string>
 
 #include "ref/base/errors.hpp"
+#include "ref/identification/identify.hpp"
+#include "ref/inference/evidence.hpp"
+#include "ref/inference/least_squares.hpp"
+#include "ref/loop/loop.hpp"
+#include "ref/orbits/fit_orbits.hpp"
 #include "ref/model/settings.hpp"
 #include "ref/orbits/continuation.hpp"
 #include "ref/orbits/periodic_orbit.hpp"
@@ -94,6 +99,48 @@ TEST(settings_registry, the_structs_defaults_are_the_registrys_and_valid) {
   const study::job_settings job;
   EXPECT_EQ(job.max_period, setting_named("study", "max_period").default_value);
   EXPECT_EQ(job.samples_per_rev, setting_named("study", "samples_per_rev").default_value);
+}
+
+// The upper wings' settings (issue 62): the loop's, the trace's, identification's, the solver's,
+// the evidence rules' and the fits' orbits: defaults from the registry, valid, and a bad value
+// refused by its row, its message naming the setting.
+TEST(settings_registry, the_upper_wings_take_their_settings_from_the_registry) {
+  const loop_settings loop;
+  EXPECT_EQ(loop.max_effects, setting_named("trace", "max_effects").default_value);
+  EXPECT_EQ(loop.rules.claim_share, setting_named("evidence", "claim_share").default_value);
+  EXPECT_NO_THROW(loop.validate());
+  const identify_settings id;
+  EXPECT_EQ(id.bootstrap, setting_named("identify", "bootstrap").default_value);
+  EXPECT_EQ(id.frols.rho, setting_named("frols", "rho").default_value);
+  EXPECT_EQ(id.weak.test_functions, setting_named("weak_form", "test_functions").default_value);
+  EXPECT_EQ(id.orbit.max_jacobians, setting_named("orbit_fit", "max_jacobians").default_value);
+  EXPECT_NO_THROW(id.validate());
+  EXPECT_NO_THROW(least_squares_options{}.validate());
+  EXPECT_NO_THROW(evidence_rules{}.validate());
+  EXPECT_NO_THROW(fit_orbit_options{}.validate());
+  const auto refused = [](auto settings, const std::string& field) {
+    try {
+      settings.validate();
+    } catch (const input_error& e) {
+      return std::string(e.what()).find("`" + field + "`") == 0;
+    }
+    return false;
+  };
+  loop_settings bad_loop;
+  bad_loop.max_effects = 12;
+  EXPECT_TRUE(refused(bad_loop, "max_effects"));
+  bad_loop = {}, bad_loop.rules.min_criterion_rise = -1.0;
+  EXPECT_TRUE(refused(bad_loop, "min_criterion_rise"));
+  identify_settings bad_id;
+  bad_id.bootstrap = -1;
+  EXPECT_TRUE(refused(bad_id, "bootstrap"));
+  bad_id = {}, bad_id.frols.rho = 1.0;
+  EXPECT_TRUE(refused(bad_id, "rho"));
+  bad_id = {}, bad_id.weak.bump_power = 2;
+  EXPECT_TRUE(refused(bad_id, "bump_power"));
+  least_squares_options bad_solver;
+  bad_solver.difference_step = 0.5;
+  EXPECT_TRUE(refused(bad_solver, "difference_step"));
 }
 
 }  // namespace

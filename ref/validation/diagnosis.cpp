@@ -223,6 +223,9 @@ double refine_scalar(const std::function<std::optional<Eigen::VectorXd>(double)>
   lsq.residuals = [&](const Eigen::VectorXd& u) { return residual(centre + u[0] * step); };
   lsq.lower = Eigen::VectorXd::Constant(1, (lo - centre) / step);
   lsq.upper = Eigen::VectorXd::Constant(1, (hi - centre) / step);
+  // The residuals (m) are the model's orbit against a candidate's: their unit of resolution is the
+  // shooting's own accuracy (a candidate may match to it), so the solver converges to there.
+  lsq.noise = kShootingTolerance;
   least_squares_options o;
   o.max_jacobians = default_count_of("diagnosis", "max_jacobians");
   o.difference_step = default_of("diagnosis", "difference_step");
