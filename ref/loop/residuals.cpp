@@ -166,6 +166,5 @@ double err_score(const Eigen::MatrixXd& J, const Eigen::MatrixXd& S, const Eigen
   return (Qs.transpose() * rp).squaredNorm() / rp.squaredNorm();
 }
 
-double bic(double rss, double n, std::size_t k) { return n * std::log(rss / n) + static_cast<double>(k) * std::log(n); }
 
 }  // namespace rubref

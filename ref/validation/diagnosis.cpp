@@ -628,7 +628,7 @@ std::optional<transform_fit> diagnosis::transform_stage() {
   }
   bool offset = false;
   // A part of a transform counts only when leaving it out costs tenfold in RMS and leaves the
-  // candidate outside half the tolerance (else a shift of 1e-9 s found by Brent on an exact
+  // candidate outside half the tolerance (else a shift of 1e-9 s found by the solver on an exact
   // match would be "significant").
   const double negligible = std::pow(0.5 * tolerance / best.scale, 2);
   if (with_offset_cost * kLikelyReduction * kLikelyReduction <= plain && plain > negligible) {
