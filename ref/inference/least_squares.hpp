@@ -60,7 +60,6 @@ struct least_squares_problem {
   // 1 for residuals already whitened.
   double noise = 1.0;
 
-  Eigen::Index size(const Eigen::VectorXd& u) const { return u.size(); }
   // u moved into the bounds.
   Eigen::VectorXd feasible(Eigen::VectorXd u) const;
 };
