@@ -36,7 +36,7 @@ std::vector<std::size_t> uncomputable_dwells(const std::vector<loop_dwell>& dwel
 // transient would bend every coordinate towards another attractor.
 std::vector<std::size_t> dwells_without_their_orbit(const std::vector<loop_dwell>& dwells, double noise, const std::vector<named_start>& starts);
 
-// The before-fit: every coordinate of the paper's model, Levenberg-Marquardt from the best of
+// The before-fit: every coordinate of the paper's model, by the solver (fit.hpp) from the best of
 // its starts, and, while the fit leaves more than the noise, from the other start too. The lowest fit wins; it is never worse than the best
 // start (every accepted step lowers the residual).
 // `is_noise` tells a fit whose residual passes the validity checks (the predictor holds its states).

@@ -33,7 +33,7 @@ struct trace_settings {
   evidence_rules rules;
   int orders = default_count_of("trace", "orders");                  // shaft orders of the residual spectrum and the synchronous test
   int whiteness_lags = default_count_of("trace", "whiteness_lags");
-  int max_jacobians = default_count_of("trace", "max_jacobians");    // per Levenberg-Marquardt fit
+  int max_jacobians = default_count_of("trace", "max_jacobians");    // per fit (ref/inference/least_squares.hpp)
   // Shape parameters are profiled at this many values across their physical range (ends included).
   int profile_points = default_count_of("trace", "profile_points");
   std::function<void(const std::string&)> progress = [](const std::string&) {};

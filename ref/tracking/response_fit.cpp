@@ -33,7 +33,7 @@ constexpr double kZetaLo = 1e-4, kZetaHi = 2.0;
 // within the effect library's fit range in those units (+-20000 N/m against the paper's
 // sqrt(k_x k_y) = 39.8 kN/m); a fit that reaches the bound is reported as not determined.
 constexpr double kCrossBound = 0.5;
-// The starts, ranked by their projected residual; the best few start a Levenberg-Marquardt fit
+// The starts, ranked by their projected residual; the best few start a fit by the solver
 // each. A critical speed is scanned over the table's speeds in steps of 1 % (a lightly damped
 // mode's peak is 2 zeta wide: 1.2 % at zeta = 0.006, where a coarser grid missed it in the
 // campaign) at three damping ratios; an anisotropic fit from an isotropic one keeps that mode and

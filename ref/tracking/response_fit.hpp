@@ -10,9 +10,10 @@
 // own 1X, the same at every speed). The complex amplitudes (e e^{j phi}, R, B) enter linearly and
 // are solved for at every step of the fit of the rest (variable projection); the critical speeds,
 // damping ratios, the probe's angle (one probe without a declared one) and the cross-coupling
-// are fitted by Levenberg-Marquardt from families of starts (critical speeds scanned over the
-// table's speeds, a mode split, cross-coupling switched on, the previous fit). The rotor's mass is
-// not identifiable from displacements; nothing here depends on it.
+// are fitted by rubref's one least-squares solver (ref/inference/least_squares.hpp) from
+// families of starts (critical speeds scanned over the table's speeds, a mode split,
+// cross-coupling switched on, the previous fit). The rotor's mass is not identifiable from
+// displacements; nothing here depends on it.
 
 #include <complex>
 #include <optional>

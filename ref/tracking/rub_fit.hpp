@@ -12,7 +12,8 @@
 // unbalance, each probe's runout), and the paper's contact at the top (Eq. 2): the stator at +y
 // of the declared probe angles, a clearance delta, a contact stiffness k1/m (the piecewise-linear
 // law k1 z: a 1X table cannot tell the laws apart) and Coulomb friction mu. Every coordinate is
-// fitted by Levenberg-Marquardt; the runouts by least squares at every step.
+// fitted by rubref's one least-squares solver (ref/inference/least_squares.hpp); the runouts by
+// least squares at every step.
 
 #include <complex>
 #include <string>
