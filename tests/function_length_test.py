@@ -35,6 +35,18 @@ def token_before(src, i):
     return src[j:i]
 
 
+
+def logical_line_end(src, i):
+    """Where the line from i ends, a line ending in a backslash going on into the next."""
+    j = i
+    while True:
+        k = src.find("\n", j)
+        if k < 0:
+            return len(src)
+        if src[k - 1] != "\\":
+            return k
+        j = k + 1
+
 def strip_code(src):
     """src with comments, string and character literals and preprocessor lines blanked (a literal
     keeps its quotes, so `x = "";` still reads as an expression); same length, same lines."""
@@ -53,31 +65,13 @@ def strip_code(src):
             i += 1
             continue
         if line_start and c == "#":  # a directive, with its continuation lines
-            j = i
-            while True:
-                k = src.find("\n", j)
-                if k < 0:
-                    k = n
-                    break
-                if src[k - 1] == "\\":
-                    j = k + 1
-                    continue
-                break
+            k = logical_line_end(src, i)
             out.append(blank(src[i:k]))
             i = k
             continue
         line_start = False
-        if src.startswith("//", i):
-            j = i
-            while True:  # a line comment ending in a backslash goes on
-                k = src.find("\n", j)
-                if k < 0:
-                    k = n
-                    break
-                if src[k - 1] == "\\":
-                    j = k + 1
-                    continue
-                break
+        if src.startswith("//", i):  # a line comment ending in a backslash goes on
+            k = logical_line_end(src, i)
             out.append(blank(src[i:k]))
             i = k
             continue
