@@ -303,9 +303,7 @@ void bind_settings(py::module_& m) {
   m.def("_defaults", [] {
     py::dict d;
     d["shooting_tolerance"] = kShootingTolerance;
-    d["identify_library"] = identify_settings{}.library, d["identify_rho"] = identify_settings{}.frols.rho;
-    d["identify_bootstrap"] = identify_settings{}.bootstrap, d["identify_reid_fit"] = identify_settings{}.reid.fit;
-    d["loop_max_effects"] = loop_settings{}.max_effects;
+    d["identify_library"] = identify_settings{}.library, d["identify_reid_fit"] = identify_settings{}.reid.fit;
     d["rig_seed"] = probe_settings{}.seed, d["rig_speeds"] = rig_request{}.speeds_rpm;
     return d;
   });

@@ -364,14 +364,14 @@ def rig(effects=(), speeds=None, noise=None, keyphasor=True, carry_over=False, s
 @_front_door({"paths": _Arg("paths", "record files"), "clearance": _RECORDS_CLEARANCE,
               "linear": _Arg("dict", "the linear part when it is known, as a parameter file's keys", optional=True),
               "averaging": _Arg("text", "'auto', 'on' or 'off'"), "law_method": _Arg("text", "'auto', 'samples' or 'weak-form'"),
-              "library": _Arg("text", "candidate terms (Eq. 4)"), "rho": _Arg("number", "ERR stop threshold, in [0, 1)"),
+              "library": _Arg("text", "candidate terms (Eq. 4)"), "rho": _Arg("number", row=("frols", "rho")),
               "orbit_fit": _Arg("flag", "refine by fitting the orbit"), "reidentify": _Arg("flag", "re-identify the law's parameters on the orbits"),
               "reid_fit": _Arg("texts", "the parameters re-identified: any of k1, k3, c2, mu, e, clearance (the command line's --reid-fit)"),
-              "bootstrap": _Arg("count", "episode bootstrap resamples (0: none)")},
+              "bootstrap": _Arg("count", row=("identify", "bootstrap"))},
              returns="dict: identification.json's (estimates [{term, value, ...}], linear, law, warnings, ...)")
 def identify(paths, clearance=None, linear=None, averaging="auto", law_method="auto", library=_DEFAULTS["identify_library"],
-             rho=_DEFAULTS["identify_rho"], orbit_fit=True, reidentify=False, reid_fit=tuple(_DEFAULTS["identify_reid_fit"]),
-             bootstrap=_DEFAULTS["identify_bootstrap"]):
+             rho=_default("frols", "rho"), orbit_fit=True, reidentify=False, reid_fit=tuple(_DEFAULTS["identify_reid_fit"]),
+             bootstrap=_default("identify", "bootstrap")):
     """The identification of paper section 4 (Eq. 3-5) on record files."""
     return _rubref._identify(paths, clearance, linear, averaging, law_method, library, rho, orbit_fit, reidentify, reid_fit, bootstrap)
 
@@ -406,9 +406,9 @@ def read_order_table(path, amplitude=None, amplitude_unit=None, phase=None, phas
 
 @_front_door({"paths": _Arg("paths", "record files, or one order-tracked table"), "clearance": _RECORDS_CLEARANCE,
               "mass": _Arg("number", "rotor mass (None: the records' m_kg, else the paper's)", unit="kg", optional=True),
-              "max_effects": _Arg("count", "effects in the model at most"), **_TABLE_ARGS, "progress": _PROGRESS},
-             returns="dict: report.json's (error_before, error_after (the orbit's NRMSE), effects [{name, ...}], claim, errors, notes, warnings, ...)")
-def loop(paths, clearance=None, mass=None, max_effects=_DEFAULTS["loop_max_effects"], amplitude=None, amplitude_unit=None, phase=None,
+              "max_effects": _Arg("count", row=("trace", "max_effects")), **_TABLE_ARGS, "progress": _PROGRESS},
+             returns="dict: report.json's (error_before, error_after (the orbit's NRMSE), verdict {claim, named, tentative, explained_share, unexplained, rival, ...}, effects [{name, params, ...}], errors, notes, warnings, ...)")
+def loop(paths, clearance=None, mass=None, max_effects=_default("trace", "max_effects"), amplitude=None, amplitude_unit=None, phase=None,
          phase_unit=None, scale=None, probe_angle=None, progress=None):
     """The loop (docs/loop.md): fit the paper's model to the records, trace the residual to the
     effects it lacks, refit; errors before and after. On one order-tracked table
