@@ -89,10 +89,7 @@ def strip_code(src):
                 k = src.find(end, i + len(m.group(0)))
                 k = n if k < 0 else k + len(end)
             else:
-                k = i + 1
-                while k < n and src[k] != '"' and src[k] != "\n":
-                    k += 2 if src[k] == "\\" else 1
-                k = min(k + 1, n)
+                k = quoted_end(src, i)
             out.append('"' + blank(src[i + 1:k - 1]) + ('"' if k - i > 1 else ""))
             i = k
             continue
@@ -102,16 +99,22 @@ def strip_code(src):
                 out.append(c)  # a digit separator: 1'000'000
                 i += 1
                 continue
-            k = i + 1
-            while k < n and src[k] != "'" and src[k] != "\n":
-                k += 2 if src[k] == "\\" else 1
-            k = min(k + 1, n)
+            k = quoted_end(src, i)
             out.append("'" + blank(src[i + 1:k - 1]) + ("'" if k - i > 1 else ""))
             i = k
             continue
         out.append(c)
         i += 1
     return "".join(out)
+
+
+def quoted_end(src, i):
+    """The index just past the string or character literal opening at src[i] (its quote), or past
+    the end of its line when it is unterminated."""
+    k = i + 1
+    while k < len(src) and src[k] != src[i] and src[k] != "\n":
+        k += 2 if src[k] == "\\" else 1
+    return min(k + 1, len(src))
 
 
 def matching(code, i, open_ch, close_ch):
