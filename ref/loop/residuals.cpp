@@ -166,5 +166,4 @@ double err_score(const Eigen::MatrixXd& J, const Eigen::MatrixXd& S, const Eigen
   return (Qs.transpose() * rp).squaredNorm() / rp.squaredNorm();
 }
 
-
 }  // namespace rubref

@@ -61,7 +61,6 @@ error_totals errors_of(const std::vector<loop_dwell>& dwells, const orbit_predic
 validity_report validity(const std::vector<loop_dwell>& dwells, const orbit_predictor& pr, const model_point& m, const Eigen::VectorXd& r,
                          double noise, int orders, int whiteness_lags);
 
-
 // Error reduction ratio of the columns S (after removing what J already spans) on r.
 double err_score(const Eigen::MatrixXd& J, const Eigen::MatrixXd& S, const Eigen::VectorXd& r);
 
