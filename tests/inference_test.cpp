@@ -249,8 +249,8 @@ TEST(evidence, claims) {
   EXPECT_EQ(claim_of(in, rules), "tentative");
   in.decisive = true, in.plausible = false;
   EXPECT_EQ(claim_of(in, rules), "tentative");
-  EXPECT_TRUE(decisive(100.0, 111.0, rules));
-  EXPECT_FALSE(decisive(100.0, 110.0, rules));
+  EXPECT_TRUE(decisive(100.0, 111.0, rules).yes);
+  EXPECT_FALSE(decisive(100.0, 110.0, rules).yes);
   EXPECT_TRUE(interval_determined(1.0, 3.9, rules));
   EXPECT_FALSE(interval_determined(1.0, 4.0, rules));
   EXPECT_FALSE(interval_determined(0.0, 1.0, rules));
@@ -258,6 +258,100 @@ TEST(evidence, claims) {
   EXPECT_DOUBLE_EQ(explained_share(10.0, -1.0), 1.0);
   EXPECT_DOUBLE_EQ(explained_share(0.0, 1.0), 1.0);
   EXPECT_DOUBLE_EQ(explained_share(10.0, 20.0), 0.0);
+}
+
+// A decision at its threshold is tentative, never decided by the last digit: a statistic within
+// its numerical uncertainty of a threshold is on the margin (either way), one beyond it is not.
+TEST(evidence, a_decision_within_its_statistics_uncertainty_of_the_threshold_is_tentative) {
+  const evidence_rules rules;
+  const double t = rules.min_criterion_rise;
+  EXPECT_FALSE(exceeds({t + 1.0, 0.5}, t).on_margin);
+  EXPECT_TRUE(exceeds({t + 1.0, 0.5}, t).yes);
+  EXPECT_TRUE(exceeds({t + 0.4, 0.5}, t).on_margin);
+  EXPECT_TRUE(exceeds({t + 0.4, 0.5}, t).yes);
+  EXPECT_TRUE(exceeds({t - 0.4, 0.5}, t).on_margin);
+  EXPECT_FALSE(exceeds({t - 0.4, 0.5}, t).yes);
+  EXPECT_FALSE(exceeds({t - 1.0, 0.5}, t).on_margin);
+  EXPECT_TRUE(exceeds({t, 0.0}, t).yes == false && !exceeds({t, 0.0}, t).on_margin);  // exact: no margin
+  // Both: certain where one fails for certain, on the margin where none fails and one is on it.
+  EXPECT_FALSE(both({false, false}, {true, true}).on_margin);
+  EXPECT_TRUE(both({true, false}, {false, true}).on_margin);
+  EXPECT_FALSE(both({true, false}, {false, true}).yes);
+
+  // The criterion rise one ulp-scale change from the threshold: the same need, whichever side.
+  part_comparison c;
+  c.criterion_rise = t + 1e-9, c.criterion_rise_uncertainty = 0.7, c.excess_share = 0.5, c.change = 2.0, c.resolution = 1.0;
+  c.holdout_gain = 20.0, c.in_sample_gain = 40.0;
+  const need above = judge_need(c, rules);
+  c.criterion_rise = t - 1e-9;
+  const need below = judge_need(c, rules);
+  EXPECT_TRUE(above.needed);
+  EXPECT_FALSE(below.needed);
+  EXPECT_TRUE(above.on_margin);
+  EXPECT_TRUE(below.on_margin);
+  EXPECT_NE(below.reason.find("on the margin"), std::string::npos) << below.reason;
+  // Far from every threshold: decided.
+  c.criterion_rise = 25.0;
+  EXPECT_FALSE(judge_need(c, rules).on_margin);
+  // Failing one rule for certain decides, whatever the others' margins.
+  c.excess_share = 0.1;
+  EXPECT_FALSE(judge_need(c, rules).on_margin);
+  // Out of sample at its threshold: the held-out gain against a third of the in-sample gain.
+  c.excess_share = 0.5, c.holdout_gain = 40.0 / 3.0 + 1e-9, c.holdout_gain_uncertainty = 0.5;
+  EXPECT_TRUE(judge_need(c, rules).on_margin);
+
+  // The decisive-choice rule at its margin, and the claim it leaves.
+  EXPECT_TRUE(decisive(100.0, 100.0 + t + 1e-9, rules, 0.7).on_margin);
+  EXPECT_FALSE(decisive(100.0, 100.0 + t + 1.0, rules, 0.7).on_margin);
+  claim_inputs in;
+  in.anything_named = true, in.residual_is_noise = true, in.explained_share = 1.0;
+  EXPECT_EQ(claim_of(in, rules), "full");
+  in.on_margin = true;
+  EXPECT_EQ(claim_of(in, rules), "tentative");
+  const verdict v = decide("effects", {"shaft_bow"}, in, rules);
+  EXPECT_TRUE(v.named.empty());
+  EXPECT_EQ(v.tentative, std::vector<std::string>{"shaft_bow"});
+  // A partial claim whose share lies within its uncertainty of claim_share: tentative.
+  in.on_margin = false, in.residual_is_noise = false, in.explained_share = rules.claim_share + 1e-9, in.explained_share_uncertainty = 1e-3;
+  EXPECT_EQ(claim_of(in, rules), "tentative");
+  in.explained_share_uncertainty = 0.0;
+  EXPECT_EQ(claim_of(in, rules), "partial");
+
+  // The criterion change's uncertainty to first order: n (u_a / chi2_a + u_b / chi2_b).
+  EXPECT_NEAR(criterion_change_uncertainty(1000.0, 200.0, 2.0, 100.0, 0.5), 1000.0 * (0.01 + 0.005), 1e-12);
+}
+
+// The solver's `remaining`: what the next step still predicts at the end, at least the tolerance
+// a converged stop leaves. On linear least squares the quadratic model is exact: a fit stopped by
+// its budget after one step is `remaining` (to the damped step's share of the gap, 1 - O(damping)
+// ~ 1e-3, kDampedShare) above the minimum, and a converged fit leaves the tolerance.
+constexpr double kDampedShare = 1e-2;
+TEST(least_squares, remaining_is_the_decrease_the_end_still_predicts) {
+  const int n = 50;
+  Eigen::MatrixXd A(n, 2);
+  Eigen::VectorXd b(n);
+  std::mt19937 rng(11);
+  std::normal_distribution<double> noise(0.0, 0.1);
+  for (int i = 0; i < n; ++i) A(i, 0) = 1.0, A(i, 1) = 0.1 * i, b[i] = 2.0 + 0.3 * 0.1 * i + noise(rng);
+  least_squares_problem p;
+  p.noise = 0.1;
+  p.residuals = [&](const Eigen::VectorXd& u) -> std::optional<Eigen::VectorXd> { return Eigen::VectorXd(A * u - b); };
+  const Eigen::VectorXd start = Eigen::VectorXd::Zero(2);
+  const Eigen::VectorXd best = A.colPivHouseholderQr().solve(b);
+  const double min_cost = (A * best - b).squaredNorm();
+  least_squares_options o;
+  const auto f = solve_least_squares(p, start, o);
+  ASSERT_TRUE(f.converged) << f.status;
+  EXPECT_LE(f.cost - min_cost, f.remaining);
+  EXPECT_NEAR(f.remaining, std::max(o.min_gain * p.noise * p.noise, o.min_gain_share * f.cost), 1e-12);
+  // Stopped by the budget after one step, far from a tolerance that would hide the gap.
+  least_squares_options one = o;
+  one.max_jacobians = 1, one.steps_per_jacobian = 1, one.min_gain = 1e-30, one.min_gain_share = 0.0;
+  const auto g = solve_least_squares(p, start, one);
+  ASSERT_FALSE(g.converged) << g.status;
+  const double gap = g.cost - min_cost;
+  ASSERT_GT(gap, 0.0);
+  EXPECT_NEAR(g.remaining, gap, kDampedShare * gap);
 }
 
 TEST(evidence, a_verdict_splits_the_chosen_names_by_its_claim) {

@@ -231,6 +231,8 @@ TEST_P(loop, scenario) {
               r.decision.claim.c_str());
   for (const auto& e : r.effects) std::printf(" %s", e.effect.c_str());
   std::printf("\n");
+  for (const auto& n : r.notes)
+    if (n.find("margin") != std::string::npos) std::printf("  %s\n", n.c_str());
 
   std::vector<std::string> expected = sc.expected, got = named;
   std::sort(expected.begin(), expected.end());

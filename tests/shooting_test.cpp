@@ -8,6 +8,7 @@
 #include <cmath>
 #include <complex>
 #include <filesystem>
+#include <functional>
 #include <string>
 
 #include "ref/analysis/orbit_io.hpp"
@@ -88,6 +89,68 @@ TYPED_TEST(monodromy, matches_finite_differences_of_the_map) {
       EXPECT_NEAR(exact.monodromy(i, j), fd[static_cast<std::size_t>(i)], kMonodromyRelTol * exact.monodromy.col(j).cwiseAbs().maxCoeff())
           << "d s" << i << " / d s" << j;
   }
+}
+
+// The exact sensitivities of a rubbing periodic orbit (the implicit-function theorem on the
+// fixed point: (I - M)^-1 dP/dlambda, one flow) against central differences of the orbit shot at
+// lambda +- h, for every parameter the map differentiates and every variant. The differences'
+// error: truncation (h / scale)^2 ~ 1e-8 and the shooting's 1e-12 m over 2 h; the orbit's motion
+// per unit parameter is O(orbit / scale), so kOrbitSensitivityRelTol of the largest component.
+constexpr double kOrbitSensitivityRelTol = 1e-4;
+TYPED_TEST(monodromy, orbit_sensitivities_match_finite_differences_of_the_shot_orbit) {
+  const double rpm = 1600.0;
+  const auto settle = [&](const rotor_system<TypeParam>& sys) {
+    null_observer none;
+    return integrate_hybrid(sys, start_state(sys, state_type{}, 0.0), 60.0 * sys.period(), careful().integration, sample_grid{}, none).s;
+  };
+  const auto base = paper_rotor<TypeParam>(rpm);
+  const state_type guess = settle(base);
+  const auto orbit = shoot_periodic_orbit(base, guess, 0.0, 1, careful());
+  ASSERT_TRUE(orbit.converged) << orbit.failure;
+  ASSERT_GT(orbit.events_per_period, 0u) << "the orbit must touch the stator for the test to mean anything";
+  struct case_t {
+    model_parameter p;
+    const char* name;
+    double h;  // the central difference's step, in the parameter's unit
+    std::function<rotor_system<TypeParam>(double)> at;
+  };
+  parameters p0;
+  p0.clearance = 0.3e-3;
+  const std::vector<case_t> cases{
+      {model_parameter::omega, "omega", 1e-4 * rpm_to_rad_s(rpm), [&](double d) { return rotor_system<TypeParam>(p0, rpm_to_rad_s(rpm) + d); }},
+      {model_parameter::clearance, "clearance", 1e-4 * p0.clearance,
+       [&](double d) {
+         parameters q = p0;
+         q.clearance += d;
+         return rotor_system<TypeParam>(q, rpm_to_rad_s(rpm));
+       }},
+      {model_parameter::unbalance, "unbalance", 1e-4 * p0.e,
+       [&](double d) {
+         parameters q = p0;
+         q.e += d;
+         return rotor_system<TypeParam>(q, rpm_to_rad_s(rpm));
+       }},
+      {model_parameter::mu, "mu", 1e-4,
+       [&](double d) {
+         parameters q = p0;
+         q.mu += d;
+         return rotor_system<TypeParam>(q, rpm_to_rad_s(rpm));
+       }},
+  };
+  int moving = 0;
+  for (const auto& c : cases) {
+    const auto exact = periodic_orbit_sensitivity(base, orbit, c.p, careful().integration);
+    const auto plus = shoot_periodic_orbit(c.at(c.h), orbit.state, 0.0, 1, careful());
+    const auto minus = shoot_periodic_orbit(c.at(-c.h), orbit.state, 0.0, 1, careful());
+    ASSERT_TRUE(plus.converged && minus.converged) << c.name;
+    Eigen::Vector4d fd;
+    for (int i = 0; i < 4; ++i) fd[i] = (plus.state[static_cast<std::size_t>(i)] - minus.state[static_cast<std::size_t>(i)]) / (2.0 * c.h);
+    const double size = std::max(exact.state.cwiseAbs().maxCoeff(), fd.cwiseAbs().maxCoeff());
+    if (size == 0.0) continue;  // both exactly 0 (the impact law's orbit here does not depend on mu)
+    ++moving;
+    for (int i = 0; i < 4; ++i) EXPECT_NEAR(exact.state[i], fd[i], kOrbitSensitivityRelTol * size) << "d s" << i << " / d " << c.name;
+  }
+  EXPECT_GE(moving, 3) << "the orbit must move with most parameters for the test to mean anything";
 }
 
 // Without contact the orbit is the particular solution and the multipliers are e^{lambda T} of

@@ -1026,7 +1026,7 @@ structure_choice choose_structure(const std::vector<structure_trial>& trials, co
   for (const auto& t : trials)
     if (std::isfinite(t.report.bic) && t.report.terms.size() < simplest->report.terms.size()) simplest = &t;
   const double gap = rival ? rival->report.bic - best->report.bic : kNaN;
-  const bool is_decisive = !rival || decisive(best->report.bic, rival->report.bic, rules);
+  const bool is_decisive = !rival || decisive(best->report.bic, rival->report.bic, rules).yes;
   claim_inputs in;
   in.residual_is_noise = best->fit->final_chi2 <= orbit_fit_chi2_limit(*best->fit);
   in.explained_share = simplest == best ? (in.residual_is_noise ? 1.0 : 0.0) : explained_share(excess_of(*simplest->fit), excess_of(*best->fit));

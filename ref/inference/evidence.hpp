@@ -27,6 +27,31 @@ struct evidence_rules {
   void validate() const;
 };
 
+// A statistic and its numerical uncertainty: how far the computation alone may move it (a fit's
+// unfinished descent, its orbits' tolerance, rounding), not the data's noise. A comparison of a
+// statistic with a threshold is decided on its value, and is *on the margin* where the threshold
+// lies within its uncertainty: another tolerance, thread count or machine could decide it the
+// other way, and what hangs on it is tentative, never claimed.
+struct statistic {
+  double value = 0.0;
+  double uncertainty = 0.0;  // >= 0, in the statistic's unit
+};
+
+// A comparison's outcome: `yes` on the value, and whether it lies on the margin.
+struct decision {
+  bool yes = false;
+  bool on_margin = false;
+};
+decision exceeds(const statistic& s, double threshold);  // s.value > threshold
+decision reaches(const statistic& s, double threshold);  // s.value >= threshold
+// Both must hold: certain where either fails for certain, on the margin where neither does and
+// one is on it.
+decision both(const decision& a, const decision& b);
+
+// The uncertainty of a criterion's change, n ln(chi2_a / chi2_b), from its two chi^2's own
+// (u_a, u_b, in chi^2's unit): n (u_a / chi2_a + u_b / chi2_b), to first order.
+double criterion_change_uncertainty(double observations, double chi2_a, double u_a, double chi2_b, double u_b);
+
 // The information criterion of a least-squares fit (Schwarz's BIC for Gaussian noise whose
 // scale is estimated with the fit): n ln(chi^2 / n) + k ln n, for chi^2 the sum of squared
 // residuals (in any unit: a difference of two criteria on the same data does not depend on it),
@@ -37,22 +62,28 @@ struct evidence_rules {
 double information_criterion(double chi2, double observations, std::size_t coordinates);
 
 // A model against the same model without one part (an effect, a law's term).
+// Each statistic's numerical uncertainty beside it (0: exact as far as the wing knows).
 struct part_comparison {
   double criterion_rise = 0.0;  // criterion without the part minus criterion with it
   double excess_share = 0.0;    // share of the without-model's excess over noise that the part removes
+  double criterion_rise_uncertainty = 0.0, excess_share_uncertainty = 0.0;
   // The change the part makes to the wing's noise test's statistic, and the smallest change that
   // test resolves: a change within it is one that the test that calls a residual noise cannot
   // see, and neither can a claim (0 where the wing's test resolves nothing finer than the criterion).
-  double change = 0.0, resolution = 0.0;
+  double change = 0.0, resolution = 0.0, change_uncertainty = 0.0;
   // Out of sample: chi^2 gained on data the models were not refitted on, and the gain on all data
   // (absent: not tested).
   std::optional<double> holdout_gain;
   double in_sample_gain = 0.0;
+  double holdout_gain_uncertainty = 0.0, in_sample_gain_uncertainty = 0.0;
 };
 
 struct need {
   bool significant = false;  // criterion rise, share and resolution
   bool needed = false;       // significant and needed out of sample
+  // The decision that ends the judgement (needed where tested out of sample, else significant)
+  // lies within a statistic's numerical uncertainty of its threshold: tentative either way.
+  bool on_margin = false;
   std::string reason;        // one line: why or why not
 };
 
@@ -64,7 +95,8 @@ need judge_need(const part_comparison& c, const evidence_rules& rules);
 
 // Decisive: no rival explanation (another model of other parts that passes the rules) comes
 // within min_criterion_rise of the chosen model's criterion; two within it explain the data alike.
-bool decisive(double chosen_criterion, double rival_criterion, const evidence_rules& rules);
+// `uncertainty`: that of the two criteria's difference.
+decision decisive(double chosen_criterion, double rival_criterion, const evidence_rules& rules, double uncertainty = 0.0);
 
 // A positive quantity with 95 % interval [lo, hi] is determined when the interval spans less than
 // max_interval_ratio end to end (within a factor of 2 either way, at the default).
@@ -76,14 +108,16 @@ std::string first_implausible(const std::vector<std::string>& reasons);
 
 // What is claimed (one word): "full" (something named, and the residual is noise), "partial"
 // (named, the residual is not noise, but at least claim_share of the base fit's excess is
-// removed), "tentative" (chosen by the rules but not claimed: too little removed, implausible, or
-// not decisive), "none" (nothing named).
+// removed), "tentative" (chosen by the rules but not claimed: too little removed, implausible, not
+// decisive, or a decision on the way lay on its margin), "none" (nothing named).
 struct claim_inputs {
   bool anything_named = false;
   bool residual_is_noise = false;
   double explained_share = 0.0;  // of the base fit's excess over the noise
+  double explained_share_uncertainty = 0.0;
   bool plausible = true;
   bool decisive = true;
+  bool on_margin = false;  // a decision that chose (or left out) a part lay within its statistic's uncertainty
 };
 std::string claim_of(const claim_inputs& in, const evidence_rules& rules);
 

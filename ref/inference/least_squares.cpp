@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <limits>
+#include <vector>
 
 #include "ref/base/errors.hpp"
 
@@ -26,6 +28,39 @@ constexpr double kUnconstrainedEigenvalue = 1e-12;
 constexpr double kUnconstrainedShare = 1e-6;
 
 bool finite(const std::optional<Eigen::VectorXd>& r) { return r && r->allFinite(); }
+
+// The decrease of |r|^2 that the next Levenberg-Marquardt step from u predicts (Jacobian J, the
+// fit's last damping), over the coordinates the bounds leave free (one at a bound whose descent
+// points out of the box is held): -(2 g's + s'As) for s = -(A + damping D)^-1 g, A = J'J, g = J'r,
+// D = diag(A) (floored as the steps'). The damping is where the solver trusts its linear model: an
+// undamped Gauss-Newton prediction on a strongly nonlinear residual promises gains no step reaches.
+double predicted_decrease(const least_squares_problem& problem, const Eigen::MatrixXd& J, const Eigen::VectorXd& r, const Eigen::VectorXd& u,
+                          double damping) {
+  if (J.cols() == 0 || J.rows() != r.size()) return 0.0;
+  const Eigen::VectorXd g = J.transpose() * r;
+  std::vector<Eigen::Index> free;
+  for (Eigen::Index j = 0; j < u.size(); ++j) {
+    const bool held_low = problem.lower.size() == u.size() && u[j] <= problem.lower[j] && g[j] > 0.0;
+    const bool held_high = problem.upper.size() == u.size() && u[j] >= problem.upper[j] && g[j] < 0.0;
+    if (!held_low && !held_high) free.push_back(j);
+  }
+  if (free.empty()) return 0.0;
+  const auto k = static_cast<Eigen::Index>(free.size());
+  const Eigen::MatrixXd JtJ = J.transpose() * J;
+  Eigen::MatrixXd A(k, k);
+  Eigen::VectorXd gf(k);
+  for (Eigen::Index a = 0; a < k; ++a) {
+    gf[a] = g[free[static_cast<std::size_t>(a)]];
+    for (Eigen::Index b = 0; b < k; ++b) A(a, b) = JtJ(free[static_cast<std::size_t>(a)], free[static_cast<std::size_t>(b)]);
+  }
+  const Eigen::VectorXd d = A.diagonal().cwiseMax(kDiagonalFloor * std::max(A.diagonal().maxCoeff(), 1e-300));
+  Eigen::MatrixXd M = A;
+  // At least kUnconstrainedEigenvalue of damping: a direction the residuals do not feel predicts nothing.
+  M.diagonal() += std::max(damping, kUnconstrainedEigenvalue) * d;
+  const Eigen::VectorXd step = -M.ldlt().solve(gf);
+  const double decrease = -(2.0 * gf.dot(step) + step.dot(A * step));
+  return std::isfinite(decrease) ? std::max(decrease, 0.0) : std::numeric_limits<double>::infinity();
+}
 }  // namespace
 
 void least_squares_options::validate() const {
@@ -153,6 +188,7 @@ least_squares_result solve_least_squares(const least_squares_problem& problem, c
     }
   }
   out.u = u;
+  out.remaining = std::max(predicted_decrease(problem, J, *r, u, damping), std::max(o.min_gain * chi2_unit, o.min_gain_share * out.cost));
   out.r = std::move(*r);
   return out;
 }

@@ -68,6 +68,12 @@ struct least_squares_result {
   Eigen::VectorXd u;        // the end (the start, clamped, where nothing was accepted)
   Eigen::VectorXd r;        // the residuals there
   double cost = std::numeric_limits<double>::infinity();  // |r|^2 (inf: the start could not be evaluated)
+  // How much lower the minimum near u may lie than `cost` (|r|^2 units): the decrease the next
+  // step (the last Jacobian, the fit's damping, within the bounds) still predicts, and at least the
+  // gain the stop tolerates. A fit stopped by its budget, or one whose path a last-digit change of the
+  // model would have moved, ends anywhere within this of its minimum: the numerical uncertainty
+  // of `cost` that the evidence rules weigh (ref/inference/evidence.hpp).
+  double remaining = 0.0;
   int jacobians = 0;        // finite-difference (or the wing's) Jacobians taken
   int evaluations = 0;      // residual evaluations by the solver (a wing's Jacobian's own are its to count)
   int rejected = 0;         // trial points the model could not be evaluated at

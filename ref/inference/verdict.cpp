@@ -39,7 +39,10 @@ verdict decide(std::string subject, std::vector<std::string> chosen, const claim
     v.reasons.push_back("named, partial: together they remove " + format_digits(100.0 * v.explained_share, 3) +
                         " % of the base fit's excess, but the residual is not noise (" + format_digits(100.0 * (1.0 - v.explained_share), 3) +
                         " % of the excess remains unexplained)");
-  if (v.claim == "tentative" && !v.rival.empty())
+  if (v.claim == "tentative" && in.on_margin)
+    v.reasons.push_back("tentative: a decision on the way lay within its statistic's numerical uncertainty of its threshold (a fit's unfinished descent, "
+                        "its orbits' tolerance): another tolerance, thread count or machine could decide it the other way");
+  else if (v.claim == "tentative" && !v.rival.empty())
     v.reasons.push_back("not decisive: " + v.rival + " explains the data alike (within " + format_digits(rules.min_criterion_rise) + " of the criterion)");
   else if (v.claim == "tentative" && in.plausible && !in.residual_is_noise)
     v.reasons.push_back("tentative: together they remove " + format_digits(100.0 * v.explained_share, 3) + " % of the base fit's excess (a claim needs " +
@@ -64,7 +67,7 @@ std::string to_markdown(const verdict& v) {
   s += "- claim: **" + v.claim + "**";
   if (v.claim == "partial" || v.claim == "tentative") s += " (" + format_fixed(100.0 * (1.0 - v.explained_share), 1) + " % of the base fit's excess remains)";
   s += "\n- " + v.subject + " named: " + (v.named.empty() ? std::string("none") : joined(v.named)) + "\n";
-  if (!v.tentative.empty()) s += "- tentative (chosen by the rules, not claimed): " + joined(v.tentative) + "\n";
+  if (!v.tentative.empty()) s += "- tentative (chosen by the rules or decided on a margin; not claimed): " + joined(v.tentative) + "\n";
   if (!v.rival.empty()) s += "- rival: " + v.rival + "\n";
   s += "- residual: " + std::string(v.residual_is_noise ? "noise" : v.claim == "partial" ? "not noise: the remaining share is unexplained" : "not noise, unexplained") + "\n";
   for (const auto& r : v.reasons) s += "- " + r + "\n";

@@ -14,7 +14,7 @@ struct verdict {
   std::string subject;                 // what was decided: "effects" (the loops), "law terms" (identify)
   std::string claim = "none";          // claim_of: "full", "partial", "tentative" or "none"
   std::vector<std::string> named;      // claimed (empty unless the claim is full or partial)
-  std::vector<std::string> tentative;  // chosen by the rules but not claimed
+  std::vector<std::string> tentative;  // chosen by the rules but not claimed, or decided on a margin (claim_inputs::on_margin)
   double explained_share = 0.0;        // of the base fit's excess over noise, by the final model
   bool residual_is_noise = false;      // the final model's residual passes the wing's noise test
   // Something is left that no acceptable model explains: the residual is not noise (after a

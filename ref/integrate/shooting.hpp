@@ -557,6 +557,44 @@ periodic_orbit<static_cast<int>(std::tuple_size_v<state_of<System>>)> shoot_peri
   return out;
 }
 
+// The exact sensitivity of a periodic orbit to a model parameter, by the implicit-function theorem
+// on its fixed point s* = P(s*, lambda) at t0: (I - M) ds*/dlambda = dP/dlambda, with M the
+// monodromy and dP/dlambda from the parameter's variational equations (saltation at every event,
+// the map's end moving with n T(lambda): map_and_sensitivities). One flow per parameter, in place
+// of a shooting per finite-difference step, and exact to the integrator's accuracy. The rows of
+// states the flow holds fixed (a rigid stator's) are zero. At a fold or a period-doubling's
+// neighbour (a multiplier at 1: I - M singular) the orbit has no sensitivity: numerical_error.
+template <int N>
+struct orbit_sensitivity {
+  Eigen::Matrix<double, N, 1> state = Eigen::Matrix<double, N, 1>::Zero();  // d s*(t0) / d lambda
+  double condition = 0.0;  // reciprocal condition estimate of (I - M) on the moving states
+};
+
+template <parameter_differentiable_system System>
+orbit_sensitivity<static_cast<int>(std::tuple_size_v<state_of<System>>)> periodic_orbit_sensitivity(
+    const System& sys, const periodic_orbit<static_cast<int>(std::tuple_size_v<state_of<System>>)>& orbit, model_parameter parameter,
+    const integration_options& opt) {
+  constexpr int N = static_cast<int>(std::tuple_size_v<state_of<System>>);
+  // Below this reciprocal condition of I - M a multiplier lies at 1 to the monodromy's own accuracy
+  // (~1e-9, steppers.hpp): the fixed point does not move smoothly with the parameter there.
+  constexpr double kMinCondition = 1e-8;
+  using dyn_matrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, N, N>;
+  using dyn_vector = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, N, 1>;
+  if (!orbit.converged) throw numerical_error("orbit sensitivity: the orbit did not converge (" + orbit.failure + ")");
+  const auto map = map_and_sensitivities(sys, orbit.state, orbit.t0, orbit.periods, parameter, opt);
+  const int n = moving_states(sys);
+  const dyn_matrix A = dyn_matrix::Identity(n, n) - map.monodromy.topLeftCorner(n, n);
+  const Eigen::PartialPivLU<dyn_matrix> lu(A);
+  orbit_sensitivity<N> out;
+  out.condition = lu.rcond();
+  if (!(out.condition > kMinCondition))
+    throw numerical_error("orbit sensitivity: I - M is singular (reciprocal condition " + format_digits(out.condition, 3) +
+                          "): a multiplier at 1, where the orbit does not move smoothly with the parameter");
+  const dyn_vector x = lu.solve(dyn_vector(map.parameter.head(n)));
+  out.state.head(n) = x;
+  return out;
+}
+
 // The rotor models' sensitivities and shooting are compiled once, in
 // ref/integrate/instances_shooting.cpp (see RUBREF_INTEGRATOR_INSTANCE).
 #define RUBREF_SHOOTING_INSTANCE(PREFIX, SYSTEM)                                                                             \

@@ -103,6 +103,7 @@ fit_result fit(const fit_problem& problem, const Eigen::VectorXd& start, int max
   out.rejected = s.rejected;
   if (!s.ok) return out;
   out.ok = true;
+  out.remaining = s.remaining;
   out.at = problem.at(s.u);
   // The end on the orbits the fit followed (its last evaluation may have been a rejected trial).
   if (auto rf = predictor.residuals(out.at)) {

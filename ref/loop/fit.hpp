@@ -44,6 +44,7 @@ struct fit_result {
   model_point at;
   double rss = std::numeric_limits<double>::infinity();  // m^2, on the orbits followed from the start
   Eigen::VectorXd r;                                      // the residual there
+  double remaining = 0.0;                                 // m^2: how much lower its minimum may lie (least_squares_result::remaining)
   orbit_anchors orbits;                                   // and those orbits
   int iterations = 0;     // Jacobians
   int evaluations = 0;    // residual evaluations, the Jacobians' included

@@ -74,6 +74,9 @@ void measure(loop_result& out, orbit_predictor& predictor, double noise, const l
   const synchronous_energy sync_before = synchronous_part(out.dwells, predictor, out.before, *r_before, s.orders);
   const synchronous_energy sync_after = synchronous_part(out.dwells, predictor, out.after, *r, s.orders);
   out.decision.explained_share = explained_share(sync_before.excess(noise), sync_after.energy - noise * noise * sync_after.dof);
+  // The synchronous energies are parts of |r|^2: each moves by at most its model's |r|^2 uncertainty.
+  if (const double excess = sync_before.excess(noise); excess > 0.0)
+    out.explained_share_uncertainty = (traced.before_uncertainty + traced.after_uncertainty) / excess;
   const error_totals eb = errors_of(out.dwells, predictor, *r_before), ea = errors_of(out.dwells, predictor, *r);
   out.error_before = eb.nrmse_contact;
   out.error_after = ea.nrmse_contact;
@@ -133,6 +136,7 @@ void claim(loop_result& out, const loop_settings& s) {
   claim_inputs in;
   in.residual_is_noise = out.validity_after.pass;
   in.explained_share = out.decision.explained_share;
+  in.explained_share_uncertainty = out.explained_share_uncertainty;
   in.plausible = first_implausible(implausible).empty();
   std::vector<std::string> names, reasons;
   std::string rival;  // the decisive-choice rule: an effect in the model with a rival is not decided
@@ -141,7 +145,20 @@ void claim(loop_result& out, const loop_settings& s) {
     if (!e.rival.empty()) rival += (rival.empty() ? "" : "; ") + e.rival + " in place of " + e.effect;
   }
   if (!in.plausible) reasons.push_back("an estimate lies outside the library's range (warnings): the effects are tentative, not claimed");
+  // A decision on its margin (added or left out within its statistics' numerical uncertainty):
+  // nothing is claimed, and the effect is named among the tentative ones whichever way it went.
+  in.on_margin = !out.on_margin.empty();
+  std::vector<std::string> left_out;
+  for (const auto& e : out.on_margin)
+    if (std::find(names.begin(), names.end(), e) == names.end()) left_out.push_back(e);
+  if (!left_out.empty()) {
+    std::string list;
+    for (const auto& e : left_out) list += (list.empty() ? "" : ", ") + e;
+    reasons.push_back("left out on the margin (tentative): " + list);
+  }
+  if (names.empty() && in.on_margin) names = std::move(left_out), left_out.clear();  // nothing chosen: the margin's effects are the tentative ones
   out.decision = decide("effects", std::move(names), in, s.rules, std::move(rival), std::move(reasons));
+  out.decision.tentative.insert(out.decision.tentative.end(), left_out.begin(), left_out.end());
 }
 
 bool any_contact(const std::vector<loop_dwell>& dwells) {
@@ -204,6 +221,7 @@ loop_result run_loop(const std::vector<std::pair<record, std::string>>& records,
   out.effects = std::move(traced.effects);
   out.removed = std::move(traced.removed);
   out.last_round = std::move(traced.last_round);
+  out.on_margin = traced.on_margin;
   out.notes.insert(out.notes.end(), traced.notes.begin(), traced.notes.end());
 
   // 4. Before and after, and what is claimed.

@@ -60,6 +60,8 @@ struct loop_result {
   verdict decision;
   std::vector<removed_effect> removed;
   std::vector<effect_candidate> last_round;  // the round that added nothing (if any)
+  double explained_share_uncertainty = 0.0;  // decision.explained_share's numerical uncertainty
+  std::vector<std::string> on_margin;        // effects decided within their statistics' numerical uncertainty (trace_result::on_margin)
   std::size_t model_evaluations = 0;          // of every dwell's orbits on all dwells (the loop's cost; out-of-sample ones apart)
   validity_report validity_before, validity_after;
   std::vector<dwell_error> errors;

@@ -10,6 +10,7 @@
 #include "ref/loop/paper_fit.hpp"
 #include "ref/loop/residuals.hpp"
 #include "ref/loop/search.hpp"
+#include "ref/orbits/fit_orbits.hpp"
 
 namespace rubref {
 
@@ -57,8 +58,19 @@ struct fitted_model {
   std::vector<fit_coordinate> coords;
   Eigen::VectorXd r;
   orbit_anchors orbits;
+  double uncertainty = 0.0;  // m^2: rss()'s numerical uncertainty (rss_uncertainty)
   double rss() const { return r.squaredNorm(); }
 };
+
+// The numerical uncertainty of a model's |r|^2 (m^2), which every statistic of the evidence rules
+// inherits (ref/inference/evidence.hpp): the fit's unfinished descent (`remaining`: how much lower
+// its minimum may lie), and its orbits' error, at most the shooting's tolerance eps per sample
+// (the sampling's is ~1e-13 m, below it), which moves |r|^2 by at most 2 |r| |e| + |e|^2 with
+// |e| <= sqrt(n) eps (Cauchy-Schwarz: a bound that holds however the error lines up with the residual).
+double rss_uncertainty(const Eigen::VectorXd& r, double remaining) {
+  const double e = std::sqrt(static_cast<double>(r.size())) * fit_orbit_options{}.tolerance;
+  return remaining + 2.0 * r.norm() * e + e * e;
+}
 
 // A model on its orbits: those found from the data, or those its fit followed (`f`) where they
 // fit better. Where orbits coexist, the data's motion is the model's orbit nearest to it, and a
@@ -73,7 +85,8 @@ std::optional<fitted_model> judge(const round_context& c, const model_point& m, 
     orbits = f->orbits;
   }
   if (!r) return std::nullopt;
-  return fitted_model{m, std::move(coords), std::move(*r), std::move(orbits)};
+  const double u = rss_uncertainty(*r, f && f->ok ? f->remaining : 0.0);
+  return fitted_model{m, std::move(coords), std::move(*r), std::move(orbits), u};
 }
 
 // A fit judged, and carried on from its end where the orbits found from the data fit that end
@@ -114,12 +127,16 @@ significance test(const round_context& c, const fitted_model& without, const fit
   significance out;
   part_comparison& pc = out.comparison;
   pc.criterion_rise = criterion_of(c, without) - criterion_of(c, with);
+  pc.criterion_rise_uncertainty = criterion_change_uncertainty(c.rows, without.rss(), without.uncertainty, with.rss(), with.uncertainty);
   const synchronous_energy base = synchronous_part(c.dwells, c.predictor, without.at, without.r, c.s.orders);
   const double after = synchronous_part(c.dwells, c.predictor, with.at, with.r, c.s.orders).energy;
   const double excess = base.excess(c.noise);
   pc.excess_share = excess > 0.0 ? (base.energy - after) / excess : 0.0;
   pc.change = base.energy - after;
   pc.resolution = base.tolerance(c.noise);
+  // The synchronous energy is a part of |r|^2: a model that may move |r|^2 by u moves it by at most as much.
+  pc.change_uncertainty = without.uncertainty + with.uncertainty;
+  pc.excess_share_uncertainty = excess > 0.0 ? pc.change_uncertainty / excess : 0.0;
   out.judged = judge_need(pc, c.s.rules);
   return out;
 }
@@ -343,8 +360,10 @@ std::optional<fitted_model> refit(const round_context& c, const fitted_model& cu
 
 // The effect's gain out of sample, in chi^2: the dwells in two folds (alternate dwells of each
 // record in speed order, contact and free apart), the models with and without the effect refitted
-// on one fold from their fits on every dwell, and compared on the other.
-double holdout_gain(const round_context& c, const fitted_model& without, const fitted_model& with) {
+// on one fold from their fits on every dwell, and compared on the other. Its numerical uncertainty:
+// each fold fit's unfinished descent (a move that may still lower the fold's |r|^2 by R moves the
+// other fold's, on the same orbits, by about as much) and the held orbits' error (rss_uncertainty).
+statistic holdout_gain(const round_context& c, const fitted_model& without, const fitted_model& with) {
   std::vector<int> fold(c.dwells.size(), 0);
   std::map<std::pair<std::string, bool>, std::vector<std::size_t>> groups;
   for (std::size_t k = 0; k < c.dwells.size(); ++k) groups[{c.dwells[k].record, c.dwells[k].contact}].push_back(k);
@@ -363,7 +382,7 @@ double holdout_gain(const round_context& c, const fitted_model& without, const f
     for (const std::size_t k : idx) out.push_back(k < o.size() ? o[k] : std::nullopt);
     return out;
   };
-  double gain = 0.0;
+  double gain = 0.0, uncertainty = 0.0;
   for (int f = 0; f < 2; ++f) {
     std::vector<std::size_t> train, held;
     for (std::size_t k = 0; k < c.dwells.size(); ++k) (fold[k] == f ? held : train).push_back(k);
@@ -384,11 +403,12 @@ double holdout_gain(const round_context& c, const fitted_model& without, const f
       on_held.anchor(predicted, orbits_of(m.orbits, held));
       const auto r = on_held.residuals(predicted);
       rss[i] = r ? r->head(static_cast<Eigen::Index>(on_held.orbit_rows())).squaredNorm() : std::numeric_limits<double>::infinity();
+      if (r) uncertainty += rss_uncertainty(r->head(static_cast<Eigen::Index>(on_held.orbit_rows())), fitted.ok ? fitted.remaining : 0.0);
     }
-    if (!std::isfinite(rss[1])) return -std::numeric_limits<double>::infinity();  // the model with it cannot predict them
+    if (!std::isfinite(rss[1])) return {-std::numeric_limits<double>::infinity(), 0.0};  // the model with it cannot predict them
     gain += rss[0] - rss[1];
   }
-  return gain / (c.noise * c.noise);
+  return {gain / (c.noise * c.noise), uncertainty / (c.noise * c.noise)};
 }
 
 // The 95 % bound of one parameter's profile likelihood, in chi^2 (Venzon & Moolgavkar 1988).
@@ -524,6 +544,12 @@ struct trace_run {
     out.notes.push_back("trace: " + text);
     c.s.progress("      " + text);
   }
+  // A decision about `effect` lay within its statistics' numerical uncertainty of its threshold:
+  // the verdict is tentative, and names the effect among the tentative ones either way.
+  void on_the_margin(const std::string& effect, const std::string& why) {
+    if (std::find(out.on_margin.begin(), out.on_margin.end(), effect) == out.on_margin.end()) out.on_margin.push_back(effect);
+    note(effect + ": " + why);
+  }
   // Whether m's residual passes the validity checks (the predictor left anchored at m).
   bool is_noise(const fitted_model& m) const {
     c.predictor.anchor(m.at, m.orbits);  // the states its validity checks read
@@ -622,6 +648,7 @@ void try_refit(trace_run& run, std::vector<scored>& cands, std::size_t i, bool s
                format_digits(sig.excess_share()) + ", error " + format_digits(cand.error_after));
   if (!sig.pass()) {
     cand.verdict = sig.judged.reason;
+    if (sig.judged.on_margin) run.on_the_margin(cand.name, sig.judged.reason);
     return;
   }
   if (const double strength = documented_strength(*cands[i].effect, fitted->at); strength < c.s.rules.min_documented_level) {
@@ -702,6 +729,7 @@ judged_as judge_candidate(trace_run& run, const scored& sc, effect_candidate& ca
   for (const auto& step : run.out.effects)
     if (!shapes_of(reference.coords, step.effect, false).empty()) settle_shapes(c, reference, step.effect, false);
   significance fair = test(c, reference, with);
+  if (!fair.pass() && fair.judged.on_margin) run.on_the_margin(cand.name, "its fair comparison " + fair.judged.reason);
   if (!fair.pass()) {
     cand.verdict = "the model without it, refitted from where its refit ended, explains its gain (BIC drop " + format_digits(fair.bic_drop()) + ", share " +
                    format_digits(fair.excess_share()) + ")";
@@ -716,11 +744,15 @@ judged_as judge_candidate(trace_run& run, const scored& sc, effect_candidate& ca
     return judged_as::not_needed;
   }
   c.s.progress("      " + cand.name + " passes the fair comparison (BIC drop " + format_digits(fair.bic_drop()) + "); out of sample ...");
-  cand.holdout_gain = holdout_gain(c, reference, with);
-  fair.comparison.holdout_gain = cand.holdout_gain;
+  const statistic held_out = holdout_gain(c, reference, with);
+  cand.holdout_gain = held_out.value;
+  fair.comparison.holdout_gain = held_out.value;
+  fair.comparison.holdout_gain_uncertainty = held_out.uncertainty;
   fair.comparison.in_sample_gain = (reference.rss() - with.rss()) / (c.noise * c.noise);
+  fair.comparison.in_sample_gain_uncertainty = (reference.uncertainty + with.uncertainty) / (c.noise * c.noise);
   const need needed = judge_need(fair.comparison, c.s.rules);
   cand.verdict = needed.needed ? "added" : needed.reason;
+  if (needed.on_margin) run.on_the_margin(cand.name, needed.needed ? "added on the margin: " + needed.reason : needed.reason);
   return needed.needed ? judged_as::needed : judged_as::not_needed;
 }
 
@@ -743,10 +775,14 @@ round_choice choose(trace_run& run, std::vector<scored>& cands, round_refits& ro
     }
   }
   if (!out.chosen) return out;
-  const double chosen = criterion_of(run.c, round.passing[k].second);
+  const fitted_model& chosen_fit = round.passing[k].second;
+  const double chosen = criterion_of(run.c, chosen_fit);
   for (std::size_t r = k + 1; r < round.passing.size(); ++r) {
     auto& [i, with] = round.passing[r];
-    if (decisive(chosen, criterion_of(run.c, with), run.c.s.rules)) break;  // sorted by criterion rise: the rest are further
+    const decision apart = decisive(chosen, criterion_of(run.c, with), run.c.s.rules,
+                                    criterion_change_uncertainty(run.c.rows, chosen_fit.rss(), chosen_fit.uncertainty, with.rss(), with.uncertainty));
+    if (apart.on_margin) run.on_the_margin(cands[i].candidate.name, "its criterion against " + cands[*out.chosen].candidate.name + "'s lies on the decisive margin");
+    if (apart.yes) break;  // sorted by criterion rise: the rest are further
     if (judge_candidate(run, cands[i], cands[i].candidate, with, false) == judged_as::needed) {
       cands[i].candidate.verdict = "needed too, within the decisive margin of " + cands[*out.chosen].candidate.name + "'s criterion: its rival";
       out.rival = cands[i].candidate.name;
@@ -795,6 +831,7 @@ void eliminate_backward(trace_run& run) {
     auto judged = judge(c, f.at, coords, &f);
     if (!judged) continue;
     const significance sig = test(c, *judged, run.current);
+    if (sig.judged.on_margin) run.on_the_margin(effects[a].effect, "kept or removed on the margin: " + sig.judged.reason);
     if (!sig.pass() && sig.bic_drop() < weakest_drop) weakest_drop = sig.bic_drop(), weakest_sig = sig, weakest.emplace(a, std::move(*judged));
   }
   if (!weakest) return;
@@ -841,8 +878,10 @@ void exchange_stand_ins(trace_run& run) {
       if (!f.ok) continue;
       auto judged = judge(c, f.at, coords, &f);
       if (!judged || documented_strength(by, judged->at) < c.s.rules.min_documented_level || outside_fit_range(by, judged->at)) continue;
-      if (const double b = criterion_of(c, *judged); b < best_criterion && decisive(b, now, c.s.rules))
-        best_criterion = b, best = exchange{a, &by, std::move(*judged)};
+      const double b = criterion_of(c, *judged);
+      const decision apart = decisive(b, now, c.s.rules, criterion_change_uncertainty(c.rows, judged->rss(), judged->uncertainty, run.current.rss(), run.current.uncertainty));
+      if (apart.on_margin) run.on_the_margin(std::string(by.name), "its exchange for " + std::string(was.name) + " lies on the decisive margin");
+      if (b < best_criterion && apart.yes) best_criterion = b, best = exchange{a, &by, std::move(*judged)};
     }
   }
   if (!best) return;
@@ -922,6 +961,7 @@ trace_result trace(const std::vector<loop_dwell>& dwells, orbit_predictor& predi
   trace_run run{c, {}, std::move(*start), {}};
   run.out.before = before.at;
   run.out.before_orbits = run.current.orbits;
+  run.out.before_uncertainty = run.current.uncertainty;
   for (const auto& e : effect_library()) run.remaining.push_back(&e);
   int round = 0;
   while (!run.is_noise(run.current) && static_cast<int>(run.out.effects.size()) < s.max_effects && !run.remaining.empty()) {
@@ -943,6 +983,7 @@ trace_result trace(const std::vector<loop_dwell>& dwells, orbit_predictor& predi
   }
   run.out.after = run.current.at;
   run.out.after_orbits = run.current.orbits;
+  run.out.after_uncertainty = run.current.uncertainty;
   for (auto& step : run.out.effects)  // the final estimates (later effects refine earlier ones)
     step.params = effect_params(find_effect(step.effect), run.current.at.fx);
   return std::move(run.out);

@@ -98,6 +98,10 @@ struct trace_result {
   std::vector<loop_step> effects;  // in the model at the end, in the order added
   std::vector<removed_effect> removed;
   std::vector<effect_candidate> last_round;  // the round that added nothing (if any)
+  // Effects whose addition, rejection, removal or exchange lay within its statistics' numerical
+  // uncertainty of the rule's threshold (ref/inference/evidence.hpp): tentative, whichever way it went.
+  std::vector<std::string> on_margin;
+  double before_uncertainty = 0.0, after_uncertainty = 0.0;  // m^2: each model's |r|^2's numerical uncertainty
   std::vector<std::string> notes;
 };
 

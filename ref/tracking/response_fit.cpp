@@ -227,10 +227,10 @@ least_squares_options solver_options() {
   return o;
 }
 
-// The fit from q0 (the solver's end, in q's layout).
-std::vector<double> fit_from(problem& pr, const std::vector<double>& q0) {
+// The fit from q0 (the solver's end, in q's layout) and how much lower its minimum may lie (chi^2).
+std::pair<std::vector<double>, double> fit_from(problem& pr, const std::vector<double>& q0) {
   const least_squares_result f = solve_least_squares(solver_problem(pr), Eigen::Map<const Eigen::VectorXd>(q0.data(), static_cast<Eigen::Index>(q0.size())), solver_options());
-  return std::vector<double>(f.u.data(), f.u.data() + f.u.size());
+  return {std::vector<double>(f.u.data(), f.u.data() + f.u.size()), f.remaining};
 }
 
 // |c| and arg c (degrees) of a complex amplitude with its covariance (re, im).
@@ -597,11 +597,11 @@ response_fit fit_response(const order_table& table, const response_parts& parts,
   }
   problem pr = set_up(table, parts, options);
   std::vector<double> best_q;
-  double best_cost = std::numeric_limits<double>::infinity();
+  double best_cost = std::numeric_limits<double>::infinity(), best_remaining = 0.0;
   for (const auto& q0 : starts_of(pr, start, options.starts)) {
-    const std::vector<double> q = fit_from(pr, q0);
+    const auto [q, remaining] = fit_from(pr, q0);
     const double c = pr.cost(q);
-    if (c < best_cost) best_cost = c, best_q = q;
+    if (c < best_cost) best_cost = c, best_q = q, best_remaining = remaining;
   }
   if (!std::isfinite(best_cost)) throw numerical_error(table.source + ": the 1X response fit found no finite residual from any start");
 
@@ -615,6 +615,7 @@ response_fit fit_response(const order_table& table, const response_parts& parts,
   response_fit f;
   f.parts = parts;
   f.chi2 = r.squaredNorm();
+  f.chi2_uncertainty = best_remaining;
   f.parameters = best_q.size() + 2 * pr.amplitudes();
   f.dof = cc.dof;
   estimates_into(f, pr, best, amp, cc);

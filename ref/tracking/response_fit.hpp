@@ -73,6 +73,7 @@ struct response_fit {
   // The fit's quality.
   std::vector<double> noise_m;       // per probe: the row-to-row scatter of its 1X vector (robust)
   double chi2 = 0.0;                 // sum of (residual / noise)^2 over real and imaginary parts
+  double chi2_uncertainty = 0.0;     // its numerical uncertainty: how much lower the minimum may lie (least_squares_result::remaining)
   std::size_t dof = 0;
   double rms_residual_m = 0.0;
   double chi2_bound = 1.0;           // chi2/dof's 0.1 % false-alarm bound, widened by the noise estimate's uncertainty

@@ -366,20 +366,20 @@ std::vector<std::vector<double>> starts_of(rub_problem& pr, const rub_fit_option
   return from;
 }
 
-// The best fit from the starts, by the one solver.
-std::vector<double> best_fit(rub_problem& pr, const std::vector<std::vector<double>>& from) {
+// The best fit from the starts, by the one solver, and how much lower its minimum may lie (chi^2).
+std::pair<std::vector<double>, double> best_fit(rub_problem& pr, const std::vector<std::vector<double>>& from) {
   least_squares_options o;
   o.max_jacobians = default_count_of("rub_fit", "max_jacobians");
   o.difference_step = default_of("rub_fit", "difference_step");
   const least_squares_problem lsq = pr.solver_problem();
   std::vector<double> best_q;
-  double best_cost = std::numeric_limits<double>::infinity();
+  double best_cost = std::numeric_limits<double>::infinity(), best_remaining = 0.0;
   for (const auto& q0 : from) {
     const least_squares_result f = solve_least_squares(lsq, Eigen::Map<const Eigen::VectorXd>(q0.data(), static_cast<Eigen::Index>(q0.size())), o);
-    if (f.ok && f.cost < best_cost) best_cost = f.cost, best_q.assign(f.u.data(), f.u.data() + f.u.size());
+    if (f.ok && f.cost < best_cost) best_cost = f.cost, best_remaining = f.remaining, best_q.assign(f.u.data(), f.u.data() + f.u.size());
   }
   if (!std::isfinite(best_cost)) throw numerical_error(pr.table.source + ": the rub fit found no point whose every orbit could be computed");
-  return best_q;
+  return {best_q, best_remaining};
 }
 
 // The modes, unbalance, bow and cross-coupling with their 95 % intervals from the covariance of
@@ -453,7 +453,7 @@ void rows_into(rub_fit& f, const rub_problem& pr, const std::vector<row_orbit>& 
 
 rub_fit fit_rub(const order_table& table, const response_fit& linear, const rub_fit_options& options) {
   rub_problem pr = set_up(table, linear, options);
-  const std::vector<double> best_q = best_fit(pr, starts_of(pr, options));
+  const auto [best_q, remaining] = best_fit(pr, starts_of(pr, options));
 
   // The fit's orbits, its runouts, and the covariance of every coordinate and runout (re, im),
   // widened by the residuals' correlation over neighbouring rows (ref/inference).
@@ -478,6 +478,10 @@ rub_fit fit_rub(const order_table& table, const response_fit& linear, const rub_
   rub_fit f;
   f.parts = linear.parts;
   f.chi2 = r.squaredNorm();
+  // Its numerical uncertainty: the solver's unfinished descent, and the orbits' error (at most the
+  // shooting's tolerance per reading, over the smallest noise) moving |r|^2 by at most 2 |r| |e| + |e|^2.
+  const double e = std::sqrt(static_cast<double>(r.size())) * fit_orbit_options{}.tolerance / *std::min_element(pr.sigma.begin(), pr.sigma.end());
+  f.chi2_uncertainty = remaining + 2.0 * r.norm() * e + e * e;
   f.parameters = n + 2 * probes;
   f.dof = cc.dof;
   for (const std::size_t i : pr.rows)

@@ -42,6 +42,7 @@ struct rub_fit {
   std::size_t rows_not_periodic = 0;  // rows where no stable periodic orbit was found (a transient's last revolution read)
 
   double chi2 = 0.0;
+  double chi2_uncertainty = 0.0;  // its numerical uncertainty (the solver's unfinished descent and the orbits' error)
   std::size_t dof = 1;
   double chi2_bound = 1.0;
   bool consistent_with_noise = false;

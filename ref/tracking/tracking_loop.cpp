@@ -210,6 +210,7 @@ struct table_run {
   }
   bool has(unsigned mask) const { return !(mask & kRub) || rubs[mask].has_value(); }
   double chi2(unsigned mask) const { return mask & kRub ? rubs[mask]->chi2 : fits[mask].chi2; }
+  double chi2_uncertainty(unsigned mask) const { return mask & kRub ? rubs[mask]->chi2_uncertainty : fits[mask].chi2_uncertainty; }
   std::size_t dof(unsigned mask) const { return mask & kRub ? rubs[mask]->dof : fits[mask].dof; }
   std::size_t parameters(unsigned mask) const { return mask & kRub ? rubs[mask]->parameters : fits[mask].parameters; }
   bool at_noise(unsigned mask) const { return mask & kRub ? rubs[mask]->consistent_with_noise : fits[mask].consistent_with_noise; }
@@ -339,6 +340,10 @@ tracked_model::need need_of(table_run& run, unsigned mask, unsigned k, bool plau
   c.criterion_rise = n.bic_rise = run.criterion(without) - run.criterion(mask);
   c.in_sample_gain = run.chi2(without) - run.chi2(mask);
   c.excess_share = n.excess_share = c.in_sample_gain / std::max(run.chi2(without) - static_cast<double>(run.dof(without)), 1e-300);
+  const double u_without = run.chi2_uncertainty(without), u_with = run.chi2_uncertainty(mask);
+  c.criterion_rise_uncertainty = criterion_change_uncertainty(static_cast<double>(run.observations), run.chi2(without), u_without, run.chi2(mask), u_with);
+  c.in_sample_gain_uncertainty = u_without + u_with;
+  c.excess_share_uncertainty = c.in_sample_gain_uncertainty / std::max(run.chi2(without) - static_cast<double>(run.dof(without)), 1e-300);
   if (c.criterion_rise > run.rules.min_criterion_rise && plausible) {
     n.held_out_without = run.held_out(without), n.held_out_with = run.held_out(mask);
     if (n.held_out_with.size() == 2 && n.held_out_without.size() == 2) {
@@ -348,6 +353,7 @@ tracked_model::need need_of(table_run& run, unsigned mask, unsigned k, bool plau
   }
   const need judged = judge_need(c, run.rules);
   n.needed = judged.needed;
+  n.on_margin = judged.on_margin;
   n.reason = judged.reason;
   return n;
 }
@@ -361,7 +367,7 @@ std::size_t judge_models(table_run& run, std::vector<tracked_model>& models) {
     tracked_model m;
     for (unsigned k = 0; k < 4; ++k)
       if (mask & (1u << k)) m.effects.push_back(part_names()[k]);
-    m.chi2 = run.chi2(mask), m.bic = run.criterion(mask);
+    m.chi2 = run.chi2(mask), m.bic = run.criterion(mask), m.chi2_uncertainty = run.chi2_uncertainty(mask);
     if (mask & kRub) {
       m.undetermined = undetermined_rub(*run.rubs[mask]);
       m.estimates = rub_estimates(*run.rubs[mask]);
@@ -390,12 +396,37 @@ std::size_t judge_models(table_run& run, std::vector<tracked_model>& models) {
   return chosen;
 }
 
+// The criteria's difference's numerical uncertainty between two combinations.
+double criterion_gap_uncertainty(const table_run& run, const tracked_model& a, const tracked_model& b) {
+  return criterion_change_uncertainty(static_cast<double>(run.observations), a.chi2, a.chi2_uncertainty, b.chi2, b.chi2_uncertainty);
+}
+
+// Whether the choice lies on a margin (ref/inference/evidence.hpp): a need of the chosen
+// combination, or of a plausible one with a lower criterion (which a need decided the other way
+// would have chosen), or the decisive-choice rule against an eligible one, within its statistics'
+// numerical uncertainty of the threshold.
+bool choice_on_margin(const table_run& run, const std::vector<tracked_model>& models, std::size_t chosen) {
+  const auto any_need_on_margin = [](const tracked_model& m) {
+    return std::any_of(m.needs.begin(), m.needs.end(), [](const tracked_model::need& n) { return n.on_margin; });
+  };
+  if (any_need_on_margin(models[chosen])) return true;
+  for (std::size_t i = 0; i < models.size(); ++i) {
+    if (i == chosen) continue;
+    if (models[i].undetermined.empty() && models[i].bic < models[chosen].bic && any_need_on_margin(models[i])) return true;
+    if (models[i].eligible && !models[chosen].effects.empty() &&
+        decisive(models[chosen].bic, models[i].bic, run.rules, criterion_gap_uncertainty(run, models[chosen], models[i])).on_margin)
+      return true;
+  }
+  return false;
+}
+
 // A rival: an eligible combination of other effects within min_criterion_rise of the chosen one's
 // criterion (the decisive-choice rule); "" when the choice is decisive.
 std::string rival_of(const table_run& run, std::vector<tracked_model>& models, std::size_t chosen) {
   if (models[chosen].effects.empty()) return {};
   for (std::size_t i = 0; i < models.size(); ++i)
-    if (i != chosen && models[i].eligible && models[i].effects != models[chosen].effects && !decisive(models[chosen].bic, models[i].bic, run.rules)) {
+    if (i != chosen && models[i].eligible && models[i].effects != models[chosen].effects &&
+        !decisive(models[chosen].bic, models[i].bic, run.rules, criterion_gap_uncertainty(run, models[chosen], models[i])).yes) {
       std::string names;
       for (const auto& e : models[i].effects) names += (names.empty() ? "" : ", ") + e;
       models[chosen].summary += "; not decisive: " + (names.empty() ? std::string("base") : names) + " comes within " +
@@ -517,6 +548,7 @@ void decide_1x(table_run& run, tracking_result& r, std::size_t chosen, unsigned 
   claim_inputs in;
   in.residual_is_noise = rub_named ? r.rub->fit.consistent_with_noise : r.after.consistent_with_noise;
   in.explained_share = explained_share(r.before.chi2 - static_cast<double>(r.before.dof), chi2_after - dof_after);
+  in.on_margin = choice_on_margin(run, r.models, chosen);
   const std::string rival = rival_of(run, r.models, chosen);
   r.decision = decide("effects", r.models[chosen].effects, in, run.rules, rival);
   r.bands = rub_named ? bands_of(run.table, r.rub->fit.residual, r.rub->fit.noise_m, r.rub->fit.probes, 1)

@@ -24,6 +24,7 @@ namespace rubref {
 struct tracked_model {
   std::vector<std::string> effects;  // anisotropy, then the effect library's (shaft_bow, cross_coupling), then rub
   double chi2 = 0.0, bic = 0.0;      // bic: the information criterion (ref/inference/evidence.hpp)
+  double chi2_uncertainty = 0.0;     // chi2's numerical uncertainty (the fit's unfinished descent, its orbits' error)
   std::string undetermined;          // "" when every part is determined (the plausibility rule), else what is not
   std::string estimates;             // its effects' parameters with their 95 % intervals, one line
   // Per effect in it: the model without that effect against this one.
@@ -34,6 +35,7 @@ struct tracked_model {
     std::vector<double> held_out_without, held_out_with;  // chi^2 of each fold's held-out rows
     double held_out_gain = 0.0;
     bool needed = false;
+    bool on_margin = false;                       // decided within its statistics' numerical uncertainty (ref/inference/evidence.hpp)
     std::string reason;                           // the evidence rule's words
   };
   std::vector<need> needs;
