@@ -1026,8 +1026,15 @@ structure_choice choose_structure(const std::vector<structure_trial>& trials, co
   for (const auto& t : trials)
     if (std::isfinite(t.report.bic) && t.report.terms.size() < simplest->report.terms.size()) simplest = &t;
   const double gap = rival ? rival->report.bic - best->report.bic : kNaN;
-  const bool is_decisive = !rival || decisive(best->report.bic, rival->report.bic, rules).yes;
+  // The criteria's difference's numerical uncertainty, from each fit's residual sum's own.
+  const auto sum_of = [](const orbit_fit_result& f) { return f.final_chi2 * static_cast<double>(f.residuals - f.unknowns); };
+  const decision apart = rival ? decisive(best->report.bic, rival->report.bic, rules,
+                                          criterion_change_uncertainty(static_cast<double>(best->fit->residuals), sum_of(*best->fit), best->fit->sum_uncertainty,
+                                                                       sum_of(*rival->fit), rival->fit->sum_uncertainty))
+                               : decision{true, false};
+  const bool is_decisive = apart.yes;
   claim_inputs in;
+  in.on_margin = apart.on_margin;
   in.residual_is_noise = best->fit->final_chi2 <= orbit_fit_chi2_limit(*best->fit);
   in.explained_share = simplest == best ? (in.residual_is_noise ? 1.0 : 0.0) : explained_share(excess_of(*simplest->fit), excess_of(*best->fit));
   const std::string reason =

@@ -279,6 +279,14 @@ orbit_fit_result fit_periodic_orbits(const std::vector<orbit_fit_cycle>& cycles,
   }
   const Eigen::VectorXd& r = *final_r;
   out.final_chi2 = r.squaredNorm() / dof;
+  {
+    // The orbits' error, at most the shooting's tolerance per sample over the smallest noise,
+    // moves |r|^2 by at most 2 |r| |e| + |e|^2.
+    double smallest = std::numeric_limits<double>::infinity();
+    for (const auto& c : cycles) smallest = std::min(smallest, std::max(c.noise, kOrbitNoiseFloor));
+    const double e = std::sqrt(static_cast<double>(r.size())) * fit_orbit_options{}.tolerance / smallest;
+    out.sum_uncertainty = fit.remaining + 2.0 * r.norm() * e + e * e;
+  }
   double sq = 0.0;
   Eigen::Index at = 0;
   std::vector<residual_series> series;  // each cycle's x (even entries) and y (odd entries) in time order

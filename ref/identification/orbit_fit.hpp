@@ -58,6 +58,9 @@ struct orbit_fit_result {
   std::vector<orbit_fit_parameter> parameters;  // the law's terms, then mu, c_x, c_y, k_x, k_y
   std::vector<double> e, phase;                 // per cycle: the fitted unbalance (m, rad)
   double initial_chi2 = 0.0, final_chi2 = 0.0;  // whitened residual sum of squares per degree of freedom
+  // The whitened residual sum of squares' numerical uncertainty (not per degree of freedom): the
+  // solver's unfinished descent (least_squares_result::remaining) and the orbits' error.
+  double sum_uncertainty = 0.0;
   double final_rms = 0.0;                       // m, RMS of x_sim - x, y_sim - y
   // The residuals' long-run variance over their variance (ref/inference/least_squares.hpp,
   // correlation_factor; x and y series of every cycle pooled), at least 1: an averaged cycle

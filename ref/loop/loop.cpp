@@ -23,8 +23,8 @@ void exclude(loop_result& out, std::size_t k, std::string reason, const loop_set
 // checked on them after the fit, held_out_check).
 void exclude_uncomputable(loop_result& out, double noise, const loop_settings& s, std::vector<std::pair<loop_dwell, std::size_t>>& held_out) {
   const auto starts = before_fit_starts(out.initial);
-  const auto failed = uncomputable_dwells(out.dwells, noise, starts);
-  const auto orbitless = dwells_without_their_orbit(out.dwells, noise, starts);
+  const auto failed = uncomputable_dwells(out.dwells, noise, starts, s.orbits);
+  const auto orbitless = dwells_without_their_orbit(out.dwells, noise, starts, s.orbits);
   std::vector<loop_dwell> kept;
   std::vector<double> shifts;
   for (std::size_t k = 0; k < out.dwells.size(); ++k) {
@@ -45,9 +45,9 @@ void exclude_uncomputable(loop_result& out, double noise, const loop_settings& s
 
 // The final model on a held-out period-n dwell: whether it now has that orbit, and how close it
 // comes (said in the dwell's `excluded` entry: a check of the model on data it was not fitted to).
-void held_out_check(loop_result& out, const std::pair<loop_dwell, std::size_t>& h, double noise) {
+void held_out_check(loop_result& out, const std::pair<loop_dwell, std::size_t>& h, double noise, const fit_orbit_options& orbits) {
   const std::vector<loop_dwell> one{h.first};
-  orbit_predictor predictor(one, noise);
+  orbit_predictor predictor(one, noise, orbits);
   model_point m = out.after;
   m.shift.assign(1, 0.0);
   const auto r = predictor.residuals(m);
@@ -203,7 +203,7 @@ loop_result run_loop(const std::vector<std::pair<record, std::string>>& records,
   exclude_uncomputable(out, noise, s, held_out);
   if (!any_contact(out.dwells)) return nothing_to_fit("the model's orbit cannot be computed in any dwell with contact");
   s.progress("      every coordinate together (Levenberg-Marquardt) ...");
-  orbit_predictor predictor(out.dwells, noise);
+  orbit_predictor predictor(out.dwells, noise, s.orbits);
   const multistart_result before = fit_paper_model(predictor, out.dwells, out.initial, noise, s.max_jacobians, [&](const fit_result& f) {
     return validity(out.dwells, predictor, f.at, f.r, noise, s.orders, s.whiteness_lags).pass;
   });
@@ -227,7 +227,7 @@ loop_result run_loop(const std::vector<std::pair<record, std::string>>& records,
   // 4. Before and after, and what is claimed.
   measure(out, predictor, noise, s, traced);
   out.model_evaluations = predictor.evaluations();
-  for (const auto& h : held_out) held_out_check(out, h, noise);
+  for (const auto& h : held_out) held_out_check(out, h, noise, s.orbits);
   claim(out, s);
   return out;
 }

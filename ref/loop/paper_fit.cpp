@@ -201,10 +201,11 @@ std::vector<named_start> before_fit_starts(const model_point& staged) {
   return {{"staged (FROLS law)", staged}, {"staged linear part, Table 2 law", table2}};
 }
 
-std::vector<std::size_t> uncomputable_dwells(const std::vector<loop_dwell>& dwells, double noise, const std::vector<named_start>& starts) {
+std::vector<std::size_t> uncomputable_dwells(const std::vector<loop_dwell>& dwells, double noise, const std::vector<named_start>& starts,
+                                             const fit_orbit_options& orbits) {
   std::vector<bool> computable(dwells.size(), false);
   for (const auto& s : starts) {
-    orbit_predictor predictor(dwells, noise);
+    orbit_predictor predictor(dwells, noise, orbits);
     (void)predictor.residuals(s.at);
     for (std::size_t k = 0; k < dwells.size(); ++k) computable[k] = computable[k] || predictor.kinds()[k] != orbit_kind::failed;
   }
@@ -214,10 +215,11 @@ std::vector<std::size_t> uncomputable_dwells(const std::vector<loop_dwell>& dwel
   return out;
 }
 
-std::vector<std::size_t> dwells_without_their_orbit(const std::vector<loop_dwell>& dwells, double noise, const std::vector<named_start>& starts) {
+std::vector<std::size_t> dwells_without_their_orbit(const std::vector<loop_dwell>& dwells, double noise, const std::vector<named_start>& starts,
+                                                    const fit_orbit_options& orbits) {
   std::vector<bool> found(dwells.size(), false);
   for (const auto& s : starts) {
-    orbit_predictor predictor(dwells, noise);
+    orbit_predictor predictor(dwells, noise, orbits);
     (void)predictor.residuals(s.at);
     for (std::size_t k = 0; k < dwells.size(); ++k) found[k] = found[k] || predictor.kinds()[k] == orbit_kind::periodic;
   }

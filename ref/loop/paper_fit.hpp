@@ -28,13 +28,15 @@ std::vector<named_start> before_fit_starts(const model_point& staged);
 // The dwells whose model orbit cannot be computed at any of `starts` (Newton shooting and a
 // transient from the measured state both fail there): a fit cannot compare what the model cannot
 // give, so the loop leaves them out, with this reason.
-std::vector<std::size_t> uncomputable_dwells(const std::vector<loop_dwell>& dwells, double noise, const std::vector<named_start>& starts);
+std::vector<std::size_t> uncomputable_dwells(const std::vector<loop_dwell>& dwells, double noise, const std::vector<named_start>& starts,
+                                             const fit_orbit_options& orbits = {});
 
 // The dwells that repeat every n > 1 revolutions where the model has no period-n orbit at any of
 // `starts` (Newton on the n-revolution map fails; a transient from the measured state settles
 // elsewhere): such a dwell cannot guide a fit of orbits until the model has its orbit, and its
 // transient would bend every coordinate towards another attractor.
-std::vector<std::size_t> dwells_without_their_orbit(const std::vector<loop_dwell>& dwells, double noise, const std::vector<named_start>& starts);
+std::vector<std::size_t> dwells_without_their_orbit(const std::vector<loop_dwell>& dwells, double noise, const std::vector<named_start>& starts,
+                                                    const fit_orbit_options& orbits = {});
 
 // The before-fit: every coordinate of the paper's model, by the solver (fit.hpp) from the best of
 // its starts, and, while the fit leaves more than the noise, from the other start too. The lowest fit wins; it is never worse than the best

@@ -94,8 +94,9 @@ std::string_view to_string(orbit_kind k) {
   return "?";
 }
 
-orbit_predictor::orbit_predictor(const std::vector<loop_dwell>& dwells, double noise)
-    : dwells_(dwells), noise_(noise), caches_(dwells.size()), kinds_(dwells.size(), orbit_kind::failed) {
+orbit_predictor::orbit_predictor(const std::vector<loop_dwell>& dwells, double noise, const fit_orbit_options& orbits)
+    : dwells_(dwells), noise_(noise), orbits_(orbits), caches_(dwells.size()), kinds_(dwells.size(), orbit_kind::failed) {
+  orbits_.validate();
   for (const auto& d : dwells_) {
     offsets_.push_back(orbit_rows_);
     orbit_rows_ += 2 * d.data.size();
@@ -173,7 +174,7 @@ orbit_kind orbit_predictor::predict(std::size_t k, const model_point& m) {
   // orbit): compare the motion the model settles into from the data's state instead, so that the
   // fit still sees how far off it is and which way to go.
   try {
-    const integration_options settle = fit_sampling(kFallbackSettleRevs), opt = fit_sampling(periods);
+    const integration_options settle = fit_sampling(kFallbackSettleRevs, orbits_), opt = fit_sampling(periods, orbits_);
     const rig_state settled =
         flow(sys, guess_from_data(d, m.fx, periods), kFallbackSettleRevs * 2.0 * std::numbers::pi / w, settle, sample_grid{}, nullptr);
     std::vector<rig_state> sorted;
@@ -192,18 +193,18 @@ orbit_predictor::shot orbit_predictor::shoot(std::size_t k, const model_point& m
   const dwell& d = dwells_[k].data;
   cache& c = caches_[k];
   const int periods = dwells_[k].periods;
-  const integration_options opt = fit_sampling(periods);
+  const integration_options opt = fit_sampling(periods, orbits_);
   try {
     rig_state guess = c.started ? c.start : guess_from_data(d, m.fx, periods);
     if (!c.started) {
       // Whole multiples of the motion's period: a period-n orbit comes back to the guess's phase.
       const int cycles = (kFirstSettleRevs + periods - 1) / periods;
-      const integration_options settle = fit_sampling(periods * cycles);
+      const integration_options settle = fit_sampling(periods * cycles, orbits_);
       guess = flow(sys, guess, cycles * period, settle, sample_grid{}, nullptr);
     }
     // The one shooting routine (ref/integrate/shooting.hpp): Newton with the exact monodromy of
     // the `periods`-revolution map.
-    const auto orbit = shoot_fit_orbit(sys, guess, 0.0, periods);
+    const auto orbit = shoot_fit_orbit(sys, guess, 0.0, periods, orbits_);
     if (!orbit.converged) return shot::failed;
     std::vector<rig_state> sorted;
     flow(sys, orbit.state, period, opt, grid, &sorted);

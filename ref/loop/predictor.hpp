@@ -25,6 +25,7 @@
 #include "ref/model/effects.hpp"
 #include "ref/model/parameters.hpp"
 #include "ref/model/rotor_model.hpp"
+#include "ref/orbits/fit_orbits.hpp"
 #include "ref/rig/probes.hpp"
 #include "variants/identified.hpp"
 
@@ -52,7 +53,9 @@ std::string_view to_string(orbit_kind k);
 // sample, followed by one prior row per dwell with a keyphasor: noise * shift / timing_sigma.
 class orbit_predictor {
  public:
-  orbit_predictor(const std::vector<loop_dwell>& dwells, double noise);
+  orbit_predictor(const std::vector<loop_dwell>& dwells, double noise, const fit_orbit_options& orbits = {});
+  // How its orbits are shot and sampled (ref/orbits/fit_orbits.hpp).
+  const fit_orbit_options& orbit_options() const { return orbits_; }
 
   std::size_t rows() const { return rows_; }
   std::size_t orbit_rows() const { return orbit_rows_; }
@@ -100,6 +103,7 @@ class orbit_predictor {
 
   const std::vector<loop_dwell>& dwells_;
   double noise_;
+  fit_orbit_options orbits_;
   std::vector<cache> caches_;
   std::vector<orbit_kind> kinds_;
   std::vector<std::size_t> offsets_;

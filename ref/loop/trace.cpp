@@ -67,8 +67,8 @@ struct fitted_model {
 // its minimum may lie), and its orbits' error, at most the shooting's tolerance eps per sample
 // (the sampling's is ~1e-13 m, below it), which moves |r|^2 by at most 2 |r| |e| + |e|^2 with
 // |e| <= sqrt(n) eps (Cauchy-Schwarz: a bound that holds however the error lines up with the residual).
-double rss_uncertainty(const Eigen::VectorXd& r, double remaining) {
-  const double e = std::sqrt(static_cast<double>(r.size())) * fit_orbit_options{}.tolerance;
+double rss_uncertainty(const Eigen::VectorXd& r, double remaining, const fit_orbit_options& orbits) {
+  const double e = std::sqrt(static_cast<double>(r.size())) * orbits.orbit_error();
   return remaining + 2.0 * r.norm() * e + e * e;
 }
 
@@ -85,7 +85,7 @@ std::optional<fitted_model> judge(const round_context& c, const model_point& m, 
     orbits = f->orbits;
   }
   if (!r) return std::nullopt;
-  const double u = rss_uncertainty(*r, f && f->ok ? f->remaining : 0.0);
+  const double u = rss_uncertainty(*r, f && f->ok ? f->remaining : 0.0, c.predictor.orbit_options());
   return fitted_model{m, std::move(coords), std::move(*r), std::move(orbits), u};
 }
 
@@ -390,7 +390,7 @@ statistic holdout_gain(const round_context& c, const fitted_model& without, cons
     std::vector<loop_dwell> train_dwells, held_dwells;
     for (const std::size_t k : train) train_dwells.push_back(c.dwells[k]);
     for (const std::size_t k : held) held_dwells.push_back(c.dwells[k]);
-    orbit_predictor on_train(train_dwells, c.noise), on_held(held_dwells, c.noise);
+    orbit_predictor on_train(train_dwells, c.noise, c.predictor.orbit_options()), on_held(held_dwells, c.noise, c.predictor.orbit_options());
     double rss[2];
     for (int i = 0; i < 2; ++i) {
       const fitted_model& m = i == 0 ? without : with;
@@ -403,7 +403,7 @@ statistic holdout_gain(const round_context& c, const fitted_model& without, cons
       on_held.anchor(predicted, orbits_of(m.orbits, held));
       const auto r = on_held.residuals(predicted);
       rss[i] = r ? r->head(static_cast<Eigen::Index>(on_held.orbit_rows())).squaredNorm() : std::numeric_limits<double>::infinity();
-      if (r) uncertainty += rss_uncertainty(r->head(static_cast<Eigen::Index>(on_held.orbit_rows())), fitted.ok ? fitted.remaining : 0.0);
+      if (r) uncertainty += rss_uncertainty(r->head(static_cast<Eigen::Index>(on_held.orbit_rows())), fitted.ok ? fitted.remaining : 0.0, on_held.orbit_options());
     }
     if (!std::isfinite(rss[1])) return {-std::numeric_limits<double>::infinity(), 0.0};  // the model with it cannot predict them
     gain += rss[0] - rss[1];
@@ -935,6 +935,7 @@ void trace_settings::validate() const {
   check({"trace", "whiteness_lags"}, whiteness_lags);
   check({"trace", "max_jacobians"}, max_jacobians);
   check({"trace", "profile_points"}, profile_points);
+  orbits.validate();
 }
 
 const effect_parameter_info* outside_fit_range(const effect_info& e, const model_point& m) {

@@ -36,6 +36,8 @@ struct trace_settings {
   int max_jacobians = default_count_of("trace", "max_jacobians");    // per fit (ref/inference/least_squares.hpp)
   // Shape parameters are profiled at this many values across their physical range (ends included).
   int profile_points = default_count_of("trace", "profile_points");
+  // How the model's orbits are shot and sampled (the stability check scales their tolerances).
+  fit_orbit_options orbits;
   std::function<void(const std::string&)> progress = [](const std::string&) {};
   // input_error naming the setting, its range and its reason.
   void validate() const;

@@ -102,6 +102,9 @@ inline constexpr auto settings_registry = std::to_array<setting_info>({
     // Periodic orbits as the fits compare them with data (ref/orbits/fit_orbits.hpp).
     {"fit_orbits", "max_iterations", "", "max_iterations", "-", 16, range::count_in(1, 1000),
      "Newton iterations of a fit's shooting at most", "from a neighbouring point's orbit Newton converges in a few; more means the trial model is far off the data"},
+    {"fit_orbits", "tolerance_scale", "orbit-tolerance-scale", "orbit_tolerance_scale", "-", 1.0, {.lo = 1e-3, .hi = 1e3},
+     "every fit's orbit tolerances (the shooting's |P(s) - s|, the steppers' rtol and atol) times this",
+     "a verdict must not depend on them: the loop's stability check (docs/loop.md) reruns at 0.1; below 1e-3 the steppers reach rounding"},
     {"fit_orbits", "max_steps_per_revolution", "", "max_steps_per_revolution", "-", 100000, range::count_in(100, 100000000),
      "integration steps per revolution beyond which a fit's trial model is a failed point",
      "a revolution of the paper's model takes ~1e3 steps; a trial law that needs 100 times more is far off the data"},

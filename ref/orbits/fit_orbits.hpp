@@ -17,6 +17,11 @@ struct fit_orbit_options {
   // revolution of the paper's model takes ~10^3).
   int max_steps_per_revolution = default_count_of("fit_orbits", "max_steps_per_revolution");
   double tolerance = kShootingTolerance;  // m, |P(s) - s|
+  // The shooting's tolerance and both steppers' rtol and atol times this (the stability check).
+  double tolerance_scale = default_of("fit_orbits", "tolerance_scale");
+  // The largest error of a shot and sampled orbit's state, m: the shooting's tolerance, scaled
+  // (the sampling's, ~1e-13 m on a 0.3 mm orbit, lies below it).
+  double orbit_error() const { return tolerance * tolerance_scale; }
   void validate() const;                  // input_error naming the setting
 };
 
