@@ -284,7 +284,7 @@ orbit_fit_result fit_periodic_orbits(const std::vector<orbit_fit_cycle>& cycles,
     // moves |r|^2 by at most 2 |r| |e| + |e|^2.
     double smallest = std::numeric_limits<double>::infinity();
     for (const auto& c : cycles) smallest = std::min(smallest, std::max(c.noise, kOrbitNoiseFloor));
-    const double e = std::sqrt(static_cast<double>(r.size())) * fit_orbit_options{}.tolerance / smallest;
+    const double e = std::sqrt(static_cast<double>(r.size())) * fit_orbit_options{}.orbit_error() / smallest;
     out.sum_uncertainty = fit.remaining + 2.0 * r.norm() * e + e * e;
   }
   double sq = 0.0;

@@ -83,6 +83,7 @@ json to_json(const loop_result& r) {
                             {"candidates", candidates_json(e.candidates)}});
   }
   j["verdict"] = to_json(r.decision);
+  j["on_margin"] = r.on_margin;  // effects decided within their statistics' numerical uncertainty (docs/loop.md, "Margins")
   j["removed"] = json::array();
   for (const auto& e : r.removed)
     j["removed"].push_back({{"name", e.effect},
