@@ -354,6 +354,23 @@ TEST(least_squares, remaining_is_the_decrease_the_end_still_predicts) {
   EXPECT_NEAR(g.remaining, gap, kDampedShare * gap);
 }
 
+// The cost's uncertainty bounds |r + e|^2 - |r|^2 for every error of at most eps per residual, and
+// is reached by the error lined up with r (Cauchy-Schwarz's equality): 1e-12 relative is rounding.
+TEST(least_squares, cost_uncertainty_bounds_every_error_and_is_reached) {
+  Eigen::VectorXd r(4);
+  r << 1.0, -2.0, 0.5, 3.0;
+  const double eps = 0.01, u = cost_uncertainty(r, 0.25, eps);
+  const Eigen::VectorXd aligned = r.normalized() * (std::sqrt(4.0) * eps);  // |e| = sqrt(n) eps, along r
+  EXPECT_NEAR(u - 0.25, (r + aligned).squaredNorm() - r.squaredNorm(), 1e-12 * u);
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> within(-eps, eps);
+  for (int k = 0; k < 100; ++k) {
+    Eigen::VectorXd e(4);
+    for (auto& x : e) x = within(rng);
+    EXPECT_LE(std::abs((r + e).squaredNorm() - r.squaredNorm()), u - 0.25);
+  }
+}
+
 TEST(evidence, a_verdict_splits_the_chosen_names_by_its_claim) {
   const evidence_rules rules;
   claim_inputs in;

@@ -280,12 +280,10 @@ orbit_fit_result fit_periodic_orbits(const std::vector<orbit_fit_cycle>& cycles,
   const Eigen::VectorXd& r = *final_r;
   out.final_chi2 = r.squaredNorm() / dof;
   {
-    // The orbits' error, at most the shooting's tolerance per sample over the smallest noise,
-    // moves |r|^2 by at most 2 |r| |e| + |e|^2.
+    // The orbits' error per sample over the smallest noise (the residuals are whitened).
     double smallest = std::numeric_limits<double>::infinity();
     for (const auto& c : cycles) smallest = std::min(smallest, std::max(c.noise, kOrbitNoiseFloor));
-    const double e = std::sqrt(static_cast<double>(r.size())) * fit_orbit_options{}.orbit_error() / smallest;
-    out.sum_uncertainty = fit.remaining + 2.0 * r.norm() * e + e * e;
+    out.sum_uncertainty = cost_uncertainty(r, fit.remaining, fit_orbit_options{}.orbit_error() / smallest);
   }
   double sq = 0.0;
   Eigen::Index at = 0;

@@ -193,6 +193,11 @@ least_squares_result solve_least_squares(const least_squares_problem& problem, c
   return out;
 }
 
+double cost_uncertainty(const Eigen::VectorXd& r, double remaining, double residual_error) {
+  const double e = std::sqrt(static_cast<double>(r.size())) * residual_error;
+  return remaining + 2.0 * r.norm() * e + e * e;
+}
+
 double correlation_factor(const Eigen::VectorXd& r, const std::vector<residual_series>& series, int lags) {
   if (series.empty() || lags < 1) return 1.0;
   std::vector<double> c(static_cast<std::size_t>(lags) + 1, 0.0);

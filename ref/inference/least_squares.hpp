@@ -86,6 +86,12 @@ struct least_squares_result {
 least_squares_result solve_least_squares(const least_squares_problem& problem, const Eigen::VectorXd& start,
                                          const least_squares_options& options = {});
 
+// The numerical uncertainty of a fit's |r|^2 (in |r|^2's unit): its `remaining`, and an error of
+// at most `residual_error` in each residual (the model's own accuracy, in the residuals' unit),
+// which moves |r|^2 by at most 2 |r| |e| + |e|^2 with |e| = sqrt(n) residual_error (Cauchy-Schwarz:
+// a bound that holds however the error lines up with the residual).
+double cost_uncertainty(const Eigen::VectorXd& r, double remaining, double residual_error);
+
 // Forward differences of problem.residuals at u (residuals r0 there), step h_j = step max(1, |u_j|),
 // backward where the forward point fails; a column with neither is zero. `evaluations` counts them.
 Eigen::MatrixXd forward_difference_jacobian(const least_squares_problem& problem, const Eigen::VectorXd& u, const Eigen::VectorXd& r0,

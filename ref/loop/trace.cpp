@@ -7,6 +7,7 @@
 
 #include "ref/format/record.hpp"
 #include "ref/inference/evidence.hpp"
+#include "ref/inference/least_squares.hpp"
 #include "ref/loop/paper_fit.hpp"
 #include "ref/loop/residuals.hpp"
 #include "ref/loop/search.hpp"
@@ -64,12 +65,9 @@ struct fitted_model {
 
 // The numerical uncertainty of a model's |r|^2 (m^2), which every statistic of the evidence rules
 // inherits (ref/inference/evidence.hpp): the fit's unfinished descent (`remaining`: how much lower
-// its minimum may lie), and its orbits' error, at most the shooting's tolerance eps per sample
-// (the sampling's is ~1e-13 m, below it), which moves |r|^2 by at most 2 |r| |e| + |e|^2 with
-// |e| <= sqrt(n) eps (Cauchy-Schwarz: a bound that holds however the error lines up with the residual).
+// its minimum may lie), and its orbits' error per sample (fit_orbit_options::orbit_error).
 double rss_uncertainty(const Eigen::VectorXd& r, double remaining, const fit_orbit_options& orbits) {
-  const double e = std::sqrt(static_cast<double>(r.size())) * orbits.orbit_error();
-  return remaining + 2.0 * r.norm() * e + e * e;
+  return cost_uncertainty(r, remaining, orbits.orbit_error());
 }
 
 // A model on its orbits: those found from the data, or those its fit followed (`f`) where they

@@ -478,10 +478,9 @@ rub_fit fit_rub(const order_table& table, const response_fit& linear, const rub_
   rub_fit f;
   f.parts = linear.parts;
   f.chi2 = r.squaredNorm();
-  // Its numerical uncertainty: the solver's unfinished descent, and the orbits' error (at most the
-  // shooting's tolerance per reading, over the smallest noise) moving |r|^2 by at most 2 |r| |e| + |e|^2.
-  const double e = std::sqrt(static_cast<double>(r.size())) * fit_orbit_options{}.orbit_error() / *std::min_element(pr.sigma.begin(), pr.sigma.end());
-  f.chi2_uncertainty = remaining + 2.0 * r.norm() * e + e * e;
+  // Its numerical uncertainty: the solver's unfinished descent, and the orbits' error per reading
+  // over the smallest noise (the residuals are whitened).
+  f.chi2_uncertainty = cost_uncertainty(r, remaining, fit_orbit_options{}.orbit_error() / *std::min_element(pr.sigma.begin(), pr.sigma.end()));
   f.parameters = n + 2 * probes;
   f.dof = cc.dof;
   for (const std::size_t i : pr.rows)
