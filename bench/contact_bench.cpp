@@ -10,12 +10,15 @@
 
 #include <benchmark/benchmark.h>
 
+#include <algorithm>
 #include <boost/numeric/odeint.hpp>
 #include <chrono>
 #include <cmath>
+#include <vector>
 
 #include "ref/integrate/hybrid_integrator.hpp"
 #include "ref/integrate/steppers.hpp"
+#include "ref/model/free_flight.hpp"
 #include "ref/model/rotor_model.hpp"
 #include "ref/orbits/continuation.hpp"
 #include "ref/orbits/periodic_orbit.hpp"
@@ -190,6 +193,27 @@ void locate_contact_onset(benchmark::State& state) {
   state.counters["dense_evals_per_event"] = static_cast<double>(evaluations) / static_cast<double>(state.iterations());
 }
 
+// ---- reading a free flight at record samples ------------------------------------------------
+// One free arc of the paper's rotor (no contact) read at the sorted phases of a 10-revolution
+// record at 19 kHz folded into one revolution: how the loop's predictor samples every dwell at
+// every evaluation (ref/loop/predictor.cpp). Counter `samples`: the time per sample.
+void sample_free_arc(benchmark::State& state) {
+  parameters p = paper_case();
+  p.clearance = 1.0;  // m: free flight only
+  const rotor_system<identified> sys(p, omega(), contact_phase::free);
+  const free_flight<4> ff(*sys.free_dynamics());
+  const auto arc = ff.from(0.0, state_type{1e-4, -2e-4, 0.03, 0.05});
+  constexpr double kSampleRate = 19015.0;  // Hz
+  const auto n = static_cast<std::size_t>(10.0 * sys.period() * kSampleRate);
+  std::vector<double> phases(n);
+  for (std::size_t i = 0; i < n; ++i) phases[i] = std::fmod(static_cast<double>(i) / kSampleRate, sys.period());
+  std::sort(phases.begin(), phases.end());
+  for (auto _ : state)
+    for (const double t : phases) benchmark::DoNotOptimize(arc.at(t));
+  state.counters["samples"] =
+      benchmark::Counter(static_cast<double>(state.iterations() * n), benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
+}
+
 // ---- one steady-state simulation ----------------------------------------------------------
 // 200 revolutions from rest at 1600 rpm, 0.3 mm, 8 recorded at 128 per revolution (the golden
 // case), with located events.
@@ -313,6 +337,7 @@ RUBREF_PER_VARIANT(rk4_odeint_libm_trig);
 RUBREF_PER_VARIANT(rk4_handwritten_libm_trig);
 RUBREF_PER_VARIANT(rk4_rubref);
 BENCHMARK(locate_contact_onset);
+BENCHMARK(sample_free_arc)->Unit(benchmark::kMicrosecond);
 
 BENCHMARK_CAPTURE(steady_state, identified_rk4, std::string("identified"), stepper_kind::rk4, 0.0)->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(steady_state, identified_dopri5_1e-6, std::string("identified"), stepper_kind::dopri5, 1e-6)->Unit(benchmark::kMillisecond);

@@ -24,29 +24,39 @@ constexpr int kFirstSettleRevs = 10;
 // Revolutions the model runs from the data's state when Newton finds no periodic orbit there.
 constexpr int kFallbackSettleRevs = 30;
 
+// Puts each sample of a flow on the sorted grid straight into its record sample's place.
 struct state_recorder {
-  std::vector<rig_state>* out;
+  std::vector<rig_state>* states;          // in record sample order
+  const std::vector<std::size_t>* order;   // record sample of each grid point
+  std::size_t count = 0;
   template <class System>
   void on_sample(double, const rig_state& s, const System&) {
-    out->push_back(s);
+    if (count < order->size()) (*states)[(*order)[count]] = s;
+    ++count;
   }
   void on_event(const basic_contact_event<rig_state>&) {}
 };
 
-rig_state flow(const model& sys, const rig_state& s, double period, const integration_options& opt, const sample_grid& grid,
-               std::vector<rig_state>* samples) {
-  if (samples) {
-    samples->clear();
-    state_recorder rec{samples};
-    return integrate_hybrid(sys, start_state(sys, s, 0.0), period, opt, grid, rec).s;
-  }
+rig_state flow(const model& sys, const rig_state& s, double period, const integration_options& opt) {
   null_observer none;
   return integrate_hybrid(sys, start_state(sys, s, 0.0), period, opt, sample_grid{}, none).s;
 }
 
-// A first guess of the state at t = 0 from the data: harmonics 0..H of the dwell's shaft phase,
-// fitted by least squares to x and y, give the position and velocity there.
-rig_state guess_from_data(const dwell& d, const effect_parameters& fx, int periods) {
+// The flow over one period sampled on the sorted grid into `states` (record sample order); false
+// when the grid's samples were not all reported.
+bool sample_flow(const model& sys, const rig_state& s, double period, const integration_options& opt, const sample_grid& grid,
+                 const std::vector<std::size_t>& order, std::vector<rig_state>& states) {
+  states.resize(order.size());
+  state_recorder rec{&states, &order};
+  integrate_hybrid(sys, start_state(sys, s, 0.0), period, opt, grid, rec);
+  return rec.count == order.size();
+}
+
+// The data's own state at t = 0 in the probes' axes (x, y, vx, vy): harmonics 0..H of the
+// dwell's shaft phase, fitted by least squares to x and y, give the position and velocity there.
+// It depends on the data alone, so each predictor fits it once per dwell (a least-squares fit on
+// every sample of the dwell, which every fit's first evaluation used to repeat).
+std::array<double, 4> state_in_data(const dwell& d, int periods) {
   const int kHarmonics = 8 * periods;  // of the motion's own frequency w / periods
   const double w = d.omega() / periods;
   Eigen::MatrixXd A(static_cast<Eigen::Index>(d.size()), 2 * kHarmonics + 1);
@@ -70,7 +80,13 @@ rig_state guess_from_data(const dwell& d, const effect_parameters& fx, int perio
     vx += h * w * cx[2 * h];
     vy += h * w * cy[2 * h];
   }
-  // Undo the probes' turn (runout is small against the orbit and left in).
+  return {x, y, vx, vy};
+}
+
+// A first guess of the rotor's state at t = 0: the data's, with the probes' turn undone (runout
+// is small against the orbit and left in).
+rig_state guess_from_data(const std::array<double, 4>& in_data, const effect_parameters& fx) {
+  const auto [x, y, vx, vy] = in_data;
   const double ca = std::cos(fx.misorientation), sa = std::sin(fx.misorientation);
   return {ca * x - sa * y, sa * x + ca * y, ca * vx - sa * vy, sa * vx + ca * vy, 0.0, 0.0};
 }
@@ -176,13 +192,8 @@ orbit_kind orbit_predictor::predict(std::size_t k, const model_point& m) {
   try {
     const integration_options settle = fit_sampling(kFallbackSettleRevs, orbits_), opt = fit_sampling(periods, orbits_);
     const rig_state settled =
-        flow(sys, guess_from_data(d, m.fx, periods), kFallbackSettleRevs * 2.0 * std::numbers::pi / w, settle, sample_grid{}, nullptr);
-    std::vector<rig_state> sorted;
-    flow(sys, settled, period, opt, grid, &sorted);
-    if (sorted.size() != d.size()) return orbit_kind::failed;
-    c.states.resize(d.size());
-    for (std::size_t i = 0; i < sorted.size(); ++i) c.states[c.order[i]] = sorted[i];
-    return orbit_kind::transient;
+        flow(sys, guess_from_data(data_state(k), m.fx), kFallbackSettleRevs * 2.0 * std::numbers::pi / w, settle);
+    return sample_flow(sys, settled, period, opt, grid, c.order, c.states) ? orbit_kind::transient : orbit_kind::failed;
   } catch (const numerical_error&) {
     return orbit_kind::failed;
   }
@@ -190,33 +201,34 @@ orbit_kind orbit_predictor::predict(std::size_t k, const model_point& m) {
 
 orbit_predictor::shot orbit_predictor::shoot(std::size_t k, const model_point& m, const rotor_with_effects<identified>& sys, double period,
                                              const sample_grid& grid) {
-  const dwell& d = dwells_[k].data;
   cache& c = caches_[k];
   const int periods = dwells_[k].periods;
   const integration_options opt = fit_sampling(periods, orbits_);
   try {
-    rig_state guess = c.started ? c.start : guess_from_data(d, m.fx, periods);
+    rig_state guess = c.started ? c.start : guess_from_data(data_state(k), m.fx);
     if (!c.started) {
       // Whole multiples of the motion's period: a period-n orbit comes back to the guess's phase.
       const int cycles = (kFirstSettleRevs + periods - 1) / periods;
       const integration_options settle = fit_sampling(periods * cycles, orbits_);
-      guess = flow(sys, guess, cycles * period, settle, sample_grid{}, nullptr);
+      guess = flow(sys, guess, cycles * period, settle);
     }
     // The one shooting routine (ref/integrate/shooting.hpp): Newton with the exact monodromy of
     // the `periods`-revolution map.
     const auto orbit = shoot_fit_orbit(sys, guess, 0.0, periods, orbits_);
     if (!orbit.converged) return shot::failed;
-    std::vector<rig_state> sorted;
-    flow(sys, orbit.state, period, opt, grid, &sorted);
-    if (sorted.size() != d.size()) return shot::failed;
+    if (!sample_flow(sys, orbit.state, period, opt, grid, c.order, c.states)) return shot::failed;
     c.last = orbit.state;
     c.last_ok = true;
-    c.states.resize(d.size());
-    for (std::size_t i = 0; i < sorted.size(); ++i) c.states[c.order[i]] = sorted[i];
     return shot::converged;
   } catch (const numerical_error&) {
   }
   return shot::failed;
+}
+
+const std::array<double, 4>& orbit_predictor::data_state(std::size_t k) {
+  cache& c = caches_[k];
+  if (!c.in_data) c.in_data = state_in_data(dwells_[k].data, dwells_[k].periods);
+  return *c.in_data;
 }
 
 void orbit_predictor::reset() {

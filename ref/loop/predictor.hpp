@@ -96,7 +96,9 @@ class orbit_predictor {
     std::vector<std::array<double, 6>> states;  // model state at each sample (sample order)
     std::array<double, 6> last{};       // the last converged orbit's state at t = 0
     bool last_ok = false;
+    std::optional<std::array<double, 4>> in_data;  // the data's state at t = 0 (x, y, vx, vy), once fitted
   };
+  const std::array<double, 4>& data_state(std::size_t k);
   orbit_kind predict(std::size_t k, const model_point& m);
   enum class shot { converged, failed };
   shot shoot(std::size_t k, const model_point& m, const rotor_with_effects<identified>& sys, double period, const sample_grid& grid);

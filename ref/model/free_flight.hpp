@@ -114,12 +114,22 @@ class free_flight {
         }
         c_[j] = s;
       }
-      modal_.resize(ff.n_);
       q_.resize(ff.n_);
       lc_.resize(ff.n_);
       for (int j = 0; j < ff.n_; ++j) {
         q_[j] = std::abs(ff.lV_[j]) * std::norm(ff.lambda_[j]) * std::abs(c_[j]);
         lc_[j] = ff.weight_[j] * ff.lV_[j] * c_[j];
+      }
+      // The modes' shares of the state (at()): w_rj = weight_j V_rj c_j, split in real and
+      // imaginary parts; a pair's second mode (weight 0) is left out.
+      for (int j = 0; j < ff.n_; ++j) {
+        if (ff.weight_[j] == 0.0) continue;
+        const auto k = static_cast<std::size_t>(modes_++);
+        for (int q = 0; q < ff.n_; ++q) {
+          const cscalar w = ff.weight_[j] * (ff.V_(q, j) * c_[j]);
+          w_re_[k][static_cast<std::size_t>(q)] = w.real();
+          w_im_[k][static_cast<std::size_t>(q)] = w.imag();
+        }
       }
       z_const_ = ff.lp0_ - ff.d_.offset;
       for (int i = 0; i < N; ++i)
@@ -128,21 +138,31 @@ class free_flight {
 
     double start_time() const noexcept { return t0_; }
 
-    // The state at t. A conjugate pair's share is twice the real part of one term (as in
-    // penetration): half the complex exponentials, which were most of a sampled orbit's cost.
+    // The state at t, in real arithmetic: the particular solution's harmonics from their cached
+    // real and imaginary parts, then each mode's e^{lambda_j tau} (a conjugate pair's once, its
+    // share twice the real part) times the arc's w_rj = weight_j V_rj c_j. Sampling every record
+    // sample of every dwell this way was half a loop fit's time (docs/performance.md).
     state at(double t) const {
-      state s = ff_->particular(t);
+      const free_flight& ff = *ff_;
+      const forcing_phasor u = phasor_of(ff.d_.omega * t);
+      const double c2 = u.cos * u.cos - u.sin * u.sin, s2 = 2.0 * u.cos * u.sin;  // the 2X phasor
+      state s;
+      for (std::size_t i = 0; i < N; ++i)
+        s[i] = ff.constant_[i] ? s0_[i]
+                               : ff.p0_[static_cast<Eigen::Index>(i)] + (ff.p_re_[0][i] * u.cos - ff.p_im_[0][i] * u.sin) +
+                                     (ff.p_re_[1][i] * c2 - ff.p_im_[1][i] * s2);
       const double tau = t - t0_;
-      for (int j = 0; j < ff_->n_; ++j)
-        modal_[j] = ff_->weight_[j] == 0.0 ? cscalar(0.0) : ff_->weight_[j] * (exp_of(ff_->lambda_[j] * tau) * c_[j]);
-      for (int r = 0; r < ff_->n_; ++r) {
-        cscalar v = 0.0;
-        for (int j = 0; j < ff_->n_; ++j)
-          if (ff_->weight_[j] != 0.0) v += ff_->V_(r, j) * modal_[j];
-        s[static_cast<std::size_t>(ff_->active_[static_cast<std::size_t>(r)])] += v.real();
+      for (int k = 0; k < modes_; ++k) {
+        const auto j = static_cast<std::size_t>(ff.mode_[static_cast<std::size_t>(k)]);
+        const forcing_phasor e = phasor_of(ff.lambda_im_[j] * tau);
+        const double r = std::exp(ff.lambda_re_[j] * tau), er = r * e.cos, ei = r * e.sin;
+        const auto& wr = w_re_[static_cast<std::size_t>(k)];
+        const auto& wi = w_im_[static_cast<std::size_t>(k)];
+        for (int q = 0; q < ff.n_; ++q) {
+          const auto row = static_cast<std::size_t>(q);
+          s[static_cast<std::size_t>(ff.active_[row])] += wr[row] * er - wi[row] * ei;
+        }
       }
-      for (int i = 0; i < N; ++i)
-        if (!ff_->is_active(i)) s[static_cast<std::size_t>(i)] = s0_[static_cast<std::size_t>(i)];
       return s;
     }
 
@@ -279,7 +299,8 @@ class free_flight {
     sub_cvector lc_;              // weight_j (l.V_j) c_j: each mode's share of z
     double z_const_ = 0.0;        // l.p0 - offset + the constant components' share of z
     Eigen::Matrix<double, Eigen::Dynamic, 1, 0, N, 1> q_;  // |l.V_j| |lambda_j|^2 |c_j|
-    mutable sub_cvector modal_;  // scratch
+    int modes_ = 0;                                        // modes with a share (weight != 0), in ff.mode_'s order
+    std::array<std::array<double, N>, N> w_re_{}, w_im_{};  // [mode][active row]: weight_j V_rj c_j
   };
 
   arc from(double t0, const state& s0) const { return arc(*this, t0, s0); }
@@ -327,6 +348,12 @@ class free_flight {
   double lp0_ = 0.0;                                    // l.p0
   Eigen::Matrix<double, Eigen::Dynamic, 1, 0, N, 1> weight_;  // 2: a pair's first mode, 0: its second, 1: a real mode
   double particular_bound_ = 0.0;
+  // What arc::at reads, in real form: the components the flow leaves constant, the harmonics'
+  // parts P_h = p_re + i p_im, and the modes with a share (weight != 0) with their eigenvalues.
+  std::array<bool, N> constant_{};
+  std::array<std::array<double, N>, dynamics::kMaxHarmonics> p_re_{}, p_im_{};
+  std::array<int, N> mode_{};
+  std::array<double, N> lambda_re_{}, lambda_im_{};
 };
 
 template <int N>
@@ -417,6 +444,20 @@ free_flight<N>::free_flight(const dynamics& d) : d_(d) {
       weight_[j] = 2.0;
       weight_[j + 1] = 0.0;
     }
+  for (int i = 0; i < N; ++i) {
+    const auto c = static_cast<std::size_t>(i);
+    constant_[c] = !is_active(i);
+    for (std::size_t h = 0; h < P_.size(); ++h) {
+      p_re_[h][c] = P_[h][i].real();
+      p_im_[h][c] = P_[h][i].imag();
+    }
+  }
+  for (int j = 0, k = 0; j < n_; ++j)
+    if (weight_[j] != 0.0) mode_[static_cast<std::size_t>(k++)] = j;
+  for (int j = 0; j < n_; ++j) {
+    lambda_re_[static_cast<std::size_t>(j)] = lambda_[j].real();
+    lambda_im_[static_cast<std::size_t>(j)] = lambda_[j].imag();
+  }
 }
 
 // The two flows the library has (the rotor, and the rotor with a stator of its own mass), compiled
