@@ -5,7 +5,11 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 #include <numbers>
+#include <random>
+#include <string>
+#include <vector>
 
 #include "ref/base/errors.hpp"
 #include "ref/loop/coordinates.hpp"
@@ -379,6 +383,101 @@ TEST(loop_steps, synchronous_energy_measures_the_periodic_residual) {
   // Cross term 2 n Re(conj(a) c_noise): standard deviation 2 a sigma sqrt(n) summed over dwells.
   const double tol = kZ * 2.0 * a * sigma * std::sqrt(n_total);
   EXPECT_NEAR(added, expected, tol);
+}
+
+
+// The noise test's margins: each check's uncertainty bounds how far its value moves when the
+// residual moves by a vector of the norm given (random directions, and the directions each
+// statistic is most sensitive to: along r, along a shaft order, along a state series), and a test
+// whose limit lies within it is on the margin. residual_error_of reads cost_uncertainty's bound
+// backwards.
+TEST(loop_steps, validity_checks_bound_their_change_under_the_residual_error) {
+  const rig_request req = truth_rig();
+  const auto dwells = truth_timed_dwells(req);
+  orbit_predictor predictor(dwells, req.probes.noise);
+  model_point truth;
+  truth.shift.assign(dwells.size(), 0.0);
+  const Eigen::VectorXd r = predictor.residuals(truth).value();
+  constexpr int kOrders = 20, kLags = 10;
+  const double sigma = req.probes.noise;
+  const Eigen::Index rows = static_cast<Eigen::Index>(predictor.orbit_rows());
+  // An error a thousandth of the residual: far from the checks' limits, where the first order holds.
+  const double e = 1e-3 * r.head(rows).norm();
+  const validity_report bounded = validity(dwells, predictor, truth, r, sigma, kOrders, kLags, e);
+  const auto checks = [](const validity_report& v) {
+    std::vector<correlation_check> all{v.noise_level, v.synchronous, v.whiteness};
+    all.insert(all.end(), v.state.begin(), v.state.end());
+    return all;
+  };
+  const auto within_of = [&](const Eigen::VectorXd& at, const Eigen::VectorXd& direction, const std::string& what) {
+    const validity_report here = validity(dwells, predictor, truth, at, sigma, kOrders, kLags, e);
+    Eigen::VectorXd moved = at;
+    moved.head(rows) += e * direction.head(rows).normalized();
+    const auto before = checks(here), after = checks(validity(dwells, predictor, truth, moved, sigma, kOrders, kLags));
+    for (std::size_t i = 0; i < before.size(); ++i) {
+      EXPECT_GT(before[i].uncertainty, 0.0) << before[i].name;
+      // The RMS's bound is reached exactly along r (it is 1/sqrt(N)-Lipschitz): rounding only above it.
+      constexpr double kRounding = 1e-9;
+      EXPECT_LE(std::abs(after[i].value - before[i].value), before[i].uncertainty * (1.0 + kRounding)) << before[i].name << ", moved " << what;
+    }
+  };
+  const auto within = [&](const Eigen::VectorXd& direction, const std::string& what) { within_of(r, direction, what); };
+  std::mt19937_64 gen(20261129);
+  std::normal_distribution<double> unit;
+  for (int k = 0; k < 5; ++k) {
+    Eigen::VectorXd d(r.size());
+    for (auto& x : d) x = unit(gen);
+    within(d, "at random " + std::to_string(k));
+  }
+  within(r, "along r");
+  Eigen::VectorXd order(r.size()), along_x = Eigen::VectorXd::Zero(r.size());
+  order.setZero();
+  for (std::size_t k = 0; k < dwells.size(); ++k) {
+    const dwell& d = dwells[k].data;
+    const auto& st = predictor.states(k);
+    for (std::size_t i = 0; i < d.size(); ++i) {
+      const auto row = static_cast<Eigen::Index>(predictor.offset(k) + 2 * i);
+      order[row] = std::cos(d.omega() * d.t[i]);
+      order[row + 1] = std::sin(d.omega() * d.t[i]);
+      along_x[row] = st[i][idx::x];
+    }
+  }
+  // r one sample later in each channel: what raises the lag-1 autocorrelation, Box-Pierce's direction.
+  Eigen::VectorXd later = Eigen::VectorXd::Zero(r.size());
+  for (std::size_t k = 0; k < dwells.size(); ++k)
+    for (std::size_t i = 0; i + 1 < dwells[k].data.size(); ++i)
+      for (int ch = 0; ch < 2; ++ch) {
+        const auto row = static_cast<Eigen::Index>(predictor.offset(k) + 2 * i + static_cast<std::size_t>(ch));
+        later[row] = r[row + 2];
+      }
+  within(later, "along r one sample later");
+  // A coloured residual (r plus itself one sample later: lag-1 autocorrelation ~1/2), where Q's
+  // first-order term dominates, moved the same way.
+  const Eigen::VectorXd coloured = r + later;
+  Eigen::VectorXd coloured_later = Eigen::VectorXd::Zero(r.size());
+  for (Eigen::Index row = 0; row + 2 < rows; ++row) coloured_later[row] = coloured[row + 2];
+  within_of(coloured, coloured_later, "coloured, along itself one sample later");
+  within(order, "along the first shaft order");
+  within(along_x, "along the state x in e_x");
+  EXPECT_FALSE(bounded.on_margin);  // a thousandth of the residual decides every check here
+
+  // An error as large as the residual itself leaves every limit within reach: on the margin, never decided.
+  const validity_report vague = validity(dwells, predictor, truth, r, sigma, kOrders, kLags, r.head(rows).norm());
+  EXPECT_TRUE(vague.on_margin);
+  EXPECT_TRUE(vague.noise_level.on_margin);
+  // Without an error nothing is on the margin, and the decision is the values'.
+  const validity_report exact = validity(dwells, predictor, truth, r, sigma, kOrders, kLags);
+  EXPECT_FALSE(exact.on_margin);
+  EXPECT_EQ(exact.pass, bounded.pass);
+
+  // (|r| + e)^2 = |r|^2 + u, exactly enough to hold to rounding.
+  for (const double u : {1e-30, 1e-3 * r.squaredNorm(), 4.0 * r.squaredNorm()}) {
+    const double back = residual_error_of(r, u);
+    EXPECT_NEAR(std::pow(r.norm() + back, 2), r.squaredNorm() + u, 1e-12 * (r.squaredNorm() + u)) << u;
+  }
+  EXPECT_EQ(residual_error_of(r, 0.0), 0.0);
+  EXPECT_TRUE(std::isinf(residual_error_of(r, std::numeric_limits<double>::infinity())));
+  EXPECT_TRUE(std::isinf(residual_error_of(r, std::nan(""))));
 }
 
 }  // namespace

@@ -65,12 +65,15 @@ void measure(loop_result& out, orbit_predictor& predictor, double noise, const l
   // Each on its own orbits (the validity checks read the predictor's states of the last call).
   predictor.anchor(out.before, traced.before_orbits);
   const auto r_before = predictor.residuals(out.before);
-  if (r_before) out.validity_before = validity(out.dwells, predictor, out.before, *r_before, noise, s.orders, s.whiteness_lags);
+  if (r_before)
+    out.validity_before = validity(out.dwells, predictor, out.before, *r_before, noise, s.orders, s.whiteness_lags,
+                                   residual_error_of(*r_before, traced.before_uncertainty));
   predictor.anchor(out.after, traced.after_orbits);
   const auto r = predictor.residuals(out.after);
   if (!r_before || !r) throw numerical_error("the loop's model cannot be computed at its own fit");
   const std::vector<orbit_kind> kinds = predictor.kinds();  // the final model's
-  out.validity_after = validity(out.dwells, predictor, out.after, *r, noise, s.orders, s.whiteness_lags);
+  out.validity_after =
+      validity(out.dwells, predictor, out.after, *r, noise, s.orders, s.whiteness_lags, residual_error_of(*r, traced.after_uncertainty));
   const synchronous_energy sync_before = synchronous_part(out.dwells, predictor, out.before, *r_before, s.orders);
   const synchronous_energy sync_after = synchronous_part(out.dwells, predictor, out.after, *r, s.orders);
   out.decision.explained_share = explained_share(sync_before.excess(noise), sync_after.energy - noise * noise * sync_after.dof);
@@ -148,6 +151,11 @@ void claim(loop_result& out, const loop_settings& s) {
   // A decision on its margin (added or left out within its statistics' numerical uncertainty):
   // nothing is claimed, and the effect is named among the tentative ones whichever way it went.
   in.on_margin = !out.on_margin.empty();
+  // Whether the residual is noise decides a full claim against a partial one.
+  if (!names.empty() && out.validity_after.on_margin) {
+    in.on_margin = true;
+    reasons.push_back("the residual's noise test lies within its numerical uncertainty of its limit (validity checks, after)");
+  }
   std::vector<std::string> left_out;
   for (const auto& e : out.on_margin)
     if (std::find(names.begin(), names.end(), e) == names.end()) left_out.push_back(e);

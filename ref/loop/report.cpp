@@ -11,10 +11,12 @@ using json = nlohmann::ordered_json;
 
 namespace {
 
-json check_json(const correlation_check& c) { return {{"name", c.name}, {"value", c.value}, {"limit", c.limit}, {"pass", c.pass}}; }
+json check_json(const correlation_check& c) {
+  return {{"name", c.name}, {"value", c.value}, {"uncertainty", c.uncertainty}, {"limit", c.limit}, {"pass", c.pass}, {"on_margin", c.on_margin}};
+}
 
 json validity_json(const validity_report& v) {
-  json j{{"noise_m", v.noise}, {"residual_rms_m", v.rms}, {"pass", v.pass}};
+  json j{{"noise_m", v.noise}, {"residual_rms_m", v.rms}, {"pass", v.pass}, {"on_margin", v.on_margin}};
   j["checks"] = json::array({check_json(v.noise_level), check_json(v.synchronous), check_json(v.whiteness)});
   for (const auto& c : v.state) j["checks"].push_back(check_json(c));
   return j;
@@ -135,8 +137,9 @@ std::string to_markdown(const loop_result& r) {
   const bool fitted = std::isfinite(r.error_before);
   const auto rms_um = [&](double rms) { return fitted ? fmt(rms * 1e6) + " um" : std::string("—"); };
   o << "| residual RMS | " << rms_um(r.validity_before.rms) << " | " << rms_um(r.validity_after.rms) << " |\n";
-  o << "| residual consistent with noise (" << fmt(r.noise * 1e6) << " um) | " << (r.validity_before.pass ? "yes" : "no") << " | "
-    << (r.validity_after.pass ? "yes" : "no") << " |\n\n";
+  const auto noise_verdict = [](const validity_report& v) { return std::string(v.pass ? "yes" : "no") + (v.on_margin ? " (on the margin)" : ""); };
+  o << "| residual consistent with noise (" << fmt(r.noise * 1e6) << " um) | " << noise_verdict(r.validity_before) << " | "
+    << noise_verdict(r.validity_after) << " |\n\n";
   o << to_markdown(r.decision);
   o << "Effects the trace added, in order (" << (r.decision.named.empty() ? "not claimed" : "claimed: " + r.decision.claim) << "):";
   if (r.effects.empty()) o << " none.";
@@ -186,10 +189,10 @@ std::string to_markdown(const loop_result& r) {
   }
   if (!r.plot_x.empty()) o << "![orbit](orbit.png)\n\n![residual spectrum](residual_spectrum.png)\n\n![residual](residual.png)\n\n";
   o << "## Validity checks (after)\n\n| check | value | limit | pass |\n|---|---|---|---|\n";
+  const auto passed = [](const correlation_check& c) { return std::string(c.pass ? "yes" : "no") + (c.on_margin ? " (on the margin)" : ""); };
   for (const auto* c : {&r.validity_after.noise_level, &r.validity_after.synchronous, &r.validity_after.whiteness})
-    o << "| " << c->name << " | " << fmt(c->value) << " | " << fmt(c->limit) << " | " << (c->pass ? "yes" : "no") << " |\n";
-  for (const auto& c : r.validity_after.state)
-    o << "| corr " << c.name << " | " << fmt(c.value) << " | " << fmt(c.limit) << " | " << (c.pass ? "yes" : "no") << " |\n";
+    o << "| " << c->name << " | " << fmt(c->value) << " | " << fmt(c->limit) << " | " << passed(*c) << " |\n";
+  for (const auto& c : r.validity_after.state) o << "| corr " << c.name << " | " << fmt(c.value) << " | " << fmt(c.limit) << " | " << passed(c) << " |\n";
   o << "\n## Per dwell\n\n| record | rpm | contact | samples | orbit | NRMSE before | NRMSE after | RMS before [um] | RMS after [um] |\n"
        "|---|---|---|---|---|---|---|---|---|\n";
   for (const auto& e : r.errors)

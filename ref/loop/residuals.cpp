@@ -1,5 +1,7 @@
 #include "ref/loop/residuals.hpp"
 
+#include "ref/inference/evidence.hpp"
+
 #include <cmath>
 #include <limits>
 
@@ -75,44 +77,93 @@ synchronous_energy synchronous_part(const std::vector<loop_dwell>& dwells, const
   return out;
 }
 
+double residual_error_of(const Eigen::VectorXd& r, double cost_uncertainty) {
+  if (cost_uncertainty == 0.0) return 0.0;
+  if (!(cost_uncertainty > 0.0 && cost_uncertainty < std::numeric_limits<double>::infinity())) return std::numeric_limits<double>::infinity();
+  const double n = r.norm();
+  return cost_uncertainty / (std::sqrt(n * n + cost_uncertainty) + n);  // sqrt(n^2 + u) - n without cancellation
+}
+
+namespace {
+
+// A check passes at value <= limit; decided on the value, on the margin within its uncertainty.
+void judge(correlation_check& c) {
+  const decision fails = exceeds({c.value, c.uncertainty}, c.limit);
+  c.pass = !fails.yes;
+  c.on_margin = fails.on_margin;
+}
+
+}  // namespace
+
 validity_report validity(const std::vector<loop_dwell>& dwells, const orbit_predictor& pr, const model_point& m, const Eigen::VectorXd& r,
-                         double noise, int orders, int whiteness_lags) {
+                         double noise, int orders, int whiteness_lags, double residual_error) {
+  // Each check's uncertainty is its change under a residual error of norm e = residual_error,
+  // wherever the error lies (Cauchy-Schwarz): exact for the RMS, to first order for the others and
+  // doubled for what the first order leaves out (they are smooth in r, and e is far below |r|
+  // wherever a margin matters).
+  const double e = std::max(residual_error, 0.0);
   validity_report v;
   v.noise = noise;
   const auto N = static_cast<double>(pr.orbit_rows());
   v.rms = std::sqrt(r.head(static_cast<Eigen::Index>(pr.orbit_rows())).squaredNorm() / N);
   v.noise_level = {"residual RMS / noise", noise > 0.0 ? v.rms / noise : std::numeric_limits<double>::infinity(), kNoiseRatioLimit, false};
-  v.noise_level.pass = v.noise_level.value <= v.noise_level.limit;
+  v.noise_level.uncertainty = noise > 0.0 ? e / std::sqrt(N) / noise : 0.0;  // RMS is 1/sqrt(N)-Lipschitz in r
+  judge(v.noise_level);
 
   // Synchronous part: under noise alone its chi^2 / dof is 1.
   const synchronous_energy sync = synchronous_part(dwells, pr, m, r, orders);
   const double chi2 = sync.energy / (noise * noise), dof = sync.dof;
-  double q = 0.0, qdof = 0.0;
+  // Q's change under an error of norm e: to first order |grad Q| e, grad Q stacking each channel's
+  // sum_l 2 n rho_l grad rho_l with grad rho_l = (x shifted by +l and -l - 2 rho_l x) / c_0 (the
+  // mean's removal only shrinks an error); the second order, sum_l n |d rho_l|^2 with
+  // |d rho_l| <= (2 + 2 |rho_l|) e_c / |x|, at most max_c B_c e^2 (sum e_c^2 <= e^2).
+  double q = 0.0, qdof = 0.0, grad2 = 0.0, b_max = 0.0;
   for (std::size_t k = 0; k < dwells.size(); ++k) {
     const dwell& d = dwells[k].data;
     // Whiteness: Box-Pierce on each probe's residual in time order.
     for (int ch = 0; ch < 2; ++ch) {
-      std::vector<double> e(d.size());
+      std::vector<double> x(d.size());
       double mean = 0.0;
-      for (std::size_t i = 0; i < d.size(); ++i) mean += (e[i] = r[static_cast<Eigen::Index>(pr.offset(k) + 2 * i + ch)]) / d.size();
+      for (std::size_t i = 0; i < d.size(); ++i) mean += (x[i] = r[static_cast<Eigen::Index>(pr.offset(k) + 2 * i + ch)]) / d.size();
       double c0 = 0.0;
-      for (auto& x : e) {
-        x -= mean;
-        c0 += x * x;
+      for (auto& xi : x) {
+        xi -= mean;
+        c0 += xi * xi;
       }
+      const double n = static_cast<double>(x.size());
+      std::vector<double> grad(x.size(), 0.0);
+      double b = 0.0;  // this channel's B_c
       for (int lag = 1; lag <= whiteness_lags; ++lag) {
+        const auto l = static_cast<std::size_t>(lag);
         double cl = 0.0;
-        for (std::size_t i = static_cast<std::size_t>(lag); i < e.size(); ++i) cl += e[i] * e[i - static_cast<std::size_t>(lag)];
-        q += static_cast<double>(e.size()) * std::pow(cl / c0, 2);
+        for (std::size_t i = l; i < x.size(); ++i) cl += x[i] * x[i - l];
+        const double rho = cl / c0;
+        q += n * rho * rho;
+        if (!(c0 > 0.0 && e > 0.0)) continue;  // (no error: no uncertainty to compute)
+        const double w = 2.0 * n * rho / c0;
+        for (std::size_t i = 0; i < x.size(); ++i) {
+          double g = -2.0 * rho * x[i];
+          if (i + l < x.size()) g += x[i + l];
+          if (i >= l) g += x[i - l];
+          grad[i] += w * g;
+        }
+        const double gr = 2.0 + 2.0 * std::abs(rho);
+        b += n * gr * gr / c0;
       }
+      for (const double g : grad) grad2 += g * g;
+      b_max = std::max(b_max, b);
       qdof += whiteness_lags;
     }
   }
   v.synchronous = {"synchronous chi^2 / dof (orders -" + std::to_string(orders) + ".." + std::to_string(orders) + ")", chi2 / dof,
                    1.0 + synchronous_margin(dof), false};
-  v.synchronous.pass = v.synchronous.value <= v.synchronous.limit;
+  // The energy is the residual's part on the orders (near-orthogonal over whole revolutions): it
+  // moves by at most 2 sqrt(E) e + e^2.
+  v.synchronous.uncertainty = noise > 0.0 ? 2.0 * (2.0 * std::sqrt(sync.energy) * e + e * e) / (noise * noise * dof) : 0.0;
+  judge(v.synchronous);
   v.whiteness = {"Box-Pierce Q / dof (lags 1.." + std::to_string(whiteness_lags) + ")", q / qdof, 1.0 + kZ * std::sqrt(2.0 / qdof), false};
-  v.whiteness.pass = v.whiteness.value <= v.whiteness.limit;
+  v.whiteness.uncertainty = 2.0 * (std::sqrt(grad2) * e + b_max * e * e) / qdof;
+  judge(v.whiteness);
 
   // Dependence on the state: correlation of the residual along the contact normal (y) and across
   // it (x) with the model's penetration, its rate in contact, x, and the shaft angle.
@@ -133,23 +184,32 @@ validity_report validity(const std::vector<loop_dwell>& dwells, const orbit_pred
       ey.push_back(r[static_cast<Eigen::Index>(pr.offset(k) + 2 * i + 1)]);
     }
   }
-  const auto corr = [](const std::vector<double>& a, const std::vector<double>& b) {
+  // The correlation with the residual b and the spread of b about its mean (|dc| <= e / spread to first order).
+  const auto corr = [](const std::vector<double>& a, const std::vector<double>& b) -> std::pair<double, double> {
     const double n = static_cast<double>(a.size());
     double ma = 0, mb = 0;
     for (std::size_t i = 0; i < a.size(); ++i) ma += a[i] / n, mb += b[i] / n;
     double sab = 0, saa = 0, sbb = 0;
     for (std::size_t i = 0; i < a.size(); ++i) sab += (a[i] - ma) * (b[i] - mb), saa += (a[i] - ma) * (a[i] - ma), sbb += (b[i] - mb) * (b[i] - mb);
-    return saa > 0.0 && sbb > 0.0 ? sab / std::sqrt(saa * sbb) : 0.0;
+    return {saa > 0.0 && sbb > 0.0 ? sab / std::sqrt(saa * sbb) : 0.0, std::sqrt(sbb)};
   };
   const char* names[] = {"z+", "z_dot in contact", "x", "cos(shaft angle)", "sin(shaft angle)"};
   const double band = ex.empty() ? 0.0 : kZ / std::sqrt(static_cast<double>(ex.size()));
   for (int j = 0; j < 5; ++j)
     for (int ch = 0; ch < 2; ++ch) {
-      const double c = series[static_cast<std::size_t>(j)].empty() ? 0.0 : corr(series[static_cast<std::size_t>(j)], ch ? ey : ex);
-      v.state.push_back({std::string(ch ? "e_y" : "e_x") + " vs " + names[j], c, band, std::abs(c) <= band});
+      const auto& a = series[static_cast<std::size_t>(j)];
+      const auto [c, spread] = a.empty() ? std::pair{0.0, 0.0} : corr(a, ch ? ey : ex);
+      correlation_check check{std::string(ch ? "e_y" : "e_x") + " vs " + names[j], std::abs(c), band, false};
+      check.uncertainty = spread > 0.0 ? 2.0 * e / spread : 0.0;
+      judge(check);
+      check.value = c;  // reported signed; judged by its size
+      v.state.push_back(check);
     }
-  v.pass = v.noise_level.pass && v.synchronous.pass && v.whiteness.pass &&
-           std::all_of(v.state.begin(), v.state.end(), [](const correlation_check& c) { return c.pass; });
+  decision passes{true, false};
+  for (const correlation_check* c : {&v.noise_level, &v.synchronous, &v.whiteness}) passes = both(passes, {c->pass, c->on_margin});
+  for (const auto& c : v.state) passes = both(passes, {c.pass, c.on_margin});
+  v.pass = passes.yes;
+  v.on_margin = passes.on_margin;
   return v;
 }
 

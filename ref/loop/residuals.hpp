@@ -16,9 +16,13 @@ struct correlation_check {
   std::string name;
   double value = 0.0, limit = 0.0;
   bool pass = false;
+  double uncertainty = 0.0;  // how far the residual's own numerical uncertainty may move the value (first order)
+  bool on_margin = false;    // the limit lies within it: whether the check passes is not decided
 };
 
-// Is the residual noise? Each check is a statistic against its limit at a 0.1 % false-alarm rate.
+// Is the residual noise? Each check is a statistic against its limit at a 0.1 % false-alarm rate;
+// `pass` is decided on the values, and is on the margin where no check fails beyond its
+// uncertainty and one lies within it of its limit (evidence.hpp's rule).
 struct validity_report {
   double noise = 0.0;                  // m, probe noise estimated from the data (4th differences, MAD)
   double rms = 0.0;                    // m, residual RMS over all samples
@@ -27,6 +31,7 @@ struct validity_report {
   correlation_check whiteness;         // Box-Pierce Q / dof over lags 1..L
   std::vector<correlation_check> state;  // correlation of the residual with z+, z_dot, x, cos, sin of the shaft angle
   bool pass = false;
+  bool on_margin = false;
 };
 
 // Energy of a residual's shaft orders -orders..orders (for a period-n dwell, the orders of w / n up
@@ -57,9 +62,16 @@ struct error_totals {
 };
 error_totals errors_of(const std::vector<loop_dwell>& dwells, const orbit_predictor& pr, const Eigen::VectorXd& r);
 
-// The validity checks on the residual r of model m (after a residuals() call at m).
+// The validity checks on the residual r of model m (after a residuals() call at m). `residual_error`
+// bounds how far r may lie from the exact fit's residual (m, a vector norm: residual_error_of) and
+// gives each check's uncertainty.
 validity_report validity(const std::vector<loop_dwell>& dwells, const orbit_predictor& pr, const model_point& m, const Eigen::VectorXd& r,
-                         double noise, int orders, int whiteness_lags);
+                         double noise, int orders, int whiteness_lags, double residual_error = 0.0);
+
+// The norm of a residual vector's numerical error from its |r|^2's uncertainty u (m^2): the e with
+// (|r| + e)^2 = |r|^2 + u, i.e. the error that moves |r|^2 by u at most (cost_uncertainty's bound
+// read backwards).
+double residual_error_of(const Eigen::VectorXd& r, double cost_uncertainty);
 
 // Error reduction ratio of the columns S (after removing what J already spans) on r.
 double err_score(const Eigen::MatrixXd& J, const Eigen::MatrixXd& S, const Eigen::VectorXd& r);
