@@ -16,7 +16,7 @@ struct correlation_check {
   std::string name;
   double value = 0.0, limit = 0.0;
   bool pass = false;
-  double uncertainty = 0.0;  // how far the residual's own numerical uncertainty may move the value (first order)
+  double uncertainty = 0.0;  // how far the residual's own numerical error may move the value (residuals.cpp: exact or first order doubled)
   bool on_margin = false;    // the limit lies within it: whether the check passes is not decided
 };
 

@@ -141,7 +141,7 @@ class free_flight {
     // The state at t, in real arithmetic: the particular solution's harmonics from their cached
     // real and imaginary parts, then each mode's e^{lambda_j tau} (a conjugate pair's once, its
     // share twice the real part) times the arc's w_rj = weight_j V_rj c_j. Sampling every record
-    // sample of every dwell this way was half a loop fit's time (docs/performance.md).
+    // sample of every dwell is most of a loop fit's time (docs/orbits.md).
     state at(double t) const {
       const free_flight& ff = *ff_;
       const forcing_phasor u = phasor_of(ff.d_.omega * t);
