@@ -631,7 +631,7 @@ void try_refit(trace_run& run, std::vector<scored>& cands, std::size_t i, bool s
   };
   if (screen) {
     // Screened out only where the share falls short beyond its numerical uncertainty: one on the
-    // margin is fitted on (a budget decision, so the cautious side costs time, never a verdict).
+    // margin is fitted on, and its full refit then meets the rules like any other.
     const decision gains = reaches({sig.excess_share(), sig.comparison.excess_share_uncertainty}, c.s.rules.min_excess_share / 3.0);
     if (!gains.yes && !gains.on_margin) {
       record();
