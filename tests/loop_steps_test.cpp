@@ -187,15 +187,27 @@ std::vector<loop_dwell> truth_timed_dwells(const rig_request& req) {
   return dwells;
 }
 
+// The truth rig's timed dwells, their predictor, and the residual of the truth's orbits (timing
+// shifts 0): what the tests of the residual's measures start from. Built in place (the predictor
+// holds the dwells).
+struct at_the_truth {
+  rig_request req = truth_rig();
+  std::vector<loop_dwell> dwells = truth_timed_dwells(req);
+  orbit_predictor predictor{dwells, req.probes.noise};
+  model_point truth = [this] {
+    model_point m;
+    m.shift.assign(dwells.size(), 0.0);
+    return m;
+  }();
+  Eigen::VectorXd r = predictor.residuals(truth).value();
+};
+
 // At the truth (timing shifts fitted aside) the model's periodic orbits leave only the probe
 // noise: the residual RMS is the noise to within its sampling spread.
 TEST(loop_steps, the_truths_orbits_leave_the_noise) {
-  const rig_request req = truth_rig();
-  const auto dwells = truth_timed_dwells(req);
-  orbit_predictor predictor(dwells, req.probes.noise);
-  model_point truth;
-  truth.shift.assign(dwells.size(), 0.0);
-  const Eigen::VectorXd r = predictor.residuals(truth).value();
+  const at_the_truth at;
+  const auto& req = at.req;
+  const auto& r = at.r;
   const double rms = std::sqrt(r.squaredNorm() / static_cast<double>(r.size()));
   constexpr double kRmsTol = 0.02;  // ~3e4 samples: the sample RMS of white noise is good to ~0.5 %
   EXPECT_NEAR(rms, req.probes.noise, kRmsTol * req.probes.noise);
@@ -353,14 +365,14 @@ TEST(loop_steps, a_race_fits_every_start_a_lap_and_the_leader_on) {
 // it is the noise's, chi^2 with `dof` degrees of freedom; a forward order-2 whirl of amplitude a
 // added to the residual adds n a^2 per dwell, to within the cross term with the noise.
 TEST(loop_steps, synchronous_energy_measures_the_periodic_residual) {
-  const rig_request req = truth_rig();
-  const auto dwells = truth_timed_dwells(req);
+  const at_the_truth at;
+  const auto& req = at.req;
+  const auto& dwells = at.dwells;
+  const auto& predictor = at.predictor;
+  const auto& truth = at.truth;
+  const auto& r = at.r;
   double n_total = 0.0;
   for (const auto& d : dwells) n_total += static_cast<double>(d.data.size());
-  orbit_predictor predictor(dwells, req.probes.noise);
-  model_point truth;
-  truth.shift.assign(dwells.size(), 0.0);
-  const Eigen::VectorXd r = predictor.residuals(truth).value();
   constexpr int kOrders = 20;
   constexpr double kZ = 3.29;  // two-sided 0.1 %
   const double sigma = req.probes.noise;
@@ -392,12 +404,12 @@ TEST(loop_steps, synchronous_energy_measures_the_periodic_residual) {
 // whose limit lies within it is on the margin. residual_error_of reads cost_uncertainty's bound
 // backwards.
 TEST(loop_steps, validity_checks_bound_their_change_under_the_residual_error) {
-  const rig_request req = truth_rig();
-  const auto dwells = truth_timed_dwells(req);
-  orbit_predictor predictor(dwells, req.probes.noise);
-  model_point truth;
-  truth.shift.assign(dwells.size(), 0.0);
-  const Eigen::VectorXd r = predictor.residuals(truth).value();
+  const at_the_truth at;
+  const auto& req = at.req;
+  const auto& dwells = at.dwells;
+  const auto& predictor = at.predictor;
+  const auto& truth = at.truth;
+  const auto& r = at.r;
   constexpr int kOrders = 20, kLags = 10;
   const double sigma = req.probes.noise;
   const Eigen::Index rows = static_cast<Eigen::Index>(predictor.orbit_rows());
