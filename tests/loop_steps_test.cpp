@@ -366,31 +366,26 @@ TEST(loop_steps, a_race_fits_every_start_a_lap_and_the_leader_on) {
 // added to the residual adds n a^2 per dwell, to within the cross term with the noise.
 TEST(loop_steps, synchronous_energy_measures_the_periodic_residual) {
   const at_the_truth at;
-  const auto& req = at.req;
-  const auto& dwells = at.dwells;
-  const auto& predictor = at.predictor;
-  const auto& truth = at.truth;
-  const auto& r = at.r;
   double n_total = 0.0;
-  for (const auto& d : dwells) n_total += static_cast<double>(d.data.size());
+  for (const auto& d : at.dwells) n_total += static_cast<double>(d.data.size());
   constexpr int kOrders = 20;
   constexpr double kZ = 3.29;  // two-sided 0.1 %
-  const double sigma = req.probes.noise;
-  const synchronous_energy noise_only = synchronous_part(dwells, predictor, truth, r, kOrders);
-  EXPECT_EQ(noise_only.dof, 2.0 * (2 * kOrders + 1) * static_cast<double>(dwells.size()));
+  const double sigma = at.req.probes.noise;
+  const synchronous_energy noise_only = synchronous_part(at.dwells, at.predictor, at.truth, at.r, kOrders);
+  EXPECT_EQ(noise_only.dof, 2.0 * (2 * kOrders + 1) * static_cast<double>(at.dwells.size()));
   EXPECT_NEAR(noise_only.energy / (sigma * sigma), noise_only.dof, kZ * std::sqrt(2.0 * noise_only.dof));
 
   constexpr double a = 1e-6;  // m, twice the noise
-  Eigen::VectorXd whirl = r;
-  for (std::size_t k = 0; k < dwells.size(); ++k) {
-    const dwell& d = dwells[k].data;
+  Eigen::VectorXd whirl = at.r;
+  for (std::size_t k = 0; k < at.dwells.size(); ++k) {
+    const dwell& d = at.dwells[k].data;
     for (std::size_t i = 0; i < d.size(); ++i) {
       const double psi = d.omega() * d.t[i];
-      whirl[static_cast<Eigen::Index>(predictor.offset(k) + 2 * i)] += a * std::cos(2.0 * psi);
-      whirl[static_cast<Eigen::Index>(predictor.offset(k) + 2 * i + 1)] += a * std::sin(2.0 * psi);
+      whirl[static_cast<Eigen::Index>(at.predictor.offset(k) + 2 * i)] += a * std::cos(2.0 * psi);
+      whirl[static_cast<Eigen::Index>(at.predictor.offset(k) + 2 * i + 1)] += a * std::sin(2.0 * psi);
     }
   }
-  const double added = synchronous_part(dwells, predictor, truth, whirl, kOrders).energy - noise_only.energy;
+  const double added = synchronous_part(at.dwells, at.predictor, at.truth, whirl, kOrders).energy - noise_only.energy;
   const double expected = n_total * a * a;
   // Cross term 2 n Re(conj(a) c_noise): standard deviation 2 a sigma sqrt(n) summed over dwells.
   const double tol = kZ * 2.0 * a * sigma * std::sqrt(n_total);
