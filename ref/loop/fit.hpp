@@ -34,6 +34,11 @@ struct fit_problem {
   // where the forward point cannot be computed; a coordinate with neither is held for the step),
   // shifts analytically.
   Eigen::MatrixXd jacobian(const Eigen::VectorXd& u, const Eigen::VectorXd& r0) const;
+  // The same for the residuals in harmonics (orbit_predictor::harmonic_residuals), as fit() searches.
+  Eigen::MatrixXd harmonic_jacobian(const Eigen::VectorXd& u, const Eigen::VectorXd& r0) const;
+
+ private:
+  Eigen::MatrixXd columns(const Eigen::VectorXd& u, const Eigen::VectorXd& r0, bool harmonics) const;
 };
 
 // The problem over `coords` around `base`, with the shift of every dwell that has a keyphasor.

@@ -2,8 +2,14 @@
 
 #include <algorithm>
 #include <cmath>
+#include <complex>
 #include <numbers>
+#include <numeric>
+#include <span>
+#include <tuple>
+#include <string>
 
+#include "ref/analysis/spectrum.hpp"
 #include "ref/base/errors.hpp"
 #include "ref/base/parallel.hpp"
 #include "ref/orbits/fit_orbits.hpp"
@@ -91,7 +97,126 @@ rig_state guess_from_data(const std::array<double, 4>& in_data, const effect_par
   return {ca * x - sa * y, sa * x + ca * y, ca * vx - sa * vy, sa * vx + ca * vy, 0.0, 0.0};
 }
 
+// Harmonics (constant, then cos h and sin h for h = 1..H) of the x and y readings at M uniform
+// phases 2 pi j / M, from one FFT of x + i y (ref/analysis/spectrum.hpp): exact for readings
+// without harmonics above M - H (the grid's M = 4 H).
+std::pair<Eigen::VectorXd, Eigen::VectorXd> harmonics_on_grid(std::span<const double> x, std::span<const double> y, int H) {
+  const auto M = static_cast<std::ptrdiff_t>(x.size());
+  const directional_spectrum z = full_spectrum(x, y, 1.0, 0.0);
+  const auto at = [&](std::ptrdiff_t k) { return z.coefficient[static_cast<std::size_t>(k + M / 2)]; };
+  Eigen::VectorXd ax(2 * H + 1), ay(2 * H + 1);
+  ax[0] = at(0).real();
+  ay[0] = at(0).imag();
+  for (int h = 1; h <= H; ++h) {
+    // X_h = (Z_h + conj Z_-h) / 2, Y_h = (Z_h - conj Z_-h) / 2i; a real series has 2 Re X_h cos - 2 Im X_h sin.
+    const std::complex<double> up = at(h), down = std::conj(at(-h));
+    const std::complex<double> X = 0.5 * (up + down), Y = (up - down) / std::complex<double>(0.0, 2.0);
+    ax[2 * h - 1] = 2.0 * X.real();
+    ax[2 * h] = -2.0 * X.imag();
+    ay[2 * h - 1] = 2.0 * Y.real();
+    ay[2 * h] = -2.0 * Y.imag();
+  }
+  return {ax, ay};
+}
+
+// The harmonics of f(t + s) from those of f(t), with angle = w_T s: harmonic h turns by h angle.
+Eigen::VectorXd turned(const Eigen::VectorXd& a, double angle) {
+  Eigen::VectorXd b = a;
+  const auto H = (a.size() - 1) / 2;
+  for (Eigen::Index h = 1; h <= H; ++h) {
+    const double c = std::cos(static_cast<double>(h) * angle), s = std::sin(static_cast<double>(h) * angle);
+    b[2 * h - 1] = a[2 * h - 1] * c + a[2 * h] * s;
+    b[2 * h] = a[2 * h] * c - a[2 * h - 1] * s;
+  }
+  return b;
+}
+
+// d/ds of turned(a, w_T s), given b = turned(a, w_T s): cos h gets h w_T b_sin, sin h gets -h w_T b_cos.
+Eigen::VectorXd turned_rate(const Eigen::VectorXd& b, double w_motion) {
+  Eigen::VectorXd d = Eigen::VectorXd::Zero(b.size());
+  const auto H = (b.size() - 1) / 2;
+  for (Eigen::Index h = 1; h <= H; ++h) {
+    d[2 * h - 1] = static_cast<double>(h) * w_motion * b[2 * h];
+    d[2 * h] = -static_cast<double>(h) * w_motion * b[2 * h - 1];
+  }
+  return d;
+}
+
 }  // namespace
+
+orbit_predictor::band orbit_predictor::harmonic_band(const dwell& d, int periods) {
+  const std::size_t n = d.size();
+  if (n < 5) throw input_error("a dwell at " + std::to_string(d.rpm) + " rpm has " + std::to_string(n) + " samples: too few to compare its orbit");
+  // The band: harmonics of the motion's frequency w_T = w / periods up to a quarter of the
+  // sampling rate, never more unknowns than a quarter of the samples. One revolution's samples
+  // then over-determine the band twice, so the Gram matrix is well conditioned however the sample
+  // phases of later revolutions fall (each adds a positive semi-definite term).
+  const double w_motion = d.omega() / periods;
+  const double dt = (d.t.back() - d.t.front()) / static_cast<double>(n - 1);
+  const double per_revolution = 2.0 * std::numbers::pi / (d.omega() * dt);
+  const int H = std::max(1, std::min(periods * static_cast<int>(std::floor(per_revolution / 4.0)), static_cast<int>((n - 1) / 4)));
+  const int K = 2 * H + 1;
+  // Sums of cos and sin of j w_T t over the samples, j = 0..2H (the Gram matrix's entries are
+  // their half sums and differences), and the data's projections, by one rotation per harmonic.
+  std::vector<double> C(static_cast<std::size_t>(2 * H + 1), 0.0), S(C.size(), 0.0);
+  Eigen::VectorXd bx = Eigen::VectorXd::Zero(K), by = Eigen::VectorXd::Zero(K);
+  for (std::size_t i = 0; i < n; ++i) {
+    const std::complex<double> step = std::polar(1.0, w_motion * d.t[i]);
+    std::complex<double> z = 1.0;
+    bx[0] += d.x[i];
+    by[0] += d.y[i];
+    for (int j = 0; j <= 2 * H; ++j) {
+      C[static_cast<std::size_t>(j)] += z.real();
+      S[static_cast<std::size_t>(j)] += z.imag();
+      if (j >= 1 && j <= H) {
+        bx[2 * j - 1] += d.x[i] * z.real();
+        bx[2 * j] += d.x[i] * z.imag();
+        by[2 * j - 1] += d.y[i] * z.real();
+        by[2 * j] += d.y[i] * z.imag();
+      }
+      z *= step;
+    }
+  }
+  // Basis function b: 0 the constant (cos 0), 2h - 1 cos h, 2h sin h.
+  const auto Cs = [&](int j) { return C[static_cast<std::size_t>(std::abs(j))]; };
+  const auto Ss = [&](int j) { return j < 0 ? -S[static_cast<std::size_t>(-j)] : S[static_cast<std::size_t>(j)]; };
+  const auto harmonic = [](int b) { return (b + 1) / 2; };
+  const auto is_sine = [](int b) { return b > 0 && b % 2 == 0; };
+  Eigen::MatrixXd G(K, K);
+  for (int a = 0; a < K; ++a)
+    for (int c = 0; c < K; ++c) {
+      const int h = harmonic(a), g = harmonic(c);
+      if (!is_sine(a) && !is_sine(c)) G(a, c) = 0.5 * (Cs(h - g) + Cs(h + g));
+      else if (is_sine(a) && is_sine(c)) G(a, c) = 0.5 * (Cs(h - g) - Cs(h + g));
+      else if (!is_sine(a)) G(a, c) = 0.5 * (Ss(h + g) - Ss(h - g));  // cos h sin g
+      else G(a, c) = 0.5 * (Ss(h + g) + Ss(h - g));                   // sin h cos g
+    }
+  const Eigen::LLT<Eigen::MatrixXd> llt(G);
+  if (llt.info() != Eigen::Success)
+    throw numerical_error("the harmonics of the dwell at " + std::to_string(d.rpm) + " rpm are not independent at its sample times");
+  band b;
+  b.harmonics = H;
+  b.Lt = llt.matrixU();
+  const Eigen::VectorXd ax = llt.solve(bx), ay = llt.solve(by);
+  b.target_x = b.Lt.triangularView<Eigen::Upper>() * ax;
+  b.target_y = b.Lt.triangularView<Eigen::Upper>() * ay;
+  // What the band leaves of the data, sample by sample (not |d|^2 - a_d^T B^T d: that cancels).
+  for (std::size_t i = 0; i < n; ++i) {
+    const std::complex<double> step = std::polar(1.0, w_motion * d.t[i]);
+    std::complex<double> z = step;
+    double fx = ax[0], fy = ay[0];
+    for (int h = 1; h <= H; ++h, z *= step) {
+      fx += ax[2 * h - 1] * z.real() + ax[2 * h] * z.imag();
+      fy += ay[2 * h - 1] * z.real() + ay[2 * h] * z.imag();
+    }
+    b.offset += (d.x[i] - fx) * (d.x[i] - fx) + (d.y[i] - fy) * (d.y[i] - fy);
+  }
+  const auto M = static_cast<std::size_t>(4 * H);
+  const double period = periods * 2.0 * std::numbers::pi / d.omega();
+  b.grid.resize(M);
+  for (std::size_t j = 0; j < M; ++j) b.grid[j] = period * static_cast<double>(j) / static_cast<double>(M);
+  return b;
+}
 
 double phase_in_period(double tau, double period) {
   // fmod is exact; tau - period * floor(tau / period) is not, and at a whole number of samples per
@@ -111,7 +236,7 @@ std::string_view to_string(orbit_kind k) {
 }
 
 orbit_predictor::orbit_predictor(const std::vector<loop_dwell>& dwells, double noise, const fit_orbit_options& orbits)
-    : dwells_(dwells), noise_(noise), orbits_(orbits), caches_(dwells.size()), kinds_(dwells.size(), orbit_kind::failed) {
+    : dwells_(dwells), noise_(noise), orbits_(orbits), caches_(dwells.size()), kinds_(dwells.size(), orbit_kind::failed), bands_(dwells.size()) {
   orbits_.validate();
   for (const auto& d : dwells_) {
     offsets_.push_back(orbit_rows_);
@@ -122,19 +247,11 @@ orbit_predictor::orbit_predictor(const std::vector<loop_dwell>& dwells, double n
     if (std::isfinite(d.timing_sigma)) ++rows_;
 }
 
-orbit_kind orbit_predictor::predict(std::size_t k, const model_point& m) {
-  const dwell& d = dwells_[k].data;
-  cache& c = caches_[k];
-  parameters p = m.p;
-  p.clearance = d.clearance;
-  // The motion's period: `periods` revolutions (the model's orbit is the n-revolution map's fixed point).
-  const int periods = dwells_[k].periods;
-  const double w = d.omega(), period = periods * 2.0 * std::numbers::pi / w;
-  const model sys(p, m.fx, w);
-
+void orbit_predictor::sort_phases(std::size_t k, double shift, double period) {
   // Sample phases in [0, T) for this shift, sorted for one pass over the revolution (kept while
   // the shift is the same: most evaluations of a fit change the model, not the timing).
-  const double shift = m.shift.empty() ? 0.0 : m.shift[k];
+  const dwell& d = dwells_[k].data;
+  cache& c = caches_[k];
   if (c.sorted && c.sorted_shift != shift && c.sorted_period == period && !c.order.empty()) {
     // A shift turns every sample's phase by the same angle: their cyclic order stays, so the
     // sorted order is the old one rotated to its new smallest phase (checked: a rounding that
@@ -172,17 +289,35 @@ orbit_kind orbit_predictor::predict(std::size_t k, const model_point& m) {
     c.sorted_shift = shift;
     c.sorted_period = period;
   }
-  const sample_grid grid = sample_grid::at(c.phase);
+}
+
+orbit_kind orbit_predictor::predict(std::size_t k, const model_point& m, bool harmonics) {
+  const dwell& d = dwells_[k].data;
+  cache& c = caches_[k];
+  parameters p = m.p;
+  p.clearance = d.clearance;
+  // The motion's period: `periods` revolutions (the model's orbit is the n-revolution map's fixed point).
+  const int periods = dwells_[k].periods;
+  const double w = d.omega(), period = periods * 2.0 * std::numbers::pi / w;
+  const model sys(p, m.fx, w);
+
+  // Where the orbit is read: the band's uniform grid, or the record's sample phases.
+  const double shift = m.shift.empty() ? 0.0 : m.shift[k];
+  if (!harmonics) sort_phases(k, shift, period);
+  band* const b = harmonics ? &*bands_[k] : nullptr;
+  const sample_grid grid = sample_grid::at(harmonics ? b->grid : c.phase);
+  const std::vector<std::size_t>& order = harmonics ? b->identity : c.order;
+  std::vector<rig_state>& states = harmonics ? b->states : c.states;
 
   // Newton from the anchor (the fit's start point's orbit), else from the data. The periodic
   // orbit is taken even where it is unstable: it stays a smooth function of the parameters, and
   // its distance from the data's (stable) orbit is what the fit must see to come back.
   c.last_ok = false;
   const bool warm = c.started;
-  shot result = shoot(k, m, sys, period, grid);
+  shot result = shoot(k, m, sys, period, grid, order, states);
   if (result != shot::converged && warm) {  // from the data instead (the anchor stays)
     c.started = false;
-    result = shoot(k, m, sys, period, grid);
+    result = shoot(k, m, sys, period, grid, order, states);
     c.started = true;
   }
   if (result == shot::converged) return orbit_kind::periodic;
@@ -193,14 +328,14 @@ orbit_kind orbit_predictor::predict(std::size_t k, const model_point& m) {
     const integration_options settle = fit_sampling(kFallbackSettleRevs, orbits_), opt = fit_sampling(periods, orbits_);
     const rig_state settled =
         flow(sys, guess_from_data(data_state(k), m.fx), kFallbackSettleRevs * 2.0 * std::numbers::pi / w, settle);
-    return sample_flow(sys, settled, period, opt, grid, c.order, c.states) ? orbit_kind::transient : orbit_kind::failed;
+    return sample_flow(sys, settled, period, opt, grid, order, states) ? orbit_kind::transient : orbit_kind::failed;
   } catch (const numerical_error&) {
     return orbit_kind::failed;
   }
 }
 
 orbit_predictor::shot orbit_predictor::shoot(std::size_t k, const model_point& m, const rotor_with_effects<identified>& sys, double period,
-                                             const sample_grid& grid) {
+                                             const sample_grid& grid, const std::vector<std::size_t>& order, std::vector<rig_state>& states) {
   cache& c = caches_[k];
   const int periods = dwells_[k].periods;
   const integration_options opt = fit_sampling(periods, orbits_);
@@ -216,13 +351,110 @@ orbit_predictor::shot orbit_predictor::shoot(std::size_t k, const model_point& m
     // the `periods`-revolution map.
     const auto orbit = shoot_fit_orbit(sys, guess, 0.0, periods, orbits_);
     if (!orbit.converged) return shot::failed;
-    if (!sample_flow(sys, orbit.state, period, opt, grid, c.order, c.states)) return shot::failed;
+    if (!sample_flow(sys, orbit.state, period, opt, grid, order, states)) return shot::failed;
     c.last = orbit.state;
     c.last_ok = true;
     return shot::converged;
   } catch (const numerical_error&) {
   }
   return shot::failed;
+}
+
+orbit_predictor::band& orbit_predictor::band_of(std::size_t k) {
+  auto& slot = bands_[k];
+  if (slot) return *slot;
+  band b = harmonic_band(dwells_[k].data, dwells_[k].periods);
+  b.identity.resize(b.grid.size());
+  std::iota(b.identity.begin(), b.identity.end(), std::size_t{0});
+  slot = std::move(b);
+  return *slot;
+}
+
+void orbit_predictor::prepare_bands() {
+  if (!harmonic_offsets_.empty() || dwells_.empty()) return;
+  parallel_for(dwells_.size(), 0, [&](std::size_t k) { (void)band_of(k); });
+  for (std::size_t k = 0; k < dwells_.size(); ++k) {
+    harmonic_offsets_.push_back(harmonic_rows_);
+    harmonic_rows_ += 2 * static_cast<std::size_t>(2 * bands_[k]->harmonics + 1);
+  }
+  for (const auto& d : dwells_)
+    if (std::isfinite(d.timing_sigma)) ++harmonic_rows_;
+}
+
+std::size_t orbit_predictor::harmonic_rows() {
+  prepare_bands();
+  return harmonic_rows_;
+}
+
+double orbit_predictor::harmonic_offset() {
+  prepare_bands();
+  double sum = 0.0;
+  for (const auto& b : bands_) sum += b->offset;
+  return sum;
+}
+
+int orbit_predictor::band_harmonics(std::size_t k) { return band_of(k).harmonics; }
+std::array<double, 2> orbit_predictor::band_reading(std::size_t k, double t, double shift) const {
+  const band& b = bands_.at(k).value();
+  const double w_motion = dwells_[k].data.omega() / dwells_[k].periods;
+  const Eigen::VectorXd ax = turned(b.ax, w_motion * shift), ay = turned(b.ay, w_motion * shift);
+  double x = ax[0], y = ay[0];
+  for (int h = 1; h <= b.harmonics; ++h) {
+    const double c = std::cos(h * w_motion * t), s = std::sin(h * w_motion * t);
+    x += ax[2 * h - 1] * c + ax[2 * h] * s;
+    y += ay[2 * h - 1] * c + ay[2 * h] * s;
+  }
+  return {x, y};
+}
+
+std::optional<Eigen::VectorXd> orbit_predictor::harmonic_residuals(const model_point& m) {
+  prepare_bands();
+  ++evaluations_;
+  Eigen::VectorXd r(static_cast<Eigen::Index>(harmonic_rows_));
+  kinds_.assign(dwells_.size(), orbit_kind::failed);
+  parallel_for(dwells_.size(), 0, [&](std::size_t k) {
+    kinds_[k] = predict(k, m, true);
+    if (kinds_[k] == orbit_kind::failed) return;
+    band& b = *bands_[k];
+    const dwell& d = dwells_[k].data;
+    const double w = d.omega(), w_motion = w / dwells_[k].periods, shift = m.shift.empty() ? 0.0 : m.shift[k];
+    // The readings on the grid: grid point j is the model at t + s = j T / M, the shaft at w (t + s).
+    const probe_model probes(m.fx);
+    const std::size_t M = b.grid.size();
+    std::vector<double> rx(M), ry(M);
+    for (std::size_t j = 0; j < M; ++j) {
+      const auto& s = b.states[j];
+      const auto reading = probes(s[idx::x], s[idx::y], w * b.grid[j]);
+      rx[j] = reading[0];
+      ry[j] = reading[1];
+    }
+    std::tie(b.ax, b.ay) = harmonics_on_grid(rx, ry, b.harmonics);
+    const auto n = static_cast<Eigen::Index>(2 * b.harmonics + 1), at = static_cast<Eigen::Index>(harmonic_offsets_[k]);
+    r.segment(at, n) = b.Lt.triangularView<Eigen::Upper>() * turned(b.ax, w_motion * shift) - b.target_x;
+    r.segment(at + n, n) = b.Lt.triangularView<Eigen::Upper>() * turned(b.ay, w_motion * shift) - b.target_y;
+  });
+  if (std::find(kinds_.begin(), kinds_.end(), orbit_kind::failed) != kinds_.end()) return std::nullopt;
+  write_priors(m, r, static_cast<Eigen::Index>(harmonic_rows_ - (rows_ - orbit_rows_)));
+  if (!r.allFinite()) return std::nullopt;
+  return r;
+}
+
+Eigen::MatrixXd orbit_predictor::harmonic_shift_columns(const model_point& m) {
+  prepare_bands();
+  Eigen::MatrixXd J = Eigen::MatrixXd::Zero(static_cast<Eigen::Index>(harmonic_rows_), static_cast<Eigen::Index>(dwells_.size()));
+  auto row = static_cast<Eigen::Index>(harmonic_rows_ - (rows_ - orbit_rows_));
+  for (std::size_t k = 0; k < dwells_.size(); ++k) {
+    const band& b = *bands_[k];
+    const auto col = static_cast<Eigen::Index>(k);
+    const auto n = static_cast<Eigen::Index>(2 * b.harmonics + 1), at = static_cast<Eigen::Index>(harmonic_offsets_[k]);
+    if (b.ax.size() == n) {
+      const double w_motion = dwells_[k].data.omega() / dwells_[k].periods, shift = m.shift.empty() ? 0.0 : m.shift[k];
+      J.col(col).segment(at, n) = b.Lt.triangularView<Eigen::Upper>() * turned_rate(turned(b.ax, w_motion * shift), w_motion);
+      J.col(col).segment(at + n, n) = b.Lt.triangularView<Eigen::Upper>() * turned_rate(turned(b.ay, w_motion * shift), w_motion);
+    }
+    if (std::isfinite(dwells_[k].timing_sigma)) J(row++, col) = noise_ / dwells_[k].timing_sigma;
+  }
+  return J;
 }
 
 const std::array<double, 4>& orbit_predictor::data_state(std::size_t k) {
@@ -237,7 +469,9 @@ void orbit_predictor::reset() {
 
 void orbit_predictor::anchor(const model_point& m) {
   reset();
-  (void)residuals(m);  // a dwell that fails keeps no anchor: it starts from its data next time
+  // Only the orbits are kept, so the band's grid suffices. A dwell that fails keeps no anchor: it
+  // starts from its data next time.
+  (void)harmonic_residuals(m);
   for (auto& c : caches_) {
     c.started = c.last_ok;
     c.start = c.last;
@@ -248,7 +482,7 @@ void orbit_predictor::anchor(const model_point& m, const orbit_anchors& from) {
   reset();
   for (std::size_t k = 0; k < caches_.size() && k < from.size(); ++k)
     if (from[k]) caches_[k].started = true, caches_[k].start = *from[k];
-  (void)residuals(m);
+  (void)harmonic_residuals(m);
   for (auto& c : caches_) {
     c.started = c.last_ok;
     c.start = c.last;
@@ -267,7 +501,7 @@ std::optional<Eigen::VectorXd> orbit_predictor::residuals(const model_point& m) 
   Eigen::VectorXd r(static_cast<Eigen::Index>(rows_));
   kinds_.assign(dwells_.size(), orbit_kind::failed);
   parallel_for(dwells_.size(), 0, [&](std::size_t k) {
-    kinds_[k] = predict(k, m);
+    kinds_[k] = predict(k, m, false);
     if (kinds_[k] == orbit_kind::failed) return;
     const dwell& d = dwells_[k].data;
     const auto at = static_cast<Eigen::Index>(offsets_[k]);
@@ -281,11 +515,14 @@ std::optional<Eigen::VectorXd> orbit_predictor::residuals(const model_point& m) 
     }
   });
   if (std::find(kinds_.begin(), kinds_.end(), orbit_kind::failed) != kinds_.end()) return std::nullopt;
-  Eigen::Index row = static_cast<Eigen::Index>(orbit_rows_);
-  for (std::size_t k = 0; k < dwells_.size(); ++k)
-    if (std::isfinite(dwells_[k].timing_sigma)) r[row++] = noise_ * (m.shift.empty() ? 0.0 : m.shift[k]) / dwells_[k].timing_sigma;
+  write_priors(m, r, static_cast<Eigen::Index>(orbit_rows_));
   if (!r.allFinite()) return std::nullopt;
   return r;
+}
+
+void orbit_predictor::write_priors(const model_point& m, Eigen::VectorXd& r, Eigen::Index row) const {
+  for (std::size_t k = 0; k < dwells_.size(); ++k)
+    if (std::isfinite(dwells_[k].timing_sigma)) r[row++] = noise_ * (m.shift.empty() ? 0.0 : m.shift[k]) / dwells_[k].timing_sigma;
 }
 
 Eigen::MatrixXd orbit_predictor::shift_columns(const model_point& m) {

@@ -51,6 +51,14 @@ std::string_view to_string(orbit_kind k);
 
 // Model probe readings against the dwells. Residuals are laid out dwell after dwell, x then y per
 // sample, followed by one prior row per dwell with a keyphasor: noise * shift / timing_sigma.
+//
+// The same comparison is also made in harmonics (docs/loop.md, "Comparing in harmonics"): a dwell's
+// model orbit repeats every period T, so its readings are a Fourier series in the harmonics of
+// 2 pi / T. Up to the band's last harmonic H, |d - B a|^2 = |d - B a_d|^2 + |L^T (a - a_d)|^2 exactly,
+// where B holds the harmonics at the sample times, G = B^T B = L L^T their Gram matrix and
+// a_d = G^-1 B^T d the data's own least-squares harmonics: the first term is the data's alone, and
+// the second needs the model's harmonics only, read from M readings on a uniform grid of one period.
+// A fit's search runs on these few rows; every statistic is taken on the samples.
 class orbit_predictor {
  public:
   orbit_predictor(const std::vector<loop_dwell>& dwells, double noise, const fit_orbit_options& orbits = {});
@@ -65,6 +73,23 @@ class orbit_predictor {
   // Model minus measured at every sample (rubref's sign), or nothing if the model's orbit could
   // not be computed in some dwell (then kinds() names them).
   std::optional<Eigen::VectorXd> residuals(const model_point& m);
+  // The comparison in harmonics: rows L^T (a - a_d) per dwell (x then y, each 2 H + 1 rows),
+  // then the same prior rows as residuals(). Their |.|^2 plus harmonic_offset() is |residuals()|^2
+  // for a model without readings above the band (the band ends at a quarter of a dwell's sampling
+  // rate: the Gram matrix of one revolution's samples alone is then well conditioned).
+  std::optional<Eigen::VectorXd> harmonic_residuals(const model_point& m);
+  std::size_t harmonic_rows();
+  // Sum over dwells of |d - B a_d|^2 (m^2): what no model within the band can fit.
+  double harmonic_offset();
+  // The derivative of harmonic_residuals() with respect to each dwell's shift (columns by dwell):
+  // a shift turns harmonic h by h w_T s, exactly. Uses the harmonics of the last harmonic_residuals() call.
+  Eigen::MatrixXd harmonic_shift_columns(const model_point& m);
+  // Harmonics H of dwell k's band (of its motion's frequency w / periods).
+  int band_harmonics(std::size_t k);
+  // The model's reading (x, y) in dwell k at time t and timing shift s, summed from the band's
+  // harmonics of the last harmonic_residuals() call: what the comparison in harmonics sees.
+  std::array<double, 2> band_reading(std::size_t k, double t, double shift) const;
+
   // How many residuals() calls this predictor has made (the loop's cost: each shoots every dwell).
   std::size_t evaluations() const { return evaluations_; }
   // Per dwell, how the last residuals() call got its orbit.
@@ -98,10 +123,29 @@ class orbit_predictor {
     bool last_ok = false;
     std::optional<std::array<double, 4>> in_data;  // the data's state at t = 0 (x, y, vx, vy), once fitted
   };
+  // Dwell k's harmonic band: the data's side, computed once, and the model's last harmonics.
+  struct band {
+    int harmonics = 0;                  // H
+    std::vector<double> grid;           // the M reading phases j T / M
+    std::vector<std::size_t> identity;  // grid point j is reading j
+    Eigen::MatrixXd Lt;                 // G = Lt^T Lt (upper triangular)
+    Eigen::VectorXd target_x, target_y; // Lt a_d, per channel
+    double offset = 0.0;                // |d - B a_d|^2, both channels
+    std::vector<std::array<double, 6>> states;  // the model's state at each grid point
+    Eigen::VectorXd ax, ay;             // the model's harmonics at the last call, shift 0
+  };
+  // The data's side of dwell d's band (the grid's phases for a motion of `periods` revolutions).
+  static band harmonic_band(const dwell& d, int periods);
   const std::array<double, 4>& data_state(std::size_t k);
-  orbit_kind predict(std::size_t k, const model_point& m);
+  band& band_of(std::size_t k);
+  void prepare_bands();  // every dwell's band and the harmonic rows' layout
+  void sort_phases(std::size_t k, double shift, double period);
+  void write_priors(const model_point& m, Eigen::VectorXd& r, Eigen::Index row) const;
+  // The model's orbit in dwell k sampled at the record's phases (harmonics false) or on the band's grid.
+  orbit_kind predict(std::size_t k, const model_point& m, bool harmonics);
   enum class shot { converged, failed };
-  shot shoot(std::size_t k, const model_point& m, const rotor_with_effects<identified>& sys, double period, const sample_grid& grid);
+  shot shoot(std::size_t k, const model_point& m, const rotor_with_effects<identified>& sys, double period, const sample_grid& grid,
+             const std::vector<std::size_t>& order, std::vector<std::array<double, 6>>& states);
 
   const std::vector<loop_dwell>& dwells_;
   double noise_;
@@ -111,6 +155,9 @@ class orbit_predictor {
   std::vector<std::size_t> offsets_;
   std::size_t rows_ = 0, orbit_rows_ = 0;
   std::size_t evaluations_ = 0;
+  std::vector<std::optional<band>> bands_;
+  std::vector<std::size_t> harmonic_offsets_;
+  std::size_t harmonic_rows_ = 0;
 };
 
 }  // namespace rubref
