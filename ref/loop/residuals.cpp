@@ -214,16 +214,16 @@ validity_report validity(const std::vector<loop_dwell>& dwells, const orbit_pred
 }
 
 // ERR of the columns S (after removing what J already spans) on the residual r.
-double err_score(const Eigen::MatrixXd& J, const Eigen::MatrixXd& S, const Eigen::VectorXd& r) {
+double err_score(const Eigen::MatrixXd& J, const Eigen::MatrixXd& S, const Eigen::VectorXd& r, double outside) {
   const Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qj(J);
   Eigen::MatrixXd Q = qj.householderQ() * Eigen::MatrixXd::Identity(J.rows(), qj.rank());
   const Eigen::VectorXd rp = r - Q * (Q.transpose() * r);
   const Eigen::MatrixXd Sp = S - Q * (Q.transpose() * S);
   Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qs(Sp);
   qs.setThreshold(1e-10);
-  if (qs.rank() == 0 || rp.squaredNorm() == 0.0) return 0.0;
+  if (qs.rank() == 0 || rp.squaredNorm() + outside == 0.0) return 0.0;
   const Eigen::MatrixXd Qs = qs.householderQ() * Eigen::MatrixXd::Identity(Sp.rows(), qs.rank());
-  return (Qs.transpose() * rp).squaredNorm() / rp.squaredNorm();
+  return (Qs.transpose() * rp).squaredNorm() / (rp.squaredNorm() + outside);
 }
 
 }  // namespace rubref

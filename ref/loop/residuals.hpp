@@ -73,7 +73,9 @@ validity_report validity(const std::vector<loop_dwell>& dwells, const orbit_pred
 // read backwards).
 double residual_error_of(const Eigen::VectorXd& r, double cost_uncertainty);
 
-// Error reduction ratio of the columns S (after removing what J already spans) on r.
-double err_score(const Eigen::MatrixXd& J, const Eigen::MatrixXd& S, const Eigen::VectorXd& r);
+// Error reduction ratio of the columns S (after removing what J already spans) on r. `outside`
+// (m^2): the residual's energy no column can reach (the data's part outside the harmonic band, for
+// rows in harmonics, orbit_predictor::harmonic_residuals), counted in the ratio's denominator.
+double err_score(const Eigen::MatrixXd& J, const Eigen::MatrixXd& S, const Eigen::VectorXd& r, double outside = 0.0);
 
 }  // namespace rubref

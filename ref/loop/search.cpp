@@ -82,8 +82,10 @@ fit_result search_dips(const fit_problem& problem, std::size_t j, double base_rs
       const fit_problem inner = make_problem(predictor, dwells, m, profiled, problem.noise);
       const fit_result f = fit(inner, inner.of(m), kEnvelopeIterations);
       if (!f.ok) continue;
-      const auto r = residual_at(predictor, f.at);  // on its own orbits, as every refit is judged
-      if (r) envelope.push_back({r->squaredNorm(), {f, value}});
+      // Ranked on its own orbits found from the data, as every refit is judged; in harmonics (the
+      // ranking's differences are the samples', the band's offset aside).
+      predictor.anchor(f.at);
+      if (const auto r = predictor.harmonic_residuals(f.at)) envelope.push_back({r->squaredNorm(), {f, value}});
     }
   if (envelope.empty()) return fit_result{};
   std::stable_sort(envelope.begin(), envelope.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
@@ -122,7 +124,7 @@ fit_result search_dips(const fit_problem& problem, std::size_t j, double base_rs
       model_point q = at.at;
       const double v = value * std::exp(i * search.step);
       coordinate.set(q, coordinate.chart(v));
-      const auto r = predictor.residuals(q);
+      const auto r = predictor.harmonic_residuals(q);  // dips are found by differences: in harmonics
       scan.emplace_back(v, r ? r->squaredNorm() : std::numeric_limits<double>::infinity());
     }
     std::vector<std::pair<double, double>> dips;  // (residual, value), lowest first

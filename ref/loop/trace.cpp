@@ -206,8 +206,8 @@ struct scored {
   std::optional<Eigen::VectorXd> trial_corrected;  // the same with the base's linear correction (base problem's u)
 };
 
-// The effect's switch columns at m (residual r0 there, the predictor anchored at m): nothing where
-// the model cannot be computed with the effect switched on a little.
+// The effect's switch columns at m (residual r0 there in harmonics, the predictor anchored at m):
+// nothing where the model cannot be computed with the effect switched on a little.
 std::optional<Eigen::MatrixXd> switch_columns(const round_context& c, const model_point& m0, const Eigen::VectorXd& r0,
                                               const std::vector<fit_coordinate>& ec) {
   const std::size_t switches = switch_count(ec);
@@ -215,7 +215,7 @@ std::optional<Eigen::MatrixXd> switch_columns(const round_context& c, const mode
   for (std::size_t j = 0; j < switches; ++j) {
     model_point m = m0;
     ec[j].set(m, kStep * ec[j].scale);
-    const auto r = c.predictor.residuals(m);
+    const auto r = c.predictor.harmonic_residuals(m);
     if (!r) return std::nullopt;
     S.col(static_cast<Eigen::Index>(j)) = (*r - r0) / kStep;
   }
@@ -232,13 +232,16 @@ Eigen::VectorXd gauss_newton_step(const Eigen::MatrixXd& J, const Eigen::MatrixX
 // regressors on the residual, after what the base coordinates' Jacobian already spans; for an
 // effect with trial values also its profile's share, if higher. Best first. With `staged`, each
 // effect's Gauss-Newton step there too (the predictor is anchored at current.at when it returns).
+// Residuals, columns and J are in harmonics (orbit_predictor::harmonic_residuals, r0 at current):
+// the samples' ratios, with the data's part outside the band in every denominator.
 std::vector<scored> score(const round_context& c, const fitted_model& current, const std::vector<const effect_info*>& remaining,
-                          const fit_problem& base, const Eigen::MatrixXd& J, const std::optional<staged_linearisation>& staged) {
-  const Eigen::VectorXd& r0 = current.r;
+                          const fit_problem& base, const Eigen::VectorXd& r0, const Eigen::MatrixXd& J,
+                          const std::optional<staged_linearisation>& staged) {
+  const double outside = c.predictor.harmonic_offset();
   const Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qj(J);
   const Eigen::MatrixXd Qj = qj.householderQ() * Eigen::MatrixXd::Identity(J.rows(), qj.rank());
   const auto project_out = [&](const Eigen::VectorXd& v) -> Eigen::VectorXd { return v - Qj * (Qj.transpose() * v); };
-  const double P0 = project_out(r0).squaredNorm();
+  const double P0 = project_out(r0).squaredNorm() + outside;
   std::vector<scored> out;
   for (const auto* e : remaining) {
     scored sc;
@@ -252,7 +255,7 @@ std::vector<scored> score(const round_context& c, const fitted_model& current, c
       out.push_back(std::move(sc));
       continue;
     }
-    sc.candidate.score = err_score(J, *S, r0);
+    sc.candidate.score = err_score(J, *S, r0, outside);
     sc.gauss_newton = gauss_newton_step(J, *S, r0);
     // An effect with trial values (it enters nonlinearly) is also scored by its profile: the
     // residual left, after the base coordinates' linear correction, with the effect at a value.
@@ -263,8 +266,8 @@ std::vector<scored> score(const round_context& c, const fitted_model& current, c
       const auto left = [&](double value) {
         model_point m = current.at;
         q.trials->apply(m, value);
-        const auto r = c.predictor.residuals(m);
-        return r ? project_out(*r).squaredNorm() : std::numeric_limits<double>::infinity();
+        const auto r = c.predictor.harmonic_residuals(m);
+        return r ? project_out(*r).squaredNorm() + outside : std::numeric_limits<double>::infinity();
       };
       const profile_best best = profile(q.trials->values, P0, left);
       const double share = P0 > 0.0 ? 1.0 - best.left / P0 : 0.0;
@@ -272,7 +275,7 @@ std::vector<scored> score(const round_context& c, const fitted_model& current, c
       sc.candidate.score = share;
       model_point m = current.at;
       q.trials->apply(m, best.value);
-      if (const auto r = c.predictor.residuals(m)) {
+      if (const auto r = c.predictor.harmonic_residuals(m)) {
         sc.trial_at = m;
         sc.trial_corrected = base.of(m) - qj.solve(*r);
       }
@@ -281,7 +284,6 @@ std::vector<scored> score(const round_context& c, const fitted_model& current, c
   }
   if (staged) {
     c.predictor.anchor(staged->at);
-    (void)c.predictor.residuals(staged->at);
     for (auto& sc : out)
       if (sc.candidate.verdict.empty())
         if (const auto S = switch_columns(c, staged->at, staged->r, effect_coordinates(*sc.effect)))
@@ -584,18 +586,25 @@ std::vector<scored> score_round(trace_run& run) {
   const round_context& c = run.c;
   const fitted_model& current = run.current;
   const fit_problem base = make_problem(c.predictor, c.dwells, current.at, current.coords, c.noise);
+  // Linearised in harmonics (what the fits search on), at the current model's own orbits.
   c.predictor.anchor(current.at, current.orbits);
-  const Eigen::MatrixXd J = base.jacobian(base.of(current.at), current.r);
+  const auto r0 = c.predictor.harmonic_residuals(current.at);
+  if (!r0) {  // its band's grid cannot be read where the record's phases could: nothing to linearise
+    run.note("the current model cannot be linearised in harmonics: no effect is scored this round");
+    return {};
+  }
+  const Eigen::MatrixXd J = base.harmonic_jacobian(base.of(current.at), *r0);
   std::optional<staged_linearisation> at_staged;
   model_point on_staged = current.at;
   on_staged.p = c.staged.p;
-  if (auto r = residual_at(c.predictor, on_staged)) {
+  c.predictor.anchor(on_staged);
+  if (auto r = c.predictor.harmonic_residuals(on_staged)) {
     const fit_problem staged_problem = make_problem(c.predictor, c.dwells, on_staged, current.coords, c.noise);
-    Eigen::MatrixXd Js = staged_problem.jacobian(staged_problem.of(on_staged), *r);
+    Eigen::MatrixXd Js = staged_problem.harmonic_jacobian(staged_problem.of(on_staged), *r);
     at_staged = staged_linearisation{on_staged, std::move(*r), std::move(Js)};
   }
   c.predictor.anchor(current.at, current.orbits);
-  return score(c, current, run.remaining, base, J, at_staged);
+  return score(c, current, run.remaining, base, *r0, J, at_staged);
 }
 
 // The refits of a round: candidates with their refit, significant against the current model.
@@ -910,6 +919,7 @@ round_end run_round(trace_run& run, int round) {
   c.s.progress("[2/3] trace round " + std::to_string(round) + ": scoring " + std::to_string(run.remaining.size()) + " effects (" +
                std::to_string(c.predictor.evaluations()) + " model evaluations so far) ...");
   std::vector<scored> cands = score_round(run);
+  if (cands.empty()) return round_end::nothing;
   c.s.progress("      best scores: " + cands[0].candidate.name + (cands.size() > 1 ? ", " + cands[1].candidate.name : std::string()) + "; refitting ...");
   round_refits refits = refit_round(run, cands);
   round_choice choice = choose(run, cands, refits);
