@@ -394,6 +394,7 @@ double orbit_predictor::harmonic_offset() {
 }
 
 int orbit_predictor::band_harmonics(std::size_t k) { return band_of(k).harmonics; }
+
 std::array<double, 2> orbit_predictor::band_reading(std::size_t k, double t, double shift) const {
   const band& b = bands_.at(k).value();
   const double w_motion = dwells_[k].data.omega() / dwells_[k].periods;
