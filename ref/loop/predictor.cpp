@@ -408,14 +408,29 @@ std::array<double, 2> orbit_predictor::band_reading(std::size_t k, double t, dou
   return {x, y};
 }
 
-std::optional<Eigen::VectorXd> orbit_predictor::harmonic_residuals(const model_point& m) {
-  prepare_bands();
+// One evaluation, on the samples or the band: every dwell's orbit (in parallel), `fill` writes
+// dwell k's rows, then the shift priors close the vector of `rows`. A dwell that fails, or a
+// non-finite entry, makes the evaluation fail: never a number inside a residual.
+template <class Fill>
+std::optional<Eigen::VectorXd> orbit_predictor::evaluate(const model_point& m, bool harmonics, std::size_t rows, Fill&& fill) {
   ++evaluations_;
-  Eigen::VectorXd r(static_cast<Eigen::Index>(harmonic_rows_));
+  Eigen::VectorXd r(static_cast<Eigen::Index>(rows));
   kinds_.assign(dwells_.size(), orbit_kind::failed);
   parallel_for(dwells_.size(), 0, [&](std::size_t k) {
-    kinds_[k] = predict(k, m, true);
-    if (kinds_[k] == orbit_kind::failed) return;
+    kinds_[k] = predict(k, m, harmonics);
+    if (kinds_[k] != orbit_kind::failed) fill(k, r);
+  });
+  if (std::find(kinds_.begin(), kinds_.end(), orbit_kind::failed) != kinds_.end()) return std::nullopt;
+  auto row = static_cast<Eigen::Index>(rows - (rows_ - orbit_rows_));  // the priors are the last rows in both layouts
+  for (std::size_t k = 0; k < dwells_.size(); ++k)
+    if (std::isfinite(dwells_[k].timing_sigma)) r[row++] = noise_ * (m.shift.empty() ? 0.0 : m.shift[k]) / dwells_[k].timing_sigma;
+  if (!r.allFinite()) return std::nullopt;
+  return r;
+}
+
+std::optional<Eigen::VectorXd> orbit_predictor::harmonic_residuals(const model_point& m) {
+  prepare_bands();
+  return evaluate(m, true, harmonic_rows_, [&](std::size_t k, Eigen::VectorXd& r) {
     band& b = *bands_[k];
     const dwell& d = dwells_[k].data;
     const double w = d.omega(), w_motion = w / dwells_[k].periods, shift = m.shift.empty() ? 0.0 : m.shift[k];
@@ -434,10 +449,6 @@ std::optional<Eigen::VectorXd> orbit_predictor::harmonic_residuals(const model_p
     r.segment(at, n) = b.Lt.triangularView<Eigen::Upper>() * turned(b.ax, w_motion * shift) - b.target_x;
     r.segment(at + n, n) = b.Lt.triangularView<Eigen::Upper>() * turned(b.ay, w_motion * shift) - b.target_y;
   });
-  if (std::find(kinds_.begin(), kinds_.end(), orbit_kind::failed) != kinds_.end()) return std::nullopt;
-  write_priors(m, r, static_cast<Eigen::Index>(harmonic_rows_ - (rows_ - orbit_rows_)));
-  if (!r.allFinite()) return std::nullopt;
-  return r;
 }
 
 Eigen::MatrixXd orbit_predictor::harmonic_shift_columns(const model_point& m) {
@@ -498,12 +509,7 @@ orbit_anchors orbit_predictor::last_orbits() const {
 }
 
 std::optional<Eigen::VectorXd> orbit_predictor::residuals(const model_point& m) {
-  ++evaluations_;
-  Eigen::VectorXd r(static_cast<Eigen::Index>(rows_));
-  kinds_.assign(dwells_.size(), orbit_kind::failed);
-  parallel_for(dwells_.size(), 0, [&](std::size_t k) {
-    kinds_[k] = predict(k, m, false);
-    if (kinds_[k] == orbit_kind::failed) return;
+  return evaluate(m, false, rows_, [&](std::size_t k, Eigen::VectorXd& r) {
     const dwell& d = dwells_[k].data;
     const auto at = static_cast<Eigen::Index>(offsets_[k]);
     const double w = d.omega(), shift = m.shift.empty() ? 0.0 : m.shift[k];
@@ -515,15 +521,6 @@ std::optional<Eigen::VectorXd> orbit_predictor::residuals(const model_point& m) 
       r[at + static_cast<Eigen::Index>(2 * i + 1)] = ym - d.y[i];
     }
   });
-  if (std::find(kinds_.begin(), kinds_.end(), orbit_kind::failed) != kinds_.end()) return std::nullopt;
-  write_priors(m, r, static_cast<Eigen::Index>(orbit_rows_));
-  if (!r.allFinite()) return std::nullopt;
-  return r;
-}
-
-void orbit_predictor::write_priors(const model_point& m, Eigen::VectorXd& r, Eigen::Index row) const {
-  for (std::size_t k = 0; k < dwells_.size(); ++k)
-    if (std::isfinite(dwells_[k].timing_sigma)) r[row++] = noise_ * (m.shift.empty() ? 0.0 : m.shift[k]) / dwells_[k].timing_sigma;
 }
 
 Eigen::MatrixXd orbit_predictor::shift_columns(const model_point& m) {

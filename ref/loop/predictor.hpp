@@ -140,7 +140,8 @@ class orbit_predictor {
   band& band_of(std::size_t k);
   void prepare_bands();  // every dwell's band and the harmonic rows' layout
   void sort_phases(std::size_t k, double shift, double period);
-  void write_priors(const model_point& m, Eigen::VectorXd& r, Eigen::Index row) const;
+  template <class Fill>
+  std::optional<Eigen::VectorXd> evaluate(const model_point& m, bool harmonics, std::size_t rows, Fill&& fill);
   // The model's orbit in dwell k sampled at the record's phases (harmonics false) or on the band's grid.
   orbit_kind predict(std::size_t k, const model_point& m, bool harmonics);
   enum class shot { converged, failed };
