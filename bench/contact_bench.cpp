@@ -214,6 +214,27 @@ void sample_free_arc(benchmark::State& state) {
       benchmark::Counter(static_cast<double>(state.iterations() * n), benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
 }
 
+// The same arc walked along a uniform grid of as many points (free_flight::arc::walk: how the
+// integrator reads records and the loop's harmonic band): phasors turned by one step's, taken
+// exactly every 32nd point. Counter `samples`: the time per sample, against sample_free_arc's.
+void walk_free_arc(benchmark::State& state) {
+  parameters p = paper_case();
+  p.clearance = 1.0;  // m: free flight only
+  const rotor_system<identified> sys(p, omega(), contact_phase::free);
+  const free_flight<4> ff(*sys.free_dynamics());
+  const auto arc = ff.from(0.0, state_type{1e-4, -2e-4, 0.03, 0.05});
+  constexpr double kSampleRate = 19015.0;  // Hz
+  const auto n = static_cast<std::size_t>(10.0 * sys.period() * kSampleRate);
+  const double dt = sys.period() / static_cast<double>(n);
+  const auto step = ff.step_phasors(dt);
+  for (auto _ : state) {
+    auto walk = arc.walk_by(step);
+    for (std::size_t i = 0; i < n; ++i) benchmark::DoNotOptimize(walk.next(static_cast<double>(i) * dt));
+  }
+  state.counters["samples"] =
+      benchmark::Counter(static_cast<double>(state.iterations() * n), benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
+}
+
 // ---- one steady-state simulation ----------------------------------------------------------
 // 200 revolutions from rest at 1600 rpm, 0.3 mm, 8 recorded at 128 per revolution (the golden
 // case), with located events.
@@ -338,6 +359,7 @@ RUBREF_PER_VARIANT(rk4_handwritten_libm_trig);
 RUBREF_PER_VARIANT(rk4_rubref);
 BENCHMARK(locate_contact_onset);
 BENCHMARK(sample_free_arc)->Unit(benchmark::kMicrosecond);
+BENCHMARK(walk_free_arc)->Unit(benchmark::kMicrosecond);
 
 BENCHMARK_CAPTURE(steady_state, identified_rk4, std::string("identified"), stepper_kind::rk4, 0.0)->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(steady_state, identified_dopri5_1e-6, std::string("identified"), stepper_kind::dopri5, 1e-6)->Unit(benchmark::kMillisecond);

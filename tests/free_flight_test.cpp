@@ -9,6 +9,7 @@
 #include <numbers>
 #include <iomanip>
 #include <random>
+#include <vector>
 
 #include "ref/model/free_flight.hpp"
 #include "ref/model/rotor_model.hpp"
@@ -77,6 +78,67 @@ TEST(free_flight, arc_matches_the_numeric_flow_with_linear_effects) {
     const auto a = arc.at(t), n = numeric_flow(sys, s0, t);
     for (std::size_t i = 0; i < 6; ++i) EXPECT_NEAR(a[i], n[i], i < 2 || i == 4 ? kArcTol : kArcTol * sys.omega()) << i;
   }
+}
+
+// Along a uniform grid an arc is walked (free_flight::arc::walk): its phasors turned by one
+// step's, taken exactly every 32nd point. It must agree with at() to rounding: each term's phasor
+// is ~32 complex multiplies off at most (~1e-14 of the term), and the terms here are at most ~1e-3
+// of a metre, so 1e-16 m (1e-16 m times w for velocities) bounds it with room; a wrong step (a
+// phase off by its last-digit) would already exceed it within one revolution.
+constexpr double kWalkTol = 1e-16;  // m
+
+TEST(free_flight, a_walk_along_a_uniform_grid_is_the_arc) {
+  effect_parameters fx;
+  fx.k_xy = 1500.0;
+  fx.bow = 2e-5;
+  fx.misalignment_force = 0.5;
+  fx.stator_k = 5e6;
+  fx.stator_m = 0.5;
+  fx.stator_c = 100.0;
+  const rotor_with_effects<identified> sys(far_stator(), fx, rpm_to_rad_s(1550.0), {}, contact_phase::free);
+  const free_flight<6> ff(*sys.free_dynamics());
+  const std::array<double, 6> s0{1e-4, -2e-4, 0.03, 0.05, 1e-7, -1e-4};
+  const double t0 = 0.013, dt = sys.period() / 256.0;
+  const auto arc = ff.from(t0, s0);
+  const auto step = ff.step_phasors(dt);
+  auto walk = arc.walk_by(step);
+  for (std::size_t k = 0; k < 3 * 256; ++k) {
+    const double t = t0 + 0.25 * dt + static_cast<double>(k) * dt;
+    const auto w = walk.next(t), a = arc.at(t);
+    for (std::size_t i = 0; i < 6; ++i) {
+      const double tol = i < 2 || i == 4 ? kWalkTol : kWalkTol * sys.omega();
+      if (k % 32 == 0)
+        EXPECT_EQ(w[i], a[i]) << "point " << k << ", component " << i << ": taken exactly";
+      else
+        EXPECT_NEAR(w[i], a[i], tol) << "point " << k << ", component " << i;
+    }
+  }
+}
+
+// The integrator walks free arcs along a uniform grid and reads explicit times with at(): the same
+// orbit either way (through contacts: the paper's rub at 0.3 mm, 1600 rpm).
+TEST(free_flight, a_uniform_grid_samples_as_its_explicit_times) {
+  parameters p;
+  p.clearance = 0.3e-3;
+  const rotor_system<identified> sys(p, rpm_to_rad_s(1600.0), contact_phase::free);
+  integration_options opt = reference_options();
+  const std::size_t n = 4 * 128;
+  const double dt = sys.period() / 128.0, t_end = n * dt;
+  std::vector<double> times(n);
+  for (std::size_t k = 0; k < n; ++k) times[k] = static_cast<double>(k) * dt;
+  struct recorder {
+    std::vector<state_type> states;
+    void on_sample(double, const state_type& s, const rotor_system<identified>&) { states.push_back(s); }
+    void on_event(const basic_contact_event<state_type>&) {}
+  } uniform, listed;
+  const basic_hybrid_state<state_type> start{state_type{0.0, 0.0, 0.0, 0.0}, 0.0, contact_phase::free, 0.0};
+  integrate_hybrid(sys, start, t_end, opt, sample_grid(0.0, dt, n), uniform);
+  integrate_hybrid(sys, start, t_end, opt, sample_grid::at(times), listed);
+  ASSERT_EQ(uniform.states.size(), n);
+  ASSERT_EQ(listed.states.size(), n);
+  for (std::size_t k = 0; k < n; ++k)
+    for (std::size_t i = 0; i < 4; ++i)
+      EXPECT_NEAR(uniform.states[k][i], listed.states[k][i], i < 2 ? kWalkTol : kWalkTol * sys.omega()) << "sample " << k << ", " << i;
 }
 
 // A rigid stator's (w, w') are constants of the flow, kept exactly.

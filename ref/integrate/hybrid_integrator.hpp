@@ -19,6 +19,7 @@
 #include <limits>
 #include <numbers>
 #include <optional>
+#include <variant>
 #include <span>
 #include <sstream>
 #include <string>
@@ -223,6 +224,17 @@ auto exact_free_flight_of(const System& sys, bool wanted) {
   }
 }
 
+// What a free flight's arcs turn by along a uniform grid (free_flight::arc::walk); nothing for
+// propagators that do not walk.
+template <class FreeFlight>
+struct walk_step_of {
+  using type = std::monostate;
+};
+template <int N>
+struct walk_step_of<free_flight<N>> {
+  using type = typename free_flight<N>::arc::phasors;
+};
+
 // A System that carries more than its model's state (ref/integrate/shooting.hpp): its events are
 // its model's, read from the model's part of the state (`head`).
 template <class S>
@@ -383,6 +395,8 @@ basic_hybrid_state<state_of<System>> hybrid_loop(const System& base, Stepper& st
 
   // Exact free flight (ref/model/free_flight.hpp) where the model's is linear.
   auto exact = exact_free_flight_of(base, opt.exact_free_flight);
+  // A uniform grid's step, as free arcs walk along it (made at the first arc that needs it).
+  std::optional<typename walk_step_of<typename decltype(exact)::value_type>::type> grid_step;
   const double min_depth = opt.events.min_depth_fraction * base.clearance();
   double step_hint = first_dt;  // the next numeric step's size
 
@@ -491,6 +505,18 @@ basic_hybrid_state<state_of<System>> hybrid_loop(const System& base, Stepper& st
         throw numerical_error(std::string(e.what()) + " on the free flight from " + describe_state(hs.t, hs.s));
       }
       const double t_stop = onset ? onset->first : t_end;
+      if constexpr (requires { exact->step_phasors(1.0); }) {
+        if (grid.times.empty() && next_sample < grid.count && grid.time(next_sample) <= t_stop) {
+          // A uniform grid: the arc walked along it (free_flight::arc::walk), its step's phasors
+          // made once per integration.
+          if (!grid_step) grid_step = exact->step_phasors(grid.dt);
+          auto walk = arc.walk_by(*grid_step);
+          while (next_sample < grid.count && grid.time(next_sample) <= t_stop) {
+            const double ts = grid.time(next_sample++);
+            obs.on_sample(ts, walk.next(ts), sys);
+          }
+        }
+      }
       while (next_sample < grid.count && grid.time(next_sample) <= t_stop) {
         const double ts = grid.time(next_sample++);
         obs.on_sample(ts, arc.at(ts), sys);

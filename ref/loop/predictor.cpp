@@ -214,7 +214,9 @@ orbit_predictor::band orbit_predictor::harmonic_band(const dwell& d, int periods
   const auto M = static_cast<std::size_t>(4 * H);
   const double period = periods * 2.0 * std::numbers::pi / d.omega();
   b.grid.resize(M);
-  for (std::size_t j = 0; j < M; ++j) b.grid[j] = period * static_cast<double>(j) / static_cast<double>(M);
+  // j spacing, as sample_grid's uniform times are (the integrator walks free arcs along such a grid).
+  b.spacing = period / static_cast<double>(M);
+  for (std::size_t j = 0; j < M; ++j) b.grid[j] = static_cast<double>(j) * b.spacing;
   return b;
 }
 
@@ -305,7 +307,7 @@ orbit_kind orbit_predictor::predict(std::size_t k, const model_point& m, bool ha
   const double shift = m.shift.empty() ? 0.0 : m.shift[k];
   if (!harmonics) sort_phases(k, shift, period);
   band* const b = harmonics ? &*bands_[k] : nullptr;
-  const sample_grid grid = sample_grid::at(harmonics ? b->grid : c.phase);
+  const sample_grid grid = harmonics ? sample_grid(0.0, b->spacing, b->grid.size()) : sample_grid::at(c.phase);
   const std::vector<std::size_t>& order = harmonics ? b->identity : c.order;
   std::vector<rig_state>& states = harmonics ? b->states : c.states;
 

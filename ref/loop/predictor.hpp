@@ -126,7 +126,8 @@ class orbit_predictor {
   // Dwell k's harmonic band: the data's side, computed once, and the model's last harmonics.
   struct band {
     int harmonics = 0;                  // H
-    std::vector<double> grid;           // the M reading phases j T / M
+    double spacing = 0.0;               // T / M
+    std::vector<double> grid;           // the M reading phases j T / M (j spacing: sample_grid's uniform times)
     std::vector<std::size_t> identity;  // grid point j is reading j
     Eigen::MatrixXd Lt;                 // G = Lt^T Lt (upper triangular)
     Eigen::VectorXd target_x, target_y; // Lt a_d, per channel

@@ -142,29 +142,48 @@ class free_flight {
     // real and imaginary parts, then each mode's e^{lambda_j tau} (a conjugate pair's once, its
     // share twice the real part) times the arc's w_rj = weight_j V_rj c_j. Sampling every record
     // sample of every dwell is most of a loop fit's time (docs/orbits.md).
+    // What a state is made of at one time: the forcing's phasor e^{i w t} and each mode's
+    // e^{lambda_j (t - t0)} (at() and walk).
+    struct phasors {
+      std::complex<double> forcing;
+      std::array<std::complex<double>, N> mode{};
+    };
     state at(double t) const {
-      const free_flight& ff = *ff_;
-      const forcing_phasor u = phasor_of(ff.d_.omega * t);
-      const double c2 = u.cos * u.cos - u.sin * u.sin, s2 = 2.0 * u.cos * u.sin;  // the 2X phasor
-      state s;
-      for (std::size_t i = 0; i < N; ++i)
-        s[i] = ff.constant_[i] ? s0_[i]
-                               : ff.p0_[static_cast<Eigen::Index>(i)] + (ff.p_re_[0][i] * u.cos - ff.p_im_[0][i] * u.sin) +
-                                     (ff.p_re_[1][i] * c2 - ff.p_im_[1][i] * s2);
-      const double tau = t - t0_;
-      for (int k = 0; k < modes_; ++k) {
-        const auto j = static_cast<std::size_t>(ff.mode_[static_cast<std::size_t>(k)]);
-        const forcing_phasor e = phasor_of(ff.lambda_im_[j] * tau);
-        const double r = std::exp(ff.lambda_re_[j] * tau), er = r * e.cos, ei = r * e.sin;
-        const auto& wr = w_re_[static_cast<std::size_t>(k)];
-        const auto& wi = w_im_[static_cast<std::size_t>(k)];
-        for (int q = 0; q < ff.n_; ++q) {
-          const auto row = static_cast<std::size_t>(q);
-          s[static_cast<std::size_t>(ff.active_[row])] += wr[row] * er - wi[row] * ei;
-        }
-      }
-      return s;
+      phasors ph;
+      exact_phasors(t, ph);
+      return from_phasors(ph);
     }
+
+    // The states at t, t + dt, t + 2 dt, ... (a uniform grid, as records and the loop's harmonic
+    // band are sampled): the forcing's phasor and each mode's e^{lambda_j tau} are turned by their
+    // fixed step (one complex multiply each) instead of evaluated anew, and taken exactly again
+    // every kExactEvery points, so rounding cannot build up (it stays ~kExactEvery ulps of each
+    // term, ~1e-19 m on a 0.3 mm orbit). A grid point is then about 5x cheaper than at().
+    class walk {
+     public:
+      // `step`: the free flight's step_phasors(dt) for the grid's spacing dt.
+      walk(const arc& a, const phasors& step) : arc_(&a), step_(&step) {}
+      // The state at the next grid point, t (the previous one's t + dt; every kExactEvery-th,
+      // the first included, is at(t) itself).
+      state next(double t) {
+        if (taken_ % kExactEvery == 0) {
+          arc_->exact_phasors(t, now_);
+        } else {
+          now_.forcing *= step_->forcing;
+          for (int k = 0; k < arc_->modes_; ++k) now_.mode[static_cast<std::size_t>(k)] *= step_->mode[static_cast<std::size_t>(k)];
+        }
+        ++taken_;
+        return arc_->from_phasors(now_);
+      }
+
+     private:
+      static constexpr std::size_t kExactEvery = 32;
+      const arc* arc_;
+      const phasors* step_;
+      std::size_t taken_ = 0;
+      phasors now_;
+    };
+    walk walk_by(const phasors& step) const { return walk(*this, step); }
 
     // z and z' at t (z = normal . s - offset), from the projections of the solution on the
     // normal alone: z = l.p0 - offset + Re sum_h (l.P_h) e^{i h w t} + Re sum_j (l.V_j) c_j e^{lambda_j tau}.
@@ -292,6 +311,39 @@ class free_flight {
       return r;
     }
 
+    void exact_phasors(double t, phasors& ph) const {
+      const free_flight& ff = *ff_;
+      const forcing_phasor u = phasor_of(ff.d_.omega * t);
+      ph.forcing = {u.cos, u.sin};
+      const double tau = t - t0_;
+      for (int k = 0; k < modes_; ++k) {
+        const auto j = static_cast<std::size_t>(ff.mode_[static_cast<std::size_t>(k)]);
+        const forcing_phasor e = phasor_of(ff.lambda_im_[j] * tau);
+        const double r = std::exp(ff.lambda_re_[j] * tau);
+        ph.mode[static_cast<std::size_t>(k)] = {r * e.cos, r * e.sin};
+      }
+    }
+    state from_phasors(const phasors& ph) const {
+      const free_flight& ff = *ff_;
+      const double uc = ph.forcing.real(), us = ph.forcing.imag();
+      const double c2 = uc * uc - us * us, s2 = 2.0 * uc * us;  // the 2X phasor
+      state s;
+      for (std::size_t i = 0; i < N; ++i)
+        s[i] = ff.constant_[i] ? s0_[i]
+                               : ff.p0_[static_cast<Eigen::Index>(i)] + (ff.p_re_[0][i] * uc - ff.p_im_[0][i] * us) +
+                                     (ff.p_re_[1][i] * c2 - ff.p_im_[1][i] * s2);
+      for (int k = 0; k < modes_; ++k) {
+        const double er = ph.mode[static_cast<std::size_t>(k)].real(), ei = ph.mode[static_cast<std::size_t>(k)].imag();
+        const auto& wr = w_re_[static_cast<std::size_t>(k)];
+        const auto& wi = w_im_[static_cast<std::size_t>(k)];
+        for (int q = 0; q < ff.n_; ++q) {
+          const auto row = static_cast<std::size_t>(q);
+          s[static_cast<std::size_t>(ff.active_[row])] += wr[row] * er - wi[row] * ei;
+        }
+      }
+      return s;
+    }
+
     const free_flight* ff_;
     double t0_;
     state s0_;
@@ -304,6 +356,22 @@ class free_flight {
   };
 
   arc from(double t0, const state& s0) const { return arc(*this, t0, s0); }
+
+  // One step dt of a uniform grid as arc::walk turns by it: e^{i w dt} and each mode's
+  // e^{lambda_j dt}, in the arcs' mode order (computed once per integration, not per arc).
+  typename arc::phasors step_phasors(double dt) const {
+    typename arc::phasors step;
+    const forcing_phasor u = phasor_of(d_.omega * dt);
+    step.forcing = {u.cos, u.sin};
+    int k = 0;
+    for (int j = 0; j < n_; ++j) {
+      if (weight_[j] == 0.0) continue;
+      const forcing_phasor e = phasor_of(lambda_im_[static_cast<std::size_t>(j)] * dt);
+      const double r = std::exp(lambda_re_[static_cast<std::size_t>(j)] * dt);
+      step.mode[static_cast<std::size_t>(k++)] = {r * e.cos, r * e.sin};
+    }
+    return step;
+  }
 
   // e^{A tau}: the state transition matrix of a free arc of length tau (exact; identity rows for
   // the constant components).
