@@ -82,9 +82,9 @@ TEST(free_flight, arc_matches_the_numeric_flow_with_linear_effects) {
 
 // Along a uniform grid an arc is walked (free_flight::arc::walk): its phasors turned by one
 // step's, taken exactly every 32nd point. It must agree with at() to rounding: each term's phasor
-// is ~32 complex multiplies off at most (~1e-14 of the term), and the terms here are at most ~1e-3
-// of a metre, so 1e-16 m (1e-16 m times w for velocities) bounds it with room; a wrong step (a
-// phase off by its last-digit) would already exceed it within one revolution.
+// is at most ~32 complex multiplies off (~1e-14 of the term), and the terms here are below a
+// millimetre, so 1e-16 m (times w for velocities) bounds it with room. A wrong step, a mode
+// turned by another's step or a missed turn is off by a term's size, far above it.
 constexpr double kWalkTol = 1e-16;  // m
 
 TEST(free_flight, a_walk_along_a_uniform_grid_is_the_arc) {

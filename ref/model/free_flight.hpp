@@ -138,16 +138,17 @@ class free_flight {
 
     double start_time() const noexcept { return t0_; }
 
-    // The state at t, in real arithmetic: the particular solution's harmonics from their cached
-    // real and imaginary parts, then each mode's e^{lambda_j tau} (a conjugate pair's once, its
-    // share twice the real part) times the arc's w_rj = weight_j V_rj c_j. Sampling every record
-    // sample of every dwell is most of a loop fit's time (docs/orbits.md).
     // What a state is made of at one time: the forcing's phasor e^{i w t} and each mode's
     // e^{lambda_j (t - t0)} (at() and walk).
     struct phasors {
       std::complex<double> forcing;
       std::array<std::complex<double>, N> mode{};
     };
+
+    // The state at t, in real arithmetic: the particular solution's harmonics from their cached
+    // real and imaginary parts, then each mode's e^{lambda_j tau} (a conjugate pair's once, its
+    // share twice the real part) times the arc's w_rj = weight_j V_rj c_j. Sampling every record
+    // sample of every dwell is most of a loop fit's time (docs/orbits.md).
     state at(double t) const {
       phasors ph;
       exact_phasors(t, ph);
@@ -156,9 +157,10 @@ class free_flight {
 
     // The states at t, t + dt, t + 2 dt, ... (a uniform grid, as records and the loop's harmonic
     // band are sampled): the forcing's phasor and each mode's e^{lambda_j tau} are turned by their
-    // fixed step (one complex multiply each) instead of evaluated anew, and taken exactly again
-    // every kExactEvery points, so rounding cannot build up (it stays ~kExactEvery ulps of each
-    // term, ~1e-19 m on a 0.3 mm orbit). A grid point is then about 5x cheaper than at().
+    // fixed step (one complex multiply each) instead of evaluated anew (an exponential and a
+    // phasor each), and taken exactly again every kExactEvery points, so rounding cannot build
+    // up: it stays within ~kExactEvery ulps of each term (benchmarks walk_free_arc and
+    // sample_free_arc in bench/contact_bench.cpp time both).
     class walk {
      public:
       // `step`: the free flight's step_phasors(dt) for the grid's spacing dt.
