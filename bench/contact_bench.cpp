@@ -197,14 +197,24 @@ void locate_contact_onset(benchmark::State& state) {
 // One free arc of the paper's rotor (no contact) read at the sorted phases of a 10-revolution
 // record at 19 kHz folded into one revolution: how the loop's predictor samples every dwell at
 // every evaluation (ref/loop/predictor.cpp). Counter `samples`: the time per sample.
+// The paper's rotor with the stator out of reach, its free flight, and the points of a 10-revolution
+// record at 19 kHz: what both free-arc benchmarks read.
+struct paper_free_arc {
+  static constexpr double kSampleRate = 19015.0;  // Hz
+  rotor_system<identified> sys{[] {
+    parameters p = paper_case();
+    p.clearance = 1.0;  // m: free flight only
+    return p;
+  }(), omega(), contact_phase::free};
+  free_flight<4> ff{*sys.free_dynamics()};
+  free_flight<4>::arc arc = ff.from(0.0, state_type{1e-4, -2e-4, 0.03, 0.05});
+  std::size_t n = static_cast<std::size_t>(10.0 * sys.period() * kSampleRate);
+};
+
 void sample_free_arc(benchmark::State& state) {
-  parameters p = paper_case();
-  p.clearance = 1.0;  // m: free flight only
-  const rotor_system<identified> sys(p, omega(), contact_phase::free);
-  const free_flight<4> ff(*sys.free_dynamics());
-  const auto arc = ff.from(0.0, state_type{1e-4, -2e-4, 0.03, 0.05});
-  constexpr double kSampleRate = 19015.0;  // Hz
-  const auto n = static_cast<std::size_t>(10.0 * sys.period() * kSampleRate);
+  const paper_free_arc f;
+  const auto& [sys, ff, arc, n] = f;
+  constexpr double kSampleRate = paper_free_arc::kSampleRate;
   std::vector<double> phases(n);
   for (std::size_t i = 0; i < n; ++i) phases[i] = std::fmod(static_cast<double>(i) / kSampleRate, sys.period());
   std::sort(phases.begin(), phases.end());
@@ -218,13 +228,8 @@ void sample_free_arc(benchmark::State& state) {
 // integrator reads records and the loop's harmonic band): phasors turned by one step's, taken
 // exactly every 32nd point. Counter `samples`: the time per sample, against sample_free_arc's.
 void walk_free_arc(benchmark::State& state) {
-  parameters p = paper_case();
-  p.clearance = 1.0;  // m: free flight only
-  const rotor_system<identified> sys(p, omega(), contact_phase::free);
-  const free_flight<4> ff(*sys.free_dynamics());
-  const auto arc = ff.from(0.0, state_type{1e-4, -2e-4, 0.03, 0.05});
-  constexpr double kSampleRate = 19015.0;  // Hz
-  const auto n = static_cast<std::size_t>(10.0 * sys.period() * kSampleRate);
+  const paper_free_arc f;
+  const auto& [sys, ff, arc, n] = f;
   const double dt = sys.period() / static_cast<double>(n);
   const auto step = ff.step_phasors(dt);
   for (auto _ : state) {
