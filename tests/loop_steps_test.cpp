@@ -443,7 +443,7 @@ TEST(loop_steps, a_jacobians_steps_follow_the_fixed_points_linearisation) {
   steps[0].p.e *= 1.0 + kStep;
   steps[1].p.k_y *= 1.0 + kStep;
   steps[2].p.c_x *= 1.0 + kStep;
-  steps[3].p.k_x *= 1.0 + kStep;
+  steps[3].p.k1 *= 1.0 + kStep;
   const auto near = at.predictor.harmonic_residuals_near(base, steps);
   EXPECT_EQ(at.predictor.linearised(), steps.size() * at.dwells.size()) << "every small step must be predicted";
   EXPECT_EQ(at.predictor.harmonic_shift_columns(base), shift_at_base) << "the predictor must hold the base's orbits";

@@ -33,11 +33,7 @@ constexpr int kFallbackSettleRevs = 30;
 // taken where the map at the predicted state leaves, through (I - M)^-1, less than this share of
 // the predicted change: the prediction's own error is then second order in the step, as a
 // forward difference's is (a step of 1e-3 in scaled coordinates leaves ~1e-3 of it on a smooth
-// map). A contact the step makes or breaks leaves a share of order one, and so does a change of
-// the orbits' own error (~1e-13 m, a coordinate the dwell hardly feels): there a shot from the
-// anchor, whose rounding the base's own shot shares, gives the column (measured on the seed-7919
-// campaign's set #17: predicted columns of such coordinates carried 1e-10 of rounding where the
-// shots' differences carried 1e-13).
+// map); a contact the step makes or breaks leaves a share of order one.
 constexpr double kLinearShare = 1e-2;
 // Below this reciprocal condition of I - M a multiplier lies at 1 to the monodromy's own accuracy:
 // no smooth fixed point to follow (as periodic_orbit_sensitivity, ref/integrate/shooting.hpp).
@@ -532,6 +528,7 @@ std::vector<std::optional<Eigen::VectorXd>> orbit_predictor::harmonic_residuals_
         lu.reset();
       }
     }
+    const double tolerance = orbits_.orbit_error();
     std::vector<rig_state> states;
     for (std::size_t i = 0; i < near.size(); ++i) {
       bool predicted = false;
@@ -548,7 +545,7 @@ std::vector<std::optional<Eigen::VectorXd>> orbit_predictor::harmonic_residuals_
             Eigen::VectorXd left(n);
             for (int j = 0; j < n; ++j) left[j] = end[static_cast<std::size_t>(j)] - s[static_cast<std::size_t>(j)];
             const double error = (lu->solve(left).array().abs() * scale).maxCoeff(), change = (ds.array().abs() * scale).maxCoeff();
-            predicted = std::isfinite(error) && error <= kLinearShare * change;
+            predicted = std::isfinite(error) && error <= kLinearShare * change + tolerance;
           }
         } catch (const numerical_error&) {
         }
