@@ -424,48 +424,6 @@ TEST(loop_steps, harmonic_shift_columns_are_the_harmonic_residuals_derivative) {
   }
 }
 
-// A Jacobian's steps from the fixed points' linearisation (orbit_predictor::harmonic_residuals_near,
-// issue 63 item 3) against each step shot in full: the prediction errs by second order in the
-// step, so by at most a hundredth of the change a step of 1e-3 makes (a forward difference's own
-// error is of the same order); a step that makes a contact where there was none fails the map's
-// check and is shot as harmonic_residuals() does, to the bit; and the predictor is left holding
-// the base's orbits (its shift columns are the base's).
-TEST(loop_steps, a_jacobians_steps_follow_the_fixed_points_linearisation) {
-  at_the_truth at;
-  model_point base = at.truth;
-  base.p.e *= 1.02;  // off the truth: the fit's points are
-  at.predictor.anchor(base);
-  const Eigen::VectorXd r0 = at.predictor.harmonic_residuals(base).value();
-  const Eigen::MatrixXd shift_at_base = at.predictor.harmonic_shift_columns(base);
-  const orbit_anchors orbits_at_base = at.predictor.last_orbits();
-  constexpr double kStep = 1e-3;
-  std::vector<model_point> steps(4, base);
-  steps[0].p.e *= 1.0 + kStep;
-  steps[1].p.k_y *= 1.0 + kStep;
-  steps[2].p.c_x *= 1.0 + kStep;
-  steps[3].p.k1 *= 1.0 + kStep;
-  const auto near = at.predictor.harmonic_residuals_near(base, steps);
-  EXPECT_EQ(at.predictor.linearised(), steps.size() * at.dwells.size()) << "every small step must be predicted";
-  EXPECT_EQ(at.predictor.harmonic_shift_columns(base), shift_at_base) << "the predictor must hold the base's orbits";
-  ASSERT_EQ(near.size(), steps.size());
-  for (std::size_t i = 0; i < steps.size(); ++i) {
-    ASSERT_TRUE(near[i].has_value()) << "step " << i;
-    const Eigen::VectorXd full = at.predictor.harmonic_residuals(steps[i]).value();
-    constexpr double kSecondOrder = 1e-2;  // of the step's change: the prediction's error is O(step^2)
-    const double change = (full - r0).norm();
-    EXPECT_GT(change, 0.0) << "step " << i;
-    EXPECT_LT((*near[i] - full).norm(), kSecondOrder * change) << "step " << i;
-  }
-  model_point contact = base;
-  contact.p.e *= 3.0;  // the 1300 rpm dwell, free at the truth, now rubs
-  const std::size_t before = at.predictor.linearised();
-  const auto across = at.predictor.harmonic_residuals_near(base, {contact});
-  EXPECT_LT(at.predictor.linearised(), before + at.dwells.size()) << "a step across a contact must be shot";
-  EXPECT_EQ(at.predictor.last_orbits(), orbits_at_base) << "the predictor must hold the base's orbits";
-  ASSERT_TRUE(across.front().has_value());
-  EXPECT_EQ(*across.front(), at.predictor.harmonic_residuals(contact).value()) << "... as harmonic_residuals() shoots it";
-}
-
 // The synchronous energy (the synchronous check's and the share rule's measure): at the truth
 // it is the noise's, chi^2 with `dof` degrees of freedom; a forward order-2 whirl of amplitude a
 // added to the residual adds n a^2 per dwell, to within the cross term with the noise.

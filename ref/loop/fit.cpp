@@ -41,36 +41,26 @@ Eigen::MatrixXd fit_problem::jacobian(const Eigen::VectorXd& u, const Eigen::Vec
 Eigen::MatrixXd fit_problem::harmonic_jacobian(const Eigen::VectorXd& u, const Eigen::VectorXd& r0) const { return columns(u, r0, true); }
 
 Eigen::MatrixXd fit_problem::columns(const Eigen::VectorXd& u, const Eigen::VectorXd& r0, bool harmonics) const {
+  const auto residuals = [&](const model_point& m) { return harmonics ? predictor->harmonic_residuals(m) : predictor->residuals(m); };
   Eigen::MatrixXd J = Eigen::MatrixXd::Zero(r0.size(), size());
-  const model_point m = at(u);
-  // Forward steps first; backward for the coordinates whose forward point cannot be computed.
-  // In harmonics every dwell's orbit at a step comes from m's by its fixed point's linearisation
-  // (orbit_predictor::harmonic_residuals_near), which leaves the predictor holding m's orbits.
-  std::vector<std::size_t> open(coords.size());
-  std::iota(open.begin(), open.end(), std::size_t{0});
-  for (const double h : {kStep, -kStep}) {
-    if (open.empty()) break;
-    std::vector<model_point> steps;
-    for (const std::size_t j : open) {
+  for (std::size_t j = 0; j < coords.size(); ++j) {
+    const auto col = static_cast<Eigen::Index>(j);
+    for (const double h : {kStep, -kStep}) {
       Eigen::VectorXd v = u;
-      v[static_cast<Eigen::Index>(j)] += h;
-      steps.push_back(at(v));
+      v[col] += h;
+      if (const auto r = residuals(at(v))) {
+        J.col(col) = (*r - r0) / h;
+        break;
+      }
     }
-    std::vector<std::optional<Eigen::VectorXd>> r;
-    if (harmonics) r = predictor->harmonic_residuals_near(m, steps);
-    else
-      for (const auto& s : steps) r.push_back(predictor->residuals(s));
-    std::vector<std::size_t> still;
-    for (std::size_t i = 0; i < open.size(); ++i)
-      if (r[i]) J.col(static_cast<Eigen::Index>(open[i])) = (*r[i] - r0) / h;
-      else still.push_back(open[i]);
-    open = std::move(still);
   }
-  if (!shifted.empty() && (harmonics ? predictor->hold_harmonics_at(m) : predictor->residuals(m).has_value())) {
-    // The states (or harmonics) at u for the analytic columns.
-    const Eigen::MatrixXd S = harmonics ? predictor->harmonic_shift_columns(m) : predictor->shift_columns(m);
-    for (std::size_t j = 0; j < shifted.size(); ++j)
-      J.col(static_cast<Eigen::Index>(coords.size() + j)) = S.col(static_cast<Eigen::Index>(shifted[j])) * shift_scale[j];
+  if (!shifted.empty()) {
+    const model_point m = at(u);
+    if (residuals(m)) {  // the states (or harmonics) at u for the analytic columns
+      const Eigen::MatrixXd S = harmonics ? predictor->harmonic_shift_columns(m) : predictor->shift_columns(m);
+      for (std::size_t j = 0; j < shifted.size(); ++j)
+        J.col(static_cast<Eigen::Index>(coords.size() + j)) = S.col(static_cast<Eigen::Index>(shifted[j])) * shift_scale[j];
+    }
   }
   return J;
 }

@@ -29,15 +29,6 @@ using model = rotor_with_effects<identified>;
 constexpr int kFirstSettleRevs = 10;
 // Revolutions the model runs from the data's state when Newton finds no periodic orbit there.
 constexpr int kFallbackSettleRevs = 30;
-// A Jacobian's step predicted by the implicit-function theorem (harmonic_residuals_near) is
-// taken where the map at the predicted state leaves, through (I - M)^-1, less than this share of
-// the predicted change: the prediction's own error is then second order in the step, as a
-// forward difference's is (a step of 1e-3 in scaled coordinates leaves ~1e-3 of it on a smooth
-// map); a contact the step makes or breaks leaves a share of order one.
-constexpr double kLinearShare = 1e-2;
-// Below this reciprocal condition of I - M a multiplier lies at 1 to the monodromy's own accuracy:
-// no smooth fixed point to follow (as periodic_orbit_sensitivity, ref/integrate/shooting.hpp).
-constexpr double kMinCondition = 1e-8;
 
 // Puts each sample of a flow on the sorted grid straight into its record sample's place.
 struct state_recorder {
@@ -60,11 +51,10 @@ rig_state flow(const model& sys, const rig_state& s, double period, const integr
 // The flow over one period sampled on the sorted grid into `states` (record sample order); false
 // when the grid's samples were not all reported.
 bool sample_flow(const model& sys, const rig_state& s, double period, const integration_options& opt, const sample_grid& grid,
-                 const std::vector<std::size_t>& order, std::vector<rig_state>& states, rig_state* end = nullptr) {
+                 const std::vector<std::size_t>& order, std::vector<rig_state>& states) {
   states.resize(order.size());
   state_recorder rec{&states, &order};
-  const auto last = integrate_hybrid(sys, start_state(sys, s, 0.0), period, opt, grid, rec);
-  if (end) *end = last.s;
+  integrate_hybrid(sys, start_state(sys, s, 0.0), period, opt, grid, rec);
   return rec.count == order.size();
 }
 
@@ -365,7 +355,6 @@ orbit_predictor::shot orbit_predictor::shoot(std::size_t k, const model_point& m
     if (!orbit.converged) return shot::failed;
     if (!sample_flow(sys, orbit.state, period, opt, grid, order, states)) return shot::failed;
     c.last = orbit.state;
-    c.monodromy = orbit.monodromy;
     c.last_ok = true;
     return shot::converged;
   } catch (const numerical_error&) {
@@ -427,7 +416,6 @@ std::array<double, 2> orbit_predictor::band_reading(std::size_t k, double t, dou
 template <class Fill>
 std::optional<Eigen::VectorXd> orbit_predictor::evaluate(const model_point& m, bool harmonics, std::size_t rows, Fill&& fill) {
   ++evaluations_;
-  evaluated_.reset();
   Eigen::VectorXd r(static_cast<Eigen::Index>(rows));
   kinds_.assign(dwells_.size(), orbit_kind::failed);
   parallel_for(dwells_.size(), 0, [&](std::size_t k) {
@@ -435,143 +423,34 @@ std::optional<Eigen::VectorXd> orbit_predictor::evaluate(const model_point& m, b
     if (kinds_[k] != orbit_kind::failed) fill(k, r);
   });
   if (std::find(kinds_.begin(), kinds_.end(), orbit_kind::failed) != kinds_.end()) return std::nullopt;
-  fill_priors(m, r);
+  auto row = static_cast<Eigen::Index>(rows - (rows_ - orbit_rows_));  // the priors are the last rows in both layouts
+  for (std::size_t k = 0; k < dwells_.size(); ++k)
+    if (std::isfinite(dwells_[k].timing_sigma)) r[row++] = noise_ * (m.shift.empty() ? 0.0 : m.shift[k]) / dwells_[k].timing_sigma;
   if (!r.allFinite()) return std::nullopt;
   return r;
 }
 
-void orbit_predictor::fill_priors(const model_point& m, Eigen::VectorXd& r) const {
-  auto row = static_cast<Eigen::Index>(static_cast<std::size_t>(r.size()) - (rows_ - orbit_rows_));  // the last rows in both layouts
-  for (std::size_t k = 0; k < dwells_.size(); ++k)
-    if (std::isfinite(dwells_[k].timing_sigma)) r[row++] = noise_ * (m.shift.empty() ? 0.0 : m.shift[k]) / dwells_[k].timing_sigma;
-}
-
-std::pair<Eigen::VectorXd, Eigen::VectorXd> orbit_predictor::fill_harmonics(std::size_t k, const model_point& m, const std::vector<rig_state>& states,
-                                                                            Eigen::VectorXd& r) const {
-  const band& b = *bands_[k];
-  const dwell& d = dwells_[k].data;
-  const double w = d.omega(), w_motion = w / dwells_[k].periods, shift = m.shift.empty() ? 0.0 : m.shift[k];
-  // The readings on the grid: grid point j is the model at t + s = j T / M, the shaft at w (t + s).
-  const probe_model probes(m.fx);
-  const std::size_t M = b.grid.size();
-  std::vector<double> rx(M), ry(M);
-  for (std::size_t j = 0; j < M; ++j) {
-    const auto& s = states[j];
-    const auto reading = probes(s[idx::x], s[idx::y], w * b.grid[j]);
-    rx[j] = reading[0];
-    ry[j] = reading[1];
-  }
-  auto a = harmonics_on_grid(rx, ry, b.harmonics);
-  const auto n = static_cast<Eigen::Index>(2 * b.harmonics + 1), at = static_cast<Eigen::Index>(harmonic_offsets_[k]);
-  r.segment(at, n) = b.Lt.triangularView<Eigen::Upper>() * turned(a.first, w_motion * shift) - b.target_x;
-  r.segment(at + n, n) = b.Lt.triangularView<Eigen::Upper>() * turned(a.second, w_motion * shift) - b.target_y;
-  return a;
-}
-
 std::optional<Eigen::VectorXd> orbit_predictor::harmonic_residuals(const model_point& m) {
   prepare_bands();
-  auto r = evaluate(m, true, harmonic_rows_, [&](std::size_t k, Eigen::VectorXd& rows) {
+  return evaluate(m, true, harmonic_rows_, [&](std::size_t k, Eigen::VectorXd& r) {
     band& b = *bands_[k];
-    std::tie(b.ax, b.ay) = fill_harmonics(k, m, b.states, rows);
-  });
-  if (r) evaluated_ = m;
-  return r;
-}
-
-bool orbit_predictor::hold_harmonics_at(const model_point& m) { return (evaluated_ && *evaluated_ == m) || harmonic_residuals(m); }
-
-std::vector<std::optional<Eigen::VectorXd>> orbit_predictor::harmonic_residuals_near(const model_point& base, const std::vector<model_point>& near) {
-  std::vector<std::optional<Eigen::VectorXd>> out(near.size());
-  if (near.empty()) return out;
-  if (!hold_harmonics_at(base)) {
-    // No orbits at base to predict from: every point shot, as harmonic_residuals() does.
-    for (std::size_t i = 0; i < near.size(); ++i) out[i] = harmonic_residuals(near[i]);
-    return out;
-  }
-  evaluations_ += near.size();
-  for (auto& r : out) r = Eigen::VectorXd(static_cast<Eigen::Index>(harmonic_rows_));
-  std::vector<std::vector<orbit_kind>> kinds(near.size(), kinds_);
-  std::vector<std::size_t> linearised(dwells_.size(), 0);  // per dwell: the threads write their own
-  parallel_for(dwells_.size(), 0, [&](std::size_t k) {
-    cache& c = caches_[k];
-    band& b = *bands_[k];
-    // base's orbit (restored below: a dwell shot in full here overwrites it; the band's harmonics it does not).
-    const rig_state base_orbit = c.last;
-    const bool base_ok = c.last_ok;
-    const square_matrix<6> base_monodromy = c.monodromy;
-    const orbit_kind kind_at_base = kinds_[k];
     const dwell& d = dwells_[k].data;
-    const int periods = dwells_[k].periods;
-    const double w = d.omega(), period = periods * 2.0 * std::numbers::pi / w;
-    const integration_options map_opt = fit_shooting(periods, orbits_).integration, sample_opt = fit_sampling(periods, orbits_);
-    const auto system_at = [&](const model_point& m) {
-      parameters p = m.p;
-      p.clearance = d.clearance;
-      return model(p, m.fx, w);
-    };
-    // The fixed point's linearisation at base: P(s*, p), and (I - M) on the moving states.
-    std::optional<Eigen::PartialPivLU<Eigen::MatrixXd>> lu;
-    rig_state at_p{};
-    int n = 0;
-    Eigen::ArrayXd scale;
-    if (kind_at_base == orbit_kind::periodic && base_ok) {
-      const model sys = system_at(base);
-      n = moving_states(sys);
-      scale = Eigen::ArrayXd::Ones(n);
-      for (int i = 2; i < std::min(n, 4); ++i) scale[i] = 1.0 / std::abs(w);  // velocities as positions over a radian (the shooting's)
-      if (n == 6) scale[5] = 1.0 / std::abs(w);
-      try {
-        at_p = flow(sys, base_orbit, period, map_opt);
-        lu.emplace(Eigen::MatrixXd::Identity(n, n) - base_monodromy.topLeftCorner(n, n));
-        if (!(lu->rcond() > kMinCondition)) lu.reset();
-      } catch (const numerical_error&) {
-        lu.reset();
-      }
+    const double w = d.omega(), w_motion = w / dwells_[k].periods, shift = m.shift.empty() ? 0.0 : m.shift[k];
+    // The readings on the grid: grid point j is the model at t + s = j T / M, the shaft at w (t + s).
+    const probe_model probes(m.fx);
+    const std::size_t M = b.grid.size();
+    std::vector<double> rx(M), ry(M);
+    for (std::size_t j = 0; j < M; ++j) {
+      const auto& s = b.states[j];
+      const auto reading = probes(s[idx::x], s[idx::y], w * b.grid[j]);
+      rx[j] = reading[0];
+      ry[j] = reading[1];
     }
-    const double tolerance = orbits_.orbit_error();
-    std::vector<rig_state> states;
-    for (std::size_t i = 0; i < near.size(); ++i) {
-      bool predicted = false;
-      if (lu) try {
-          const model sys = system_at(near[i]);
-          const rig_state moved = flow(sys, base_orbit, period, map_opt);
-          Eigen::VectorXd dp(n);
-          for (int j = 0; j < n; ++j) dp[j] = moved[static_cast<std::size_t>(j)] - at_p[static_cast<std::size_t>(j)];
-          const Eigen::VectorXd ds = lu->solve(dp);
-          rig_state s = base_orbit;
-          for (int j = 0; j < n; ++j) s[static_cast<std::size_t>(j)] += ds[j];
-          rig_state end{};
-          if (sample_flow(sys, s, period, sample_opt, sample_grid(0.0, b.spacing, b.grid.size()), b.identity, states, &end)) {
-            Eigen::VectorXd left(n);
-            for (int j = 0; j < n; ++j) left[j] = end[static_cast<std::size_t>(j)] - s[static_cast<std::size_t>(j)];
-            const double error = (lu->solve(left).array().abs() * scale).maxCoeff(), change = (ds.array().abs() * scale).maxCoeff();
-            predicted = std::isfinite(error) && error <= kLinearShare * change + tolerance;
-          }
-        } catch (const numerical_error&) {
-        }
-      if (predicted) {
-        ++linearised[k];
-        kinds[i][k] = orbit_kind::periodic;
-        (void)fill_harmonics(k, near[i], states, *out[i]);
-      } else {
-        kinds[i][k] = predict(k, near[i], true);
-        if (kinds[i][k] != orbit_kind::failed) (void)fill_harmonics(k, near[i], b.states, *out[i]);
-      }
-    }
-    c.last = base_orbit;
-    c.last_ok = base_ok;
-    c.monodromy = base_monodromy;
+    std::tie(b.ax, b.ay) = harmonics_on_grid(rx, ry, b.harmonics);
+    const auto n = static_cast<Eigen::Index>(2 * b.harmonics + 1), at = static_cast<Eigen::Index>(harmonic_offsets_[k]);
+    r.segment(at, n) = b.Lt.triangularView<Eigen::Upper>() * turned(b.ax, w_motion * shift) - b.target_x;
+    r.segment(at + n, n) = b.Lt.triangularView<Eigen::Upper>() * turned(b.ay, w_motion * shift) - b.target_y;
   });
-  linearised_ = std::accumulate(linearised.begin(), linearised.end(), linearised_);
-  for (std::size_t i = 0; i < near.size(); ++i) {
-    if (std::find(kinds[i].begin(), kinds[i].end(), orbit_kind::failed) != kinds[i].end()) {
-      out[i].reset();
-      continue;
-    }
-    fill_priors(near[i], *out[i]);
-    if (!out[i]->allFinite()) out[i].reset();
-  }
-  return out;
 }
 
 Eigen::MatrixXd orbit_predictor::harmonic_shift_columns(const model_point& m) {
@@ -599,7 +478,6 @@ const std::array<double, 4>& orbit_predictor::data_state(std::size_t k) {
 }
 
 void orbit_predictor::reset() {
-  evaluated_.reset();  // its orbits were followed from the anchors now dropped
   for (auto& c : caches_) c.started = c.last_ok = false;  // the sorted phases stay: they depend on the timing alone
 }
 

@@ -36,7 +36,6 @@ struct model_point {
   parameters p;                  // delta is taken per dwell from its record
   effect_parameters fx;
   std::vector<double> shift;     // s, per dwell
-  friend bool operator==(const model_point&, const model_point&) = default;
 };
 
 // Time within the revolution, in [0, period): where a sample at time tau falls on the periodic orbit.
@@ -79,18 +78,6 @@ class orbit_predictor {
   // for a model without readings above the band (the band ends at a quarter of a dwell's sampling
   // rate: the Gram matrix of one revolution's samples alone is then well conditioned).
   std::optional<Eigen::VectorXd> harmonic_residuals(const model_point& m);
-  // harmonic_residuals() at points `near` a point `base` (a Jacobian's steps), each dwell's orbit
-  // taken from base's by the implicit-function theorem on its fixed point s* = P(s*, p):
-  // s*(p') ~ s* + (I - M)^-1 (P(s*, p') - P(s*, p)), M the monodromy base's shooting already has
-  // (issue 63, item 3). Two plain flows per point and dwell, in place of a shooting (Newton with
-  // the variational equations). The map at the predicted state checks it: where it leaves more
-  // than kLinearShare of the step (a contact the step makes or breaks), or where base's orbit is
-  // not periodic, the dwell is shot as harmonic_residuals() does. Leaves the predictor as its
-  // evaluation at base does (harmonic_shift_columns() then holds base's).
-  std::vector<std::optional<Eigen::VectorXd>> harmonic_residuals_near(const model_point& base, const std::vector<model_point>& near);
-  // Whether the caches hold harmonic_residuals()' orbits at m (evaluated there unless the last
-  // evaluation was at m); false where they cannot be computed.
-  bool hold_harmonics_at(const model_point& m);
   std::size_t harmonic_rows();
   // Sum over dwells of |d - B a_d|^2 (m^2): what no model within the band can fit.
   double harmonic_offset();
@@ -105,8 +92,6 @@ class orbit_predictor {
 
   // How many residuals() calls this predictor has made (the loop's cost: each shoots every dwell).
   std::size_t evaluations() const { return evaluations_; }
-  // How many dwells' orbits harmonic_residuals_near() took from the linearisation (the rest it shot).
-  std::size_t linearised() const { return linearised_; }
   // Per dwell, how the last residuals() call got its orbit.
   const std::vector<orbit_kind>& kinds() const { return kinds_; }
   // The derivative of every residual with respect to each dwell's shift (columns by dwell).
@@ -136,7 +121,6 @@ class orbit_predictor {
     std::vector<std::array<double, 6>> states;  // model state at each sample (sample order)
     std::array<double, 6> last{};       // the last converged orbit's state at t = 0
     bool last_ok = false;
-    square_matrix<6> monodromy = square_matrix<6>::Zero();  // and its monodromy
     std::optional<std::array<double, 4>> in_data;  // the data's state at t = 0 (x, y, vx, vy), once fitted
   };
   // Dwell k's harmonic band: the data's side, computed once, and the model's last harmonics.
@@ -157,11 +141,6 @@ class orbit_predictor {
   band& band_of(std::size_t k);
   void prepare_bands();  // every dwell's band and the harmonic rows' layout
   void sort_phases(std::size_t k, double shift, double period);
-  // Dwell k's rows of harmonic_residuals() at m from its model states on the band's grid; the model's harmonics (shift 0).
-  std::pair<Eigen::VectorXd, Eigen::VectorXd> fill_harmonics(std::size_t k, const model_point& m, const std::vector<std::array<double, 6>>& states,
-                                                             Eigen::VectorXd& r) const;
-  // The shift priors, the last rows of both layouts.
-  void fill_priors(const model_point& m, Eigen::VectorXd& r) const;
   template <class Fill>
   std::optional<Eigen::VectorXd> evaluate(const model_point& m, bool harmonics, std::size_t rows, Fill&& fill);
   // The model's orbit in dwell k sampled at the record's phases (harmonics false) or on the band's grid.
@@ -178,11 +157,9 @@ class orbit_predictor {
   std::vector<std::size_t> offsets_;
   std::size_t rows_ = 0, orbit_rows_ = 0;
   std::size_t evaluations_ = 0;
-  std::size_t linearised_ = 0;
   std::vector<std::optional<band>> bands_;
   std::vector<std::size_t> harmonic_offsets_;
   std::size_t harmonic_rows_ = 0;
-  std::optional<model_point> evaluated_;  // the point of the last successful harmonic_residuals() (its orbits in the caches)
 };
 
 }  // namespace rubref
