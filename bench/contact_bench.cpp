@@ -194,9 +194,6 @@ void locate_contact_onset(benchmark::State& state) {
 }
 
 // ---- reading a free flight at record samples ------------------------------------------------
-// One free arc of the paper's rotor (no contact) read at the sorted phases of a 10-revolution
-// record at 19 kHz folded into one revolution: how the loop's predictor samples every dwell at
-// every evaluation (ref/loop/predictor.cpp). Counter `samples`: the time per sample.
 // The paper's rotor with the stator out of reach, its free flight, and the points of a 10-revolution
 // record at 19 kHz: what both free-arc benchmarks read.
 struct paper_free_arc {
@@ -211,12 +208,14 @@ struct paper_free_arc {
   std::size_t n = static_cast<std::size_t>(10.0 * sys.period() * kSampleRate);
 };
 
+// The arc read at the record's sample phases folded into one revolution and sorted: how the
+// loop's predictor reads a dwell at the record's samples (ref/loop/predictor.cpp). Counter
+// `samples`: the time per sample.
 void sample_free_arc(benchmark::State& state) {
   const paper_free_arc f;
   const auto& [sys, ff, arc, n] = f;
-  constexpr double kSampleRate = paper_free_arc::kSampleRate;
   std::vector<double> phases(n);
-  for (std::size_t i = 0; i < n; ++i) phases[i] = std::fmod(static_cast<double>(i) / kSampleRate, sys.period());
+  for (std::size_t i = 0; i < n; ++i) phases[i] = std::fmod(static_cast<double>(i) / paper_free_arc::kSampleRate, sys.period());
   std::sort(phases.begin(), phases.end());
   for (auto _ : state)
     for (const double t : phases) benchmark::DoNotOptimize(arc.at(t));
