@@ -16,7 +16,7 @@ std::string_view to_string(contact_regime r) {
   return "?";
 }
 
-orbit_summary summarize(const orbit& o) {
+orbit_summary summarize(const orbit& o, summary_spectrum spectrum) {
   orbit_summary out;
   if (o.samples.empty()) return out;
   const double clearance = o.request.params.clearance;
@@ -79,9 +79,10 @@ orbit_summary summarize(const orbit& o) {
 
   // Sample spacing and start in revolutions: the spectrum comes out in orders.
   const double revs_per_second = o.request.rpm / 60.0;
-  out.spectrum = full_spectrum(x, y, 1.0 / o.request.samples_per_rev, o.samples.front().t * revs_per_second);
-  out.forward_1x = out.spectrum.at(+1.0);
-  out.backward_1x = out.spectrum.at(-1.0);
+  const double dt = 1.0 / o.request.samples_per_rev, t0 = o.samples.front().t * revs_per_second;
+  if (spectrum == summary_spectrum::full) out.spectrum = full_spectrum(x, y, dt, t0);
+  out.forward_1x = spectrum_line(x, y, dt, t0, +1.0);
+  out.backward_1x = spectrum_line(x, y, dt, t0, -1.0);
   return out;
 }
 

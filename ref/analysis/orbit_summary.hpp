@@ -33,7 +33,8 @@ struct orbit_summary {
   double contact_episodes_per_rev = 0.0;   // onsets (compliant laws) or impacts (impact law)
   double contact_fraction = 0.0;           // share of samples with f_N > 0
   contact_regime regime = contact_regime::no_contact;
-  directional_spectrum spectrum;           // full spectrum of x + j y, frequency in orders (Eq. 7)
+  directional_spectrum spectrum;           // full spectrum of x + j y, frequency in orders (Eq. 7);
+                                           // empty unless asked for (summary_spectrum::full)
   std::complex<double> forward_1x{};       // m, coefficient of e^{+j w t}
   std::complex<double> backward_1x{};      // m, coefficient of e^{-j w t}
   bool backward_whirl() const { return std::abs(backward_1x) > std::abs(forward_1x); }
@@ -45,6 +46,11 @@ struct orbit_summary {
 // Shared with `rubref validate`'s candidate period (ref/validation/diagnosis.hpp).
 inline constexpr double kRepeatRelTol = 1e-3;
 
-orbit_summary summarize(const orbit& o);
+// What summarize computes of the spectrum: the 1X lines (forward_1x, backward_1x, by direct sums:
+// no FFT plan, docs/performance.md "Process start"), or the full spectrum too (the sweep's orders
+// and waterfall).
+enum class summary_spectrum { one_x, full };
+
+orbit_summary summarize(const orbit& o, summary_spectrum spectrum = summary_spectrum::one_x);
 
 }  // namespace rubref

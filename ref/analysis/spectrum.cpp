@@ -45,6 +45,25 @@ fftw_plan forward_plan(int n) {
   return it->second;
 }
 
+// The shared parts of full_spectrum and spectrum_line: input checks, the window, the shift of the
+// DFT's phase from the first sample to t = 0, and the bin nearest to f.
+void check_series(std::span<const double> x, std::span<const double> y, double dt) {
+  if (x.size() < 2 || y.size() != x.size()) throw input_error("full spectrum needs two equally long series of at least 2 samples");
+  if (!(dt > 0.0) || !std::isfinite(dt)) throw input_error("full spectrum needs a positive sample spacing");
+}
+
+// Periodic Hann: zero at the first sample, its coherent gain (mean) is exactly 1/2.
+double window_weight(window_kind window, std::size_t i, std::size_t n) {
+  return window == window_kind::hann ? 0.5 - 0.5 * std::cos(2.0 * std::numbers::pi * i / n) : 1.0;
+}
+
+std::complex<double> phase_to_time_zero(double f, double t0) {
+  const double phase = -2.0 * std::numbers::pi * f * t0;
+  return {std::cos(phase), std::sin(phase)};
+}
+
+std::ptrdiff_t first_bin(std::size_t n) { return -static_cast<std::ptrdiff_t>(n / 2); }
+
 }  // namespace
 
 std::complex<double> directional_spectrum::at(double f) const {
@@ -56,15 +75,12 @@ std::complex<double> directional_spectrum::at(double f) const {
 
 directional_spectrum full_spectrum(std::span<const double> x, std::span<const double> y, double dt, double t0,
                                    window_kind window) {
+  check_series(x, y, dt);
   const std::size_t n = x.size();
-  if (n < 2 || y.size() != n) throw input_error("full spectrum needs two equally long series of at least 2 samples");
-  if (!(dt > 0.0) || !std::isfinite(dt)) throw input_error("full spectrum needs a positive sample spacing");
-
   std::vector<std::complex<double>> in(n), out(n);
   double weight_sum = 0.0;
   for (std::size_t i = 0; i < n; ++i) {
-    // Periodic Hann: zero at the first sample, its coherent gain (mean) is exactly 1/2.
-    const double w = window == window_kind::hann ? 0.5 - 0.5 * std::cos(2.0 * std::numbers::pi * i / n) : 1.0;
+    const double w = window_weight(window, i, n);
     weight_sum += w;
     in[i] = w * std::complex<double>(x[i], y[i]);
   }
@@ -75,17 +91,36 @@ directional_spectrum full_spectrum(std::span<const double> x, std::span<const do
   s.resolution = 1.0 / (static_cast<double>(n) * dt);
   s.frequency.resize(n);
   s.coefficient.resize(n);
-  const std::ptrdiff_t first = -static_cast<std::ptrdiff_t>(n / 2);
   for (std::size_t i = 0; i < n; ++i) {
-    const std::ptrdiff_t k = first + static_cast<std::ptrdiff_t>(i);
+    const std::ptrdiff_t k = first_bin(n) + static_cast<std::ptrdiff_t>(i);
     const std::size_t bin = static_cast<std::size_t>((k + static_cast<std::ptrdiff_t>(n)) % static_cast<std::ptrdiff_t>(n));
     const double f = static_cast<double>(k) * s.resolution;
-    // The DFT phase refers to the first sample; shift it to t = 0.
-    const double phase = -2.0 * std::numbers::pi * f * t0;
     s.frequency[i] = f;
-    s.coefficient[i] = out[bin] / weight_sum * std::complex<double>(std::cos(phase), std::sin(phase));
+    s.coefficient[i] = out[bin] / weight_sum * phase_to_time_zero(f, t0);
   }
   return s;
+}
+
+std::complex<double> spectrum_line(std::span<const double> x, std::span<const double> y, double dt, double t0, double f,
+                                   window_kind window) {
+  check_series(x, y, dt);
+  const std::size_t n = x.size();
+  const double resolution = 1.0 / (static_cast<double>(n) * dt);
+  // The bin directional_spectrum::at would pick, by the same arithmetic.
+  const double index = std::round((f - static_cast<double>(first_bin(n)) * resolution) / resolution);
+  if (!(index >= 0.0 && index < static_cast<double>(n))) return {};
+  const std::ptrdiff_t k = first_bin(n) + static_cast<std::ptrdiff_t>(index);
+  const std::size_t bin = static_cast<std::size_t>((k + static_cast<std::ptrdiff_t>(n)) % static_cast<std::ptrdiff_t>(n));
+  std::complex<double> sum{};
+  double weight_sum = 0.0;
+  for (std::size_t i = 0; i < n; ++i) {
+    const double w = window_weight(window, i, n);
+    weight_sum += w;
+    // e^{-j 2 pi bin i / N} from bin i mod N: the angle stays below 2 pi, as exact as one twiddle.
+    const double angle = -2.0 * std::numbers::pi * static_cast<double>((bin * i) % n) / static_cast<double>(n);
+    sum += w * std::complex<double>(x[i], y[i]) * std::complex<double>(std::cos(angle), std::sin(angle));
+  }
+  return sum / weight_sum * phase_to_time_zero(static_cast<double>(k) * resolution, t0);
 }
 
 }  // namespace rubref

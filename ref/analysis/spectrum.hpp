@@ -6,7 +6,7 @@
 // re-referenced to t = 0, so a pure whirl r = A e^{j(2 pi f t + phi)} on a bin gives c = A e^{j phi}
 // at +f and nothing at -f. With the rectangular window over whole revolutions (order-synchronous
 // sampling) every harmonic and every subharmonic 1/m with m dividing the revolutions sits on a
-// bin: no leakage. Computed with FFTW.
+// bin: no leakage. Computed with FFTW; one line by a direct sum (spectrum_line).
 
 #include <complex>
 #include <span>
@@ -30,6 +30,13 @@ struct directional_spectrum {
 
 // x, y: N >= 2 uniform samples, spacing `dt`, the first at time `t0` (same unit as dt).
 directional_spectrum full_spectrum(std::span<const double> x, std::span<const double> y, double dt, double t0,
+                                   window_kind window = window_kind::rectangular);
+
+// full_spectrum(x, y, dt, t0, window).at(f) by a direct sum over the samples: the same line and
+// scaling, equal to round-off. For a line or two of one series (an orbit's 1X) it is O(N) and
+// needs no FFTW plan, whose first one costs a process about half a millisecond (FFTW registers
+// every codelet; docs/performance.md, "Process start").
+std::complex<double> spectrum_line(std::span<const double> x, std::span<const double> y, double dt, double t0, double f,
                                    window_kind window = window_kind::rectangular);
 
 }  // namespace rubref
