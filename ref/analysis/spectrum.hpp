@@ -34,8 +34,8 @@ directional_spectrum full_spectrum(std::span<const double> x, std::span<const do
 
 // full_spectrum(x, y, dt, t0, window).at(f) by a direct sum over the samples: the same line and
 // scaling, equal to round-off. For a line or two of one series (an orbit's 1X) it is O(N) and
-// needs no FFTW plan, whose first one costs a process about half a millisecond (FFTW registers
-// every codelet; docs/performance.md, "Process start").
+// needs no FFTW plan, whose first one in a process (FFTW registers every codelet) took
+// `rubref orbit` about as long as its shooting (docs/performance.md, "Process start").
 std::complex<double> spectrum_line(std::span<const double> x, std::span<const double> y, double dt, double t0, double f,
                                    window_kind window = window_kind::rectangular);
 
