@@ -8,7 +8,9 @@
 #include <numbers>
 
 #include "ref/base/errors.hpp"
+#include "ref/analysis/orbit_summary.hpp"
 #include "ref/model/closed_form.hpp"
+#include "ref/run/simulate.hpp"
 #include "ref/sweep/sweep.hpp"
 #include "ref/sweep/sweep_io.hpp"
 
@@ -46,6 +48,26 @@ TEST(sweep, bad_settings_are_rejected) {
   s.record_revs = 12;
   s.params.k1 = -1;
   EXPECT_THROW(validate(s), input_error);
+}
+
+// A summary asked for the 1X alone (rubref orbit's and simulate's) is the full one without the
+// spectrum: the same 1X bits (both from spectrum_line) and the same scalars. The full spectrum's
+// own 1X lines agree with them to an FFT's round-off relative to the orbit (kLineRelTol: log2 N
+// eps per operation over its N = 2560 samples, with margin).
+TEST(sweep, a_summary_of_the_1x_alone_is_the_full_one_without_the_spectrum) {
+  constexpr double kLineRelTol = 1e-13;
+  run_request rub;  // the paper's identified law at 1600 rpm, 0.3 mm: a partial rub
+  const orbit o = simulate(rub);
+  const orbit_summary full = summarize(o), one_x = summarize(o, summary_spectrum::one_x);
+  ASSERT_FALSE(full.spectrum.coefficient.empty());
+  EXPECT_TRUE(one_x.spectrum.coefficient.empty());
+  EXPECT_EQ(full.forward_1x, one_x.forward_1x);
+  EXPECT_EQ(full.backward_1x, one_x.backward_1x);
+  EXPECT_EQ(full.max_radius, one_x.max_radius);
+  EXPECT_EQ(full.regime, one_x.regime);
+  EXPECT_NE(full.regime, contact_regime::no_contact);
+  EXPECT_LE(std::abs(full.spectrum.at(+1.0) - full.forward_1x), kLineRelTol * full.max_radius);
+  EXPECT_LE(std::abs(full.spectrum.at(-1.0) - full.backward_1x), kLineRelTol * full.max_radius);
 }
 
 // Without contact every point of a sweep, in either direction, is the closed-form orbit: the

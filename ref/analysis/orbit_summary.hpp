@@ -34,7 +34,7 @@ struct orbit_summary {
   double contact_fraction = 0.0;           // share of samples with f_N > 0
   contact_regime regime = contact_regime::no_contact;
   directional_spectrum spectrum;           // full spectrum of x + j y, frequency in orders (Eq. 7);
-                                           // empty unless asked for (summary_spectrum::full)
+                                           // empty where summarize was asked for the 1X alone
   std::complex<double> forward_1x{};       // m, coefficient of e^{+j w t}
   std::complex<double> backward_1x{};      // m, coefficient of e^{-j w t}
   bool backward_whirl() const { return std::abs(backward_1x) > std::abs(forward_1x); }
@@ -46,11 +46,12 @@ struct orbit_summary {
 // Shared with `rubref validate`'s candidate period (ref/validation/diagnosis.hpp).
 inline constexpr double kRepeatRelTol = 1e-3;
 
-// What summarize computes of the spectrum: the 1X lines (forward_1x, backward_1x, by direct sums:
-// no FFT plan, docs/performance.md "Process start"), or the full spectrum too (the sweep's orders
-// and waterfall).
-enum class summary_spectrum { one_x, full };
+// What summarize computes of the spectrum: the full spectrum and its 1X lines, or the 1X lines
+// alone, for a caller that reads nothing else of it (a command's one summary: no FFT plan, which
+// costs a process about as much as an orbit's shooting; docs/performance.md "Process start").
+// The 1X lines come from direct sums either way (spectrum_line): the same bits in both.
+enum class summary_spectrum { full, one_x };
 
-orbit_summary summarize(const orbit& o, summary_spectrum spectrum = summary_spectrum::one_x);
+orbit_summary summarize(const orbit& o, summary_spectrum spectrum = summary_spectrum::full);
 
 }  // namespace rubref

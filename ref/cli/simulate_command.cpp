@@ -49,7 +49,7 @@ void add_simulate(CLI::App& app) {
     check_output_file(st->out, {st->params.file()}, st->force);  // before the work, not after it
     check_output_file(summary, {st->params.file(), st->out}, st->force);
     const orbit o = simulate(req);
-    const orbit_summary s = summarize(o);
+    const orbit_summary s = summarize(o, summary_spectrum::one_x);  // to_json writes the 1X alone
     atomic_output files;
     files.stage(st->out, to_csv(to_record(o)));
     files.stage(summary, to_json(s, o).dump(2) + "\n");

@@ -18,7 +18,7 @@ record periodic_orbit_record(const periodic_orbit_request& req, const periodic_o
 }
 
 nlohmann::ordered_json periodic_orbit_json(const periodic_orbit_request& req, const periodic_orbit_result& r) {
-  nlohmann::ordered_json j = to_json(summarize(r.samples), r.samples);
+  nlohmann::ordered_json j = to_json(summarize(r.samples, summary_spectrum::one_x), r.samples);  // writes the 1X alone
   j["method"] = r.method;
   j["start"] = r.start;
   j["converged"] = r.converged;

@@ -87,7 +87,7 @@ sweep_branch run_branch(const sweep_settings& s, sweep_direction d) {
     orbit o = simulate(req);
     if (o.counts.coarse_contact_steps > 0 && branch.counts.coarse_contact_steps == 0) branch.first_coarse_contact_rpm = speeds[i];
     accumulate(branch.counts, o.counts);
-    sweep_point pt{speeds[i], summarize(o, summary_spectrum::full), {}};  // orders and waterfall (sweep_io)
+    sweep_point pt{speeds[i], summarize(o), {}};
     if (s.keep_orbits) pt.samples = std::move(o.samples);
     branch.points.push_back(std::move(pt));
     req.initial_state = o.end.s;  // continuation; w t_end is a multiple of 2 pi
