@@ -6,6 +6,7 @@
 #include <map>
 #include <mutex>
 #include <numbers>
+#include <optional>
 
 #include "ref/base/errors.hpp"
 
@@ -45,8 +46,8 @@ fftw_plan forward_plan(int n) {
   return it->second;
 }
 
-// The shared parts of full_spectrum and spectrum_line: input checks, the window, the shift of the
-// DFT's phase from the first sample to t = 0, and the bin nearest to f.
+// The shared parts of full_spectrum, at and spectrum_line: input checks, the window, the shift of
+// the DFT's phase from the first sample to t = 0, and the bin nearest to f.
 void check_series(std::span<const double> x, std::span<const double> y, double dt) {
   if (x.size() < 2 || y.size() != x.size()) throw input_error("full spectrum needs two equally long series of at least 2 samples");
   if (!(dt > 0.0) || !std::isfinite(dt)) throw input_error("full spectrum needs a positive sample spacing");
@@ -64,13 +65,19 @@ std::complex<double> phase_to_time_zero(double f, double t0) {
 
 std::ptrdiff_t first_bin(std::size_t n) { return -static_cast<std::ptrdiff_t>(n / 2); }
 
+// The index (0 .. n-1, from the lowest frequency up) of the bin nearest to f; none outside.
+std::optional<std::size_t> nearest_bin(double f, std::size_t n, double resolution) {
+  const double k = std::round((f - static_cast<double>(first_bin(n)) * resolution) / resolution);
+  if (!(k >= 0.0 && k < static_cast<double>(n))) return std::nullopt;
+  return static_cast<std::size_t>(k);
+}
+
 }  // namespace
 
 std::complex<double> directional_spectrum::at(double f) const {
   if (coefficient.empty()) return {};
-  const double k = std::round((f - frequency.front()) / resolution);
-  if (k < 0 || k >= static_cast<double>(coefficient.size())) return {};
-  return coefficient[static_cast<std::size_t>(k)];
+  const auto i = nearest_bin(f, coefficient.size(), resolution);
+  return i ? coefficient[*i] : std::complex<double>{};
 }
 
 directional_spectrum full_spectrum(std::span<const double> x, std::span<const double> y, double dt, double t0,
@@ -106,10 +113,9 @@ std::complex<double> spectrum_line(std::span<const double> x, std::span<const do
   check_series(x, y, dt);
   const std::size_t n = x.size();
   const double resolution = 1.0 / (static_cast<double>(n) * dt);
-  // The bin directional_spectrum::at would pick, by the same arithmetic.
-  const double index = std::round((f - static_cast<double>(first_bin(n)) * resolution) / resolution);
-  if (!(index >= 0.0 && index < static_cast<double>(n))) return {};
-  const std::ptrdiff_t k = first_bin(n) + static_cast<std::ptrdiff_t>(index);
+  const auto index = nearest_bin(f, n, resolution);  // the bin directional_spectrum::at picks
+  if (!index) return {};
+  const std::ptrdiff_t k = first_bin(n) + static_cast<std::ptrdiff_t>(*index);
   const std::size_t bin = static_cast<std::size_t>((k + static_cast<std::ptrdiff_t>(n)) % static_cast<std::ptrdiff_t>(n));
   std::complex<double> sum{};
   double weight_sum = 0.0;
