@@ -31,7 +31,12 @@ json candidates_json(const std::vector<effect_candidate>& cs) {
       j["bic_drop"] = c.bic_drop;
       j["excess_share"] = c.excess_share;
       j["error_after"] = c.error_after;
-      if (std::isfinite(c.holdout_gain)) j["holdout_gain_chi2"] = c.holdout_gain;
+      if (std::isfinite(c.holdout_gain)) {
+        j["holdout_gain_chi2"] = c.holdout_gain;
+        j["holdout_gain_uncertainty_chi2"] = c.holdout_gain_uncertainty;
+        j["in_sample_gain_chi2"] = c.in_sample_gain;
+        j["in_sample_gain_uncertainty_chi2"] = c.in_sample_gain_uncertainty;
+      }
     }
     j["verdict"] = c.verdict;
     a.push_back(j);

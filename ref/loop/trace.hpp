@@ -52,6 +52,8 @@ struct effect_candidate {
   double excess_share = 0.0; // of the synchronous excess (shaft orders above their noise energy), removed by the refit
   double error_after = 0.0;  // NRMSE over contact dwells after the refit
   double holdout_gain = std::numeric_limits<double>::quiet_NaN();  // chi^2 gained out of sample (NaN: not tested)
+  // Its numerical uncertainty, and the gain on all data it is compared with (chi^2, with its own).
+  double holdout_gain_uncertainty = 0.0, in_sample_gain = 0.0, in_sample_gain_uncertainty = 0.0;
   std::string verdict;       // why it was or was not added
 };
 
