@@ -684,8 +684,8 @@ void try_refit(trace_run& run, std::vector<scored>& cands, std::size_t i, bool s
   // Judged on its best fit: the refit starts on the current base, which the model without the
   // effect bent into a minimum of its own, and the fair and out-of-sample comparisons refit from
   // where it ends. From there they reached the effect's minimum or not by the orbits' last digits
-  // (seed 7919 #24: a preload's refit ended at error 0.049, the same model restarted from the
-  // staged base at 4e-5; the out-of-sample test passed it, and rejected it with 10x tighter orbits).
+  // (seed 7919 #24, a preload: restarted from the staged base, its refit landed lower; from where
+  // it had ended, the out-of-sample test passed it, and rejected it with 10x tighter orbits).
   if (auto lower = from_the_staged_start(c, *fitted);
       lower && documented_strength(*cands[i].effect, lower->model.at) >= c.s.rules.min_documented_level && !outside_fit_range(*cands[i].effect, lower->model.at)) {
     fitted = std::move(lower->model);
