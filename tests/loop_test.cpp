@@ -263,6 +263,26 @@ TEST_P(loop, scenario) {
   if (sc.claim) {
     EXPECT_EQ(r.decision.claim, sc.claim);
   }
+  // Every effect added was needed out of sample by the numbers its report gives (evidence_rules:
+  // the held-out gain exceeds min_criterion_rise and min_holdout_share of the gain on all data,
+  // each within its numerical uncertainty, on the margin included): the report shows what the
+  // decision read, not another statistic.
+  const evidence_rules rules;
+  for (const auto& step : r.effects) {
+    if (!step.exchanged_for.empty()) continue;  // its scores are those of the round it was exchanged in
+    const auto c = std::find_if(step.candidates.begin(), step.candidates.end(), [&](const effect_candidate& x) { return x.name == step.effect; });
+    ASSERT_NE(c, step.candidates.end()) << step.effect;
+    EXPECT_EQ(c->verdict, "added") << step.effect;
+    ASSERT_TRUE(std::isfinite(c->holdout_gain)) << step.effect << ": not tested out of sample";
+    EXPECT_EQ(c->holdout_gain, step.holdout_gain);
+    EXPECT_TRUE(std::isfinite(c->holdout_gain_uncertainty) && c->holdout_gain_uncertainty >= 0.0) << c->holdout_gain_uncertainty;
+    EXPECT_TRUE(std::isfinite(c->in_sample_gain_uncertainty) && c->in_sample_gain_uncertainty >= 0.0) << c->in_sample_gain_uncertainty;
+    EXPECT_GT(c->in_sample_gain + c->in_sample_gain_uncertainty, rules.min_criterion_rise) << step.effect;
+    EXPECT_GT(c->holdout_gain + c->holdout_gain_uncertainty, rules.min_criterion_rise) << step.effect;
+    EXPECT_GE(c->holdout_gain + c->holdout_gain_uncertainty + rules.min_holdout_share * c->in_sample_gain_uncertainty,
+              rules.min_holdout_share * c->in_sample_gain)
+        << step.effect;
+  }
   if (sc.check) sc.check(r, requests);
 }
 

@@ -558,37 +558,26 @@ struct trace_run {
   }
 };
 
-// m refitted from the before-fit's starts (the staged model's base, and its linear part with the
-// Table 2 law) with its effects where m has them, raced; nothing unless that lands lower than m. A
-// base can fall into a degenerate minimum of its own (a law whose k1 went to 0 and k3 took its
-// place while an effect was missing) that every refit from it starts from.
-struct restarted {
-  fitted_model model;
-  std::string start;
-};
-std::optional<restarted> from_the_staged_start(const round_context& c, const fitted_model& m) {
+// After an effect is added, the model is refitted once from the before-fit's starts too (the
+// staged model's base, and its linear part with the Table 2 law), raced, with the current effects:
+// a base can fall into a degenerate minimum of its own (a law whose k1 went to 0 and k3 took its
+// place while the effect was missing) that every later refit starts from. True when it moved.
+bool polish_from_the_staged_start(trace_run& run) {
+  const round_context& c = run.c;
   std::vector<named_start> starts;
   for (named_start st : before_fit_starts(c.staged)) {
     const parameters p = st.at.p;
-    st.at = m.at;
+    st.at = run.current.at;
     st.at.p = p;
     starts.push_back(std::move(st));
   }
-  const fit_problem problem = make_problem(c.predictor, c.dwells, m.at, m.coords, c.noise);
+  const fit_problem problem = make_problem(c.predictor, c.dwells, run.current.at, run.current.coords, c.noise);
   const multistart_result raced = race_starts(problem, starts, c.s.max_jacobians, kRaceLap);
   auto judged = on_the_datas_orbits(c, problem, raced.best);
-  if (!judged || !(judged->rss() < m.rss())) return std::nullopt;
-  return restarted{std::move(*judged), raced.winner};
-}
-
-// After an effect is added (unless its candidate's fit was restarted so already, try_refit) and
-// after an exchange, the model is refitted once from the before-fit's starts. True when it moved.
-bool polish_from_the_staged_start(trace_run& run) {
-  auto lower = from_the_staged_start(run.c, run.current);
-  if (!lower) return false;
-  run.note("the model refitted from the before-fit's start '" + lower->start + "' with its effects lands lower (residual " + format_digits(lower->model.rss()) +
+  if (!judged || !(judged->rss() < run.current.rss())) return false;
+  run.note("the model refitted from the before-fit's start '" + raced.winner + "' with its effects lands lower (residual " + format_digits(judged->rss()) +
            " against " + format_digits(run.current.rss()) + " m^2): it is the base from here");
-  run.current = std::move(lower->model);
+  run.current = std::move(*judged);
   return true;
 }
 
@@ -680,19 +669,6 @@ void try_refit(trace_run& run, std::vector<scored>& cands, std::size_t i, bool s
     cand.verdict = "its fitted " + std::string(q->key) + " = " + format_digits(fitted->at.fx.*q->member) + " " + std::string(q->unit) +
                    " is outside the library's range [" + format_digits(q->lo) + ", " + format_digits(q->hi) + "]";
     return;
-  }
-  // Judged on its best fit: the refit starts on the current base, which the model without the
-  // effect bent into a minimum of its own, and the fair and out-of-sample comparisons refit from
-  // where it ends. From there they reached the effect's minimum or not by the orbits' last digits
-  // (seed 7919 #24, a preload: restarted from the staged base, its refit landed lower; from where
-  // it had ended, the out-of-sample test passed it, and rejected it with 10x tighter orbits).
-  if (auto lower = from_the_staged_start(c, *fitted);
-      lower && documented_strength(*cands[i].effect, lower->model.at) >= c.s.rules.min_documented_level && !outside_fit_range(*cands[i].effect, lower->model.at)) {
-    fitted = std::move(lower->model);
-    sig = test(c, current, *fitted);
-    record();
-    c.s.progress("      " + cand.name + " restarted from the before-fit's start '" + lower->start + "': BIC drop " + format_digits(sig.bic_drop()) + ", share " +
-                 format_digits(sig.excess_share()) + ", error " + format_digits(cand.error_after));
   }
   round.noise_left = round.noise_left || run.is_noise(*fitted);
   round.most_explained = round.most_explained || sig.excess_share() >= kSettledShare;
@@ -848,7 +824,7 @@ void add_chosen(trace_run& run, const std::vector<scored>& cands, const round_re
   run.out.effects.push_back(std::move(step));
   run.remaining.erase(std::find(run.remaining.begin(), run.remaining.end(), cands[*choice.chosen].effect));
   run.current = std::move(*choice.fit);
-  run.polished = true;  // its fit was restarted from the before-fit's starts already (try_refit)
+  run.polished = false;
 }
 
 // Backward elimination: an earlier effect that the model no longer needs (the new one explains
