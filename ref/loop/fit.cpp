@@ -43,6 +43,17 @@ Eigen::MatrixXd fit_problem::harmonic_jacobian(const Eigen::VectorXd& u, const E
 Eigen::MatrixXd fit_problem::columns(const Eigen::VectorXd& u, const Eigen::VectorXd& r0, bool harmonics) const {
   const auto residuals = [&](const model_point& m) { return harmonics ? predictor->harmonic_residuals(m) : predictor->residuals(m); };
   Eigen::MatrixXd J = Eigen::MatrixXd::Zero(r0.size(), size());
+  // The shifts' analytic columns need the harmonics (or states) at u: read first where the
+  // predictor's last evaluation was at u (the solver's usual order: r0, then its Jacobian), else
+  // evaluated again after the coordinates' columns.
+  const auto shift_columns = [&](const model_point& m) {
+    const Eigen::MatrixXd S = harmonics ? predictor->harmonic_shift_columns(m) : predictor->shift_columns(m);
+    for (std::size_t j = 0; j < shifted.size(); ++j)
+      J.col(static_cast<Eigen::Index>(coords.size() + j)) = S.col(static_cast<Eigen::Index>(shifted[j])) * shift_scale[j];
+  };
+  const model_point m = at(u);
+  const bool shifts_done = !shifted.empty() && harmonics && predictor->harmonics_are_of(m);
+  if (shifts_done) shift_columns(m);
   for (std::size_t j = 0; j < coords.size(); ++j) {
     const auto col = static_cast<Eigen::Index>(j);
     for (const double h : {kStep, -kStep}) {
@@ -54,14 +65,7 @@ Eigen::MatrixXd fit_problem::columns(const Eigen::VectorXd& u, const Eigen::Vect
       }
     }
   }
-  if (!shifted.empty()) {
-    const model_point m = at(u);
-    if (residuals(m)) {  // the states (or harmonics) at u for the analytic columns
-      const Eigen::MatrixXd S = harmonics ? predictor->harmonic_shift_columns(m) : predictor->shift_columns(m);
-      for (std::size_t j = 0; j < shifted.size(); ++j)
-        J.col(static_cast<Eigen::Index>(coords.size() + j)) = S.col(static_cast<Eigen::Index>(shifted[j])) * shift_scale[j];
-    }
-  }
+  if (!shifted.empty() && !shifts_done && residuals(m)) shift_columns(m);
   return J;
 }
 

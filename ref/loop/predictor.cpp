@@ -432,7 +432,8 @@ std::optional<Eigen::VectorXd> orbit_predictor::evaluate(const model_point& m, b
 
 std::optional<Eigen::VectorXd> orbit_predictor::harmonic_residuals(const model_point& m) {
   prepare_bands();
-  return evaluate(m, true, harmonic_rows_, [&](std::size_t k, Eigen::VectorXd& r) {
+  harmonics_of_.reset();
+  auto out = evaluate(m, true, harmonic_rows_, [&](std::size_t k, Eigen::VectorXd& r) {
     band& b = *bands_[k];
     const dwell& d = dwells_[k].data;
     const double w = d.omega(), w_motion = w / dwells_[k].periods, shift = m.shift.empty() ? 0.0 : m.shift[k];
@@ -451,6 +452,8 @@ std::optional<Eigen::VectorXd> orbit_predictor::harmonic_residuals(const model_p
     r.segment(at, n) = b.Lt.triangularView<Eigen::Upper>() * turned(b.ax, w_motion * shift) - b.target_x;
     r.segment(at + n, n) = b.Lt.triangularView<Eigen::Upper>() * turned(b.ay, w_motion * shift) - b.target_y;
   });
+  if (out) harmonics_of_ = m;
+  return out;
 }
 
 Eigen::MatrixXd orbit_predictor::harmonic_shift_columns(const model_point& m) {
@@ -479,6 +482,7 @@ const std::array<double, 4>& orbit_predictor::data_state(std::size_t k) {
 
 void orbit_predictor::reset() {
   for (auto& c : caches_) c.started = c.last_ok = false;  // the sorted phases stay: they depend on the timing alone
+  harmonics_of_.reset();
 }
 
 void orbit_predictor::anchor(const model_point& m) {
@@ -490,6 +494,7 @@ void orbit_predictor::anchor(const model_point& m) {
     c.started = c.last_ok;
     c.start = c.last;
   }
+  harmonics_of_.reset();  // the next evaluation shoots from the new anchor
 }
 
 void orbit_predictor::anchor(const model_point& m, const orbit_anchors& from) {
@@ -501,6 +506,7 @@ void orbit_predictor::anchor(const model_point& m, const orbit_anchors& from) {
     c.started = c.last_ok;
     c.start = c.last;
   }
+  harmonics_of_.reset();  // the next evaluation shoots from the new anchor
 }
 
 orbit_anchors orbit_predictor::last_orbits() const {

@@ -36,6 +36,8 @@ struct model_point {
   parameters p;                  // delta is taken per dwell from its record
   effect_parameters fx;
   std::vector<double> shift;     // s, per dwell
+
+  friend bool operator==(const model_point&, const model_point&) = default;
 };
 
 // Time within the revolution, in [0, period): where a sample at time tau falls on the periodic orbit.
@@ -84,6 +86,10 @@ class orbit_predictor {
   // The derivative of harmonic_residuals() with respect to each dwell's shift (columns by dwell):
   // a shift turns harmonic h by h w_T s, exactly. Uses the harmonics of the last harmonic_residuals() call.
   Eigen::MatrixXd harmonic_shift_columns(const model_point& m);
+  // Whether the last harmonic_residuals() call since the last anchor was at m and could be
+  // computed: the band's harmonics (harmonic_shift_columns) are then m's, with no new evaluation
+  // (an evaluation depends on the anchor and the point alone, so a new one would give the same bits).
+  bool harmonics_are_of(const model_point& m) const { return harmonics_of_ && *harmonics_of_ == m; }
   // Harmonics H of dwell k's band (of its motion's frequency w / periods).
   int band_harmonics(std::size_t k);
   // The model's reading (x, y) in dwell k at time t and timing shift s, summed from the band's
@@ -160,6 +166,7 @@ class orbit_predictor {
   std::vector<std::optional<band>> bands_;
   std::vector<std::size_t> harmonic_offsets_;
   std::size_t harmonic_rows_ = 0;
+  std::optional<model_point> harmonics_of_;  // the last harmonic_residuals() call's point (harmonics_are_of)
 };
 
 }  // namespace rubref

@@ -364,7 +364,8 @@ std::optional<fitted_model> refit(const round_context& c, const fitted_model& cu
 // the other. Its numerical uncertainty: each fold fit's unfinished descent (a move that may still
 // lower the fold's |r|^2 by R moves the other fold's, on the same orbits, by about as much), the
 // held orbits' error (rss_uncertainty), and the spread of the two starts' predictions where they
-// fit the fold alike.
+// fit the fold alike. NaN where the model without the effect cannot predict a held fold (the
+// test is not made), -inf where the model with it cannot.
 statistic holdout_gain(const round_context& c, const fitted_model& without, const fitted_model& with) {
   std::vector<int> fold(c.dwells.size(), 0);
   std::map<std::pair<std::string, bool>, std::vector<std::size_t>> groups;
@@ -432,6 +433,9 @@ statistic holdout_gain(const round_context& c, const fitted_model& without, cons
         uncertainty += std::abs(a.held - b.held);
     }
     if (!std::isfinite(rss[1])) return {-std::numeric_limits<double>::infinity(), 0.0};  // the model with it cannot predict them
+    // The model without it cannot predict them: no gain can be measured (a +inf gain would pass
+    // the rule on a failure); the caller reports the test as not made.
+    if (!std::isfinite(rss[0])) return {std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::infinity()};
     gain += rss[0] - rss[1];
   }
   return {gain / (c.noise * c.noise), uncertainty / (c.noise * c.noise)};
@@ -781,6 +785,11 @@ judged_as judge_candidate(trace_run& run, const scored& sc, effect_candidate& ca
   }
   c.s.progress("      " + cand.name + " passes the fair comparison (BIC drop " + format_digits(fair.bic_drop()) + "); out of sample ...");
   const statistic held_out = holdout_gain(c, reference, with);
+  if (std::isnan(held_out.value)) {  // untested is not passed: tentative, and not added
+    cand.verdict = "not tested out of sample: the model without it cannot be computed on a held-out fold";
+    run.on_the_margin(cand.name, cand.verdict);
+    return judged_as::not_needed;
+  }
   cand.holdout_gain = held_out.value;
   fair.comparison.holdout_gain = held_out.value;
   fair.comparison.holdout_gain_uncertainty = held_out.uncertainty;
