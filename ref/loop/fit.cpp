@@ -181,7 +181,9 @@ multistart_result fit_from_starts(const fit_problem& problem, const std::vector<
     out.starts[i].rss_fit = f.rss;
     if (!f.ok) continue;
     const bool tie = out.best.ok && std::abs(f.rss - out.best.rss) <= uncertainty(f) + uncertainty(out.best);
+    if (tie) out.tie = true;
     if (tie ? i < best_index : f.rss < out.best.rss) {
+      out.tie = tie;  // a fit lower beyond the uncertainty wins outright
       out.best = f;
       out.winner = starts[i].name;
       best_index = i;

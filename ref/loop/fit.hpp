@@ -84,6 +84,7 @@ struct multistart_result {
   fit_result best;
   std::string winner;
   std::vector<start_outcome> starts;
+  bool tie = false;  // fits alike within their numerical uncertainty: the first start in order won (fit_from_starts)
 };
 multistart_result fit_from_starts(const fit_problem& problem, const std::vector<named_start>& starts, int max_iterations,
                                   const std::function<bool(const fit_result&)>& good_enough, int max_fits);

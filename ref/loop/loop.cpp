@@ -218,6 +218,7 @@ loop_result run_loop(const std::vector<std::pair<record, std::string>>& records,
   if (!before.best.ok) throw numerical_error("the paper's model cannot be computed at any start of its fit");
   out.starts = before.starts;
   out.start_winner = before.winner;
+  out.start_tie = before.tie;
   s.progress("      before: from the start '" + before.winner + "', residual " +
              format_digits(std::sqrt(before.best.rss / static_cast<double>(predictor.orbit_rows())) * 1e6) + " um against noise " +
              format_digits(noise * 1e6) + " um");

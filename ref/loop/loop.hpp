@@ -50,6 +50,7 @@ struct loop_result {
   model_point initial, before, after;       // staged fit, paper model refined, final
   std::vector<start_outcome> starts;        // the before-fit's starts
   std::string start_winner;                 // the one its best fit came from
+  bool start_tie = false;                   // fits alike within their uncertainty: the first start in order won
   std::vector<std::string> notes;
   std::vector<std::string> warnings;        // estimates that are unphysical or outside the library's ranges (also on stderr)
   double error_before = 0.0, error_after = 0.0;

@@ -103,7 +103,7 @@ json to_json(const loop_result& r) {
   for (const auto& e : r.excluded)
     j["excluded"].push_back(
         {{"record", e.record}, {"rpm", e.rpm}, {"contact", e.contact}, {"revolution_spread_m", e.spread}, {"reason", e.reason}});
-  j["before_fit"] = {{"winner", r.start_winner}, {"starts", json::array()}};
+  j["before_fit"] = {{"winner", r.start_winner}, {"tie", r.start_tie}, {"starts", json::array()}};
   for (const auto& st : r.starts)
     j["before_fit"]["starts"].push_back({{"name", st.name}, {"rss_start_m2", number(st.rss_start)}, {"rss_fit_m2", number(st.rss_fit)}});
   j["model_evaluations"] = r.model_evaluations;
@@ -181,10 +181,10 @@ std::string to_markdown(const loop_result& r) {
     else
       o << "Exchanged: " << e.replaced_by << " in place of " << e.effect << " (after " << e.after_adding << " effects, a lower BIC).\n\n";
   if (!r.start_winner.empty()) {
-    o << "Before-fit starts (the best fit wins):";
+    o << "Before-fit starts (the best fit wins; fits alike within their numerical uncertainty are a tie, won by the first start):";
     for (const auto& st : r.starts)
       o << " " << st.name << " (residual " << fmt(st.rss_start) << " -> " << (std::isnan(st.rss_fit) ? std::string("not fitted") : fmt(st.rss_fit))
-        << " m^2)" << (st.name == r.start_winner ? " **won**" : "") << ";";
+        << " m^2)" << (st.name == r.start_winner ? (r.start_tie ? " **won the tie**" : " **won**") : "") << ";";
     o << "\n\n";
   }
   if (!r.excluded.empty()) {
