@@ -361,6 +361,34 @@ TEST(loop_steps, a_race_fits_every_start_a_lap_and_the_leader_on) {
   EXPECT_TRUE(std::isnan(lowest_only.starts.front().rss_fit));  // "far" was not fitted
 }
 
+// Fits from several starts (the before-fit's) that end alike within their numerical uncertainty
+// are a tie, won by the first start in the declared order, not by the lower residual's last digits:
+// the same two starts declared in either order, both fitted to the truth's k1, give the win to
+// whichever is declared first (a rule of the lower residual would name the same start both times).
+TEST(loop_steps, fits_from_starts_that_end_alike_are_a_tie_won_by_the_first_start) {
+  const rig_request req = truth_rig();
+  const auto dwells = truth_timed_dwells(req);
+  orbit_predictor predictor(dwells, req.probes.noise);
+  const double k1 = req.params.k1;
+  const fit_coordinate v{"v", 1.0, [k1](const model_point& m) { return m.p.k1 / k1; }, [k1](model_point& m, double x) { m.p.k1 = k1 * x; }};
+  const auto start_at = [&](double x) {
+    model_point m;
+    m.shift.assign(dwells.size(), 0.0);
+    v.set(m, x);
+    return m;
+  };
+  const named_start far{"far", start_at(0.6)}, near{"near", start_at(0.9)};
+  const fit_problem problem = make_problem(predictor, dwells, far.at, {v}, req.probes.noise);
+  const auto never = [](const fit_result&) { return false; };  // both starts fitted
+  for (const auto& starts : {std::vector<named_start>{far, near}, std::vector<named_start>{near, far}}) {
+    const multistart_result m = fit_from_starts(problem, starts, 30, never, 2);
+    ASSERT_TRUE(m.best.ok);
+    for (const auto& o : m.starts) EXPECT_TRUE(std::isfinite(o.rss_fit)) << o.name;
+    EXPECT_TRUE(m.tie);
+    EXPECT_EQ(m.winner, starts.front().name);
+  }
+}
+
 // Comparing in harmonics (orbit_predictor::harmonic_residuals, what every fit searches on):
 // |r~|^2 plus the data's part outside the band is exactly |d - m_band|^2 on the samples, where
 // m_band is the model's reading summed from its band, at the truth and at a model far off it,
