@@ -330,20 +330,30 @@ TEST(loop_steps, a_fit_rejects_steps_it_cannot_compute) {
 // A race of starts (a refit's): every start is fitted for a lap, the leader on to the end of the
 // budget; the result is no worse than any lap, and with a budget of no more than a lap per start
 // only the lowest start is fitted.
-TEST(loop_steps, a_race_fits_every_start_a_lap_and_the_leader_on) {
-  const rig_request req = truth_rig();
-  const auto dwells = truth_timed_dwells(req);
-  orbit_predictor predictor(dwells, req.probes.noise);
-  const double k1 = req.params.k1;
-  const fit_coordinate v{"v", 1.0, [k1](const model_point& m) { return m.p.k1 / k1; }, [k1](model_point& m, double x) { m.p.k1 = k1 * x; }};
-  const auto start_at = [&](double x) {
+// The truth rig's dwells fitted in one coordinate, v = k1 / the truth's k1 (the data ask for
+// v = 1), from a start far from it (v = 0.6) and one near (v = 0.9): the multistart tests' problem.
+// Built in place (the predictor holds the dwells, the problem the predictor).
+struct k1_from_two_starts {
+  rig_request req = truth_rig();
+  std::vector<loop_dwell> dwells = truth_timed_dwells(req);
+  orbit_predictor predictor{dwells, req.probes.noise};
+  double k1 = req.params.k1;
+  fit_coordinate v{"v", 1.0, [k1 = k1](const model_point& m) { return m.p.k1 / k1; }, [k1 = k1](model_point& m, double x) { m.p.k1 = k1 * x; }};
+  model_point start_at(double x) const {
     model_point m;
     m.shift.assign(dwells.size(), 0.0);
     v.set(m, x);
     return m;
-  };
-  const std::vector<named_start> starts{{"far", start_at(0.6)}, {"near", start_at(0.9)}};
-  const fit_problem problem = make_problem(predictor, dwells, starts.front().at, {v}, req.probes.noise);
+  }
+  named_start far{"far", start_at(0.6)}, near{"near", start_at(0.9)};
+  fit_problem problem = make_problem(predictor, dwells, far.at, {v}, req.probes.noise);
+};
+
+TEST(loop_steps, a_race_fits_every_start_a_lap_and_the_leader_on) {
+  k1_from_two_starts k;
+  const rig_request& req = k.req;
+  const fit_problem& problem = k.problem;
+  const std::vector<named_start> starts{k.far, k.near};
   const multistart_result raced = race_starts(problem, starts, 10, 1);
   ASSERT_TRUE(raced.best.ok);
   ASSERT_EQ(raced.starts.size(), 2u);
@@ -366,22 +376,10 @@ TEST(loop_steps, a_race_fits_every_start_a_lap_and_the_leader_on) {
 // the same two starts declared in either order, both fitted to the truth's k1, give the win to
 // whichever is declared first (a rule of the lower residual would name the same start both times).
 TEST(loop_steps, fits_from_starts_that_end_alike_are_a_tie_won_by_the_first_start) {
-  const rig_request req = truth_rig();
-  const auto dwells = truth_timed_dwells(req);
-  orbit_predictor predictor(dwells, req.probes.noise);
-  const double k1 = req.params.k1;
-  const fit_coordinate v{"v", 1.0, [k1](const model_point& m) { return m.p.k1 / k1; }, [k1](model_point& m, double x) { m.p.k1 = k1 * x; }};
-  const auto start_at = [&](double x) {
-    model_point m;
-    m.shift.assign(dwells.size(), 0.0);
-    v.set(m, x);
-    return m;
-  };
-  const named_start far{"far", start_at(0.6)}, near{"near", start_at(0.9)};
-  const fit_problem problem = make_problem(predictor, dwells, far.at, {v}, req.probes.noise);
+  k1_from_two_starts k;
   const auto never = [](const fit_result&) { return false; };  // both starts fitted
-  for (const auto& starts : {std::vector<named_start>{far, near}, std::vector<named_start>{near, far}}) {
-    const multistart_result m = fit_from_starts(problem, starts, 30, never, 2);
+  for (const auto& starts : {std::vector<named_start>{k.far, k.near}, std::vector<named_start>{k.near, k.far}}) {
+    const multistart_result m = fit_from_starts(k.problem, starts, 30, never, 2);
     ASSERT_TRUE(m.best.ok);
     for (const auto& o : m.starts) EXPECT_TRUE(std::isfinite(o.rss_fit)) << o.name;
     EXPECT_TRUE(m.tie);
