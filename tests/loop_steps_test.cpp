@@ -5,7 +5,6 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
-#include <functional>
 #include <limits>
 #include <numbers>
 #include <random>
@@ -448,37 +447,6 @@ TEST(loop_steps, harmonic_shift_columns_are_the_harmonic_residuals_derivative) {
     constexpr double kDifferenceError = 1e-5;
     EXPECT_LT((fd - col).norm(), kDifferenceError * col.norm()) << "dwell " << k;
     EXPECT_GT(col.norm(), 0.0);
-  }
-}
-
-// A Jacobian's column point (residuals_near) gets its orbits by chord steps from its base's: they
-// must be the orbits shooting finds from the anchor, to the orbits' accuracy, in every dwell, and
-// be found by the chord steps, not by the shooting they fall back on.
-TEST(loop_steps, chord_steps_from_a_columns_base_find_the_orbits_shooting_finds) {
-  at_the_truth at;
-  at.predictor.anchor(at.truth);
-  (void)at.predictor.residuals(at.truth).value();
-  // A state within the shooting's tolerance of the orbit reads within it at every sample: the
-  // orbits are stable, and the monodromy's norm over the period bounds the growth (below 3 here);
-  // each side's error counts.
-  const double kOrbitsAgree = 2.0 * 3.0 * at.predictor.orbit_options().orbit_error();
-  struct column {
-    std::string name;
-    std::function<void(model_point&)> move;  // a difference step's size (1e-3 relative)
-  };
-  const std::vector<column> columns{{"k1", [](model_point& m) { m.p.k1 *= 1.001; }},
-                                    {"c_y", [](model_point& m) { m.p.c_y *= 1.001; }},
-                                    {"e", [](model_point& m) { m.p.e *= 1.001; }},
-                                    {"mu", [](model_point& m) { m.p.mu *= 1.001; }}};
-  for (const auto& c : columns) {
-    model_point q = at.truth;
-    c.move(q);
-    const std::size_t closed = at.predictor.chord_orbits();
-    const Eigen::VectorXd near = at.predictor.residuals_near(q, at.truth).value();
-    EXPECT_EQ(at.predictor.chord_orbits() - closed, at.dwells.size()) << c.name << ": every dwell by chord steps";
-    const Eigen::VectorXd shot = at.predictor.residuals(q).value();
-    EXPECT_LT((near - shot).lpNorm<Eigen::Infinity>(), kOrbitsAgree) << c.name;
-    EXPECT_GT((shot - at.r).lpNorm<Eigen::Infinity>(), 1e3 * kOrbitsAgree) << c.name << ": the step moves the orbit";
   }
 }
 

@@ -435,39 +435,6 @@ struct periodic_orbit {
   bool stable() const { return converged && max_multiplier_modulus() < 1.0; }
 };
 
-// How far the map's image p = P(s) lies from s, in m: the largest difference over the moving
-// states, velocities weighed as positions over a radian of the shaft. Shooting converges where it
-// is within the tolerance.
-template <class System>
-double periodicity_weight(const System& sys, int i) {
-  return (i % 4 < 2 && i < 4) || i == 4 ? 1.0 : 1.0 / std::abs(sys.omega());
-}
-template <class System>
-double periodicity_residual(const System& sys, const state_of<System>& s, const state_of<System>& p) {
-  const int n = moving_states(sys);
-  double r = 0.0;
-  for (int i = 0; i < n; ++i)
-    r = std::max(r, std::abs(p[static_cast<std::size_t>(i)] - s[static_cast<std::size_t>(i)]) * periodicity_weight(sys, i));
-  return r;
-}
-
-// Newton's step on P(s) - s = 0 with the map's Jacobian `monodromy` (at s, or at a nearby orbit's
-// point: a chord step), on the moving states: (M - I) step = -(P(s) - s). Nothing where M has a
-// multiplier 1 (the orbit is not isolated).
-template <class System, int N = static_cast<int>(std::tuple_size_v<state_of<System>>)>
-std::optional<Eigen::Matrix<double, Eigen::Dynamic, 1, 0, N, 1>> periodic_orbit_step(const System& sys, const square_matrix<N>& monodromy,
-                                                                                    const state_of<System>& s, const state_of<System>& p) {
-  using dyn_matrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, N, N>;
-  using dyn_vector = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, N, 1>;
-  const int n = moving_states(sys);
-  dyn_matrix A = monodromy.topLeftCorner(n, n) - dyn_matrix::Identity(n, n);
-  dyn_vector r(n);
-  for (int i = 0; i < n; ++i) r[i] = p[static_cast<std::size_t>(i)] - s[static_cast<std::size_t>(i)];
-  const Eigen::FullPivLU<dyn_matrix> lu(A);
-  if (!lu.isInvertible()) return std::nullopt;
-  return dyn_vector(lu.solve(-r));
-}
-
 // Newton on P(s) - s = 0 from `guess` at t0, with backtracking when a step does not reduce the
 // residual (a contact that the step creates or removes makes P non-smooth). Never throws for a
 // failed iteration: the result says why (`failure`).
@@ -483,10 +450,14 @@ periodic_orbit<static_cast<int>(std::tuple_size_v<state_of<System>>)> shoot_peri
   out.periods = periods;
   const int n = moving_states(sys);
   const double t1 = t0 + periods * sys.period();
-  // Velocities weigh as positions over a radian of the shaft (periodicity_residual).
+  // Velocities weigh as positions over a radian of the shaft.
   std::array<double, N> scale{};
-  for (int i = 0; i < N; ++i) scale[static_cast<std::size_t>(i)] = periodicity_weight(sys, i);
-  const auto residual_of = [&](const std::array<double, N>& s, const std::array<double, N>& p) { return periodicity_residual(sys, s, p); };
+  for (int i = 0; i < N; ++i) scale[static_cast<std::size_t>(i)] = (i % 4 < 2 && i < 4) || i == 4 ? 1.0 : 1.0 / std::abs(sys.omega());
+  const auto residual_of = [&](const std::array<double, N>& s, const std::array<double, N>& p) {
+    double r = 0.0;
+    for (int i = 0; i < n; ++i) r = std::max(r, std::abs(p[static_cast<std::size_t>(i)] - s[static_cast<std::size_t>(i)]) * scale[static_cast<std::size_t>(i)]);
+    return r;
+  };
 
   // An impact law's states live at z <= 0: a guess or a step beyond the stator's face is put on it
   // (an orbit is never inside, so this only shortens a step that overshot).
@@ -557,12 +528,16 @@ periodic_orbit<static_cast<int>(std::tuple_size_v<state_of<System>>)> shoot_peri
       out.converged = true;
       break;
     }
-    const auto newton = periodic_orbit_step(sys, f->monodromy, s, f->end);
-    if (!newton) {
+    // (M - I) step = -(P(s) - s) on the moving states.
+    dyn_matrix A = f->monodromy.topLeftCorner(n, n) - dyn_matrix::Identity(n, n);
+    dyn_vector r(n);
+    for (int i = 0; i < n; ++i) r[i] = f->end[static_cast<std::size_t>(i)] - s[static_cast<std::size_t>(i)];
+    const Eigen::FullPivLU<dyn_matrix> lu(A);
+    if (!lu.isInvertible()) {
       out.failure = "a Floquet multiplier is 1: the periodic orbit is not isolated";
       break;
     }
-    step = *newton;
+    step = lu.solve(-r);
     damping = 1.0;
     for (int i = 0; i < n; ++i) s[static_cast<std::size_t>(i)] += step[i];
     admissible(s);

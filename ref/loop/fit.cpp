@@ -42,10 +42,6 @@ Eigen::MatrixXd fit_problem::harmonic_jacobian(const Eigen::VectorXd& u, const E
 
 Eigen::MatrixXd fit_problem::columns(const Eigen::VectorXd& u, const Eigen::VectorXd& r0, bool harmonics) const {
   const auto residuals = [&](const model_point& m) { return harmonics ? predictor->harmonic_residuals(m) : predictor->residuals(m); };
-  // A column's point, a difference step from u: its orbits by chord steps from u's.
-  const auto residuals_near = [&](const model_point& q, const model_point& base) {
-    return harmonics ? predictor->harmonic_residuals_near(q, base) : predictor->residuals_near(q, base);
-  };
   Eigen::MatrixXd J = Eigen::MatrixXd::Zero(r0.size(), size());
   // The shifts' analytic columns need the harmonics (or states) at u: read first where the
   // predictor's last evaluation was at u (the solver's usual order: r0, then its Jacobian), else
@@ -63,7 +59,7 @@ Eigen::MatrixXd fit_problem::columns(const Eigen::VectorXd& u, const Eigen::Vect
     for (const double h : {kStep, -kStep}) {
       Eigen::VectorXd v = u;
       v[col] += h;
-      if (const auto r = residuals_near(at(v), m)) {
+      if (const auto r = residuals(at(v))) {
         J.col(col) = (*r - r0) / h;
         break;
       }

@@ -29,13 +29,6 @@ using model = rotor_with_effects<identified>;
 constexpr int kFirstSettleRevs = 10;
 // Revolutions the model runs from the data's state when Newton finds no periodic orbit there.
 constexpr int kFallbackSettleRevs = 30;
-// A Jacobian column's chord steps (orbit_predictor::residuals_near): the column's orbit closes on
-// the base orbit's own misclosure to a thousandth of the shooting's tolerance, so that the two
-// orbits' difference (1e-9..1e-7 m for a difference step) carries no closure error of either;
-// from the base orbit each step leaves the error times |(M - I)^-1 (M' - M)|, of the difference
-// step's order, so three or four flows close it; beyond six the dwell is shot instead.
-constexpr double kChordClosure = 1e-3;
-constexpr int kChordSteps = 6;
 
 // Puts each sample of a flow on the sorted grid straight into its record sample's place.
 struct state_recorder {
@@ -322,11 +315,6 @@ orbit_kind orbit_predictor::predict(std::size_t k, const model_point& m, bool ha
   // orbit is taken even where it is unstable: it stays a smooth function of the parameters, and
   // its distance from the data's (stable) orbit is what the fit must see to come back.
   c.last_ok = false;
-  if (chord_mode_) {
-    if (c.chord_ok && chord(k, sys, period, grid, order, states)) return orbit_kind::periodic;
-  } else {
-    c.chord_ok = false;  // set again where this evaluation's shooting converges
-  }
   const bool warm = c.started;
   shot result = shoot(k, m, sys, period, grid, order, states);
   if (result != shot::converged && warm) {  // from the data instead (the anchor stays)
@@ -368,75 +356,10 @@ orbit_predictor::shot orbit_predictor::shoot(std::size_t k, const model_point& m
     if (!sample_flow(sys, orbit.state, period, opt, grid, order, states)) return shot::failed;
     c.last = orbit.state;
     c.last_ok = true;
-    if (!chord_mode_) {
-      c.chord_start = orbit.state;
-      c.chord_monodromy = orbit.monodromy;
-      c.chord_ok = true;
-      c.chord_model = sys;
-      c.chord_misclosure.reset();
-    }
     return shot::converged;
   } catch (const numerical_error&) {
   }
   return shot::failed;
-}
-
-bool orbit_predictor::chord(std::size_t k, const rotor_with_effects<identified>& sys, double period, const sample_grid& grid,
-                            const std::vector<std::size_t>& order, std::vector<rig_state>& states) {
-  cache& c = caches_[k];
-  const int periods = dwells_[k].periods;
-  const shooting_settings shooting = fit_shooting(periods, orbits_);
-  try {
-    // The map as shooting takes it (its stepper and tolerances), without the variational equations.
-    if (!c.chord_misclosure) {
-      const rig_state end = flow(*c.chord_model, c.chord_start, period, shooting.integration);
-      rig_state e{};
-      for (std::size_t i = 0; i < e.size(); ++i) e[i] = end[i] - c.chord_start[i];
-      c.chord_misclosure = e;
-    }
-    rig_state s = c.chord_start;
-    for (int step = 0; step < kChordSteps; ++step) {
-      rig_state end = flow(sys, s, period, shooting.integration);
-      for (std::size_t i = 0; i < end.size(); ++i) end[i] -= (*c.chord_misclosure)[i];  // P(s) - s less the base's own
-      const double r = periodicity_residual(sys, s, end);
-      if (!std::isfinite(r)) return false;
-      if (r <= kChordClosure * shooting.tolerance) {
-        if (!sample_flow(sys, s, period, fit_sampling(periods, orbits_), grid, order, states)) return false;
-        c.last = s;
-        c.last_ok = true;
-        ++c.chord_closed;
-        return true;
-      }
-      const auto d = periodic_orbit_step(sys, c.chord_monodromy, s, end);
-      if (!d) return false;
-      for (Eigen::Index i = 0; i < d->size(); ++i) s[static_cast<std::size_t>(i)] += (*d)[i];
-    }
-  } catch (const numerical_error&) {
-  }
-  return false;
-}
-
-std::optional<Eigen::VectorXd> orbit_predictor::near(const model_point& m, const model_point& base, bool harmonics) {
-  if (!(chord_of_ && *chord_of_ == base)) (void)(harmonics ? harmonic_residuals(base) : residuals(base));
-  struct chord_scope {
-    bool& mode;
-    explicit chord_scope(bool& b) : mode(b) { mode = true; }
-    ~chord_scope() { mode = false; }
-    chord_scope(const chord_scope&) = delete;
-    chord_scope& operator=(const chord_scope&) = delete;
-  } scope(chord_mode_);
-  return harmonics ? harmonic_residuals(m) : residuals(m);
-}
-
-std::size_t orbit_predictor::chord_orbits() const {
-  std::size_t n = 0;
-  for (const auto& c : caches_) n += c.chord_closed;
-  return n;
-}
-
-std::optional<Eigen::VectorXd> orbit_predictor::residuals_near(const model_point& m, const model_point& base) { return near(m, base, false); }
-std::optional<Eigen::VectorXd> orbit_predictor::harmonic_residuals_near(const model_point& m, const model_point& base) {
-  return near(m, base, true);
 }
 
 orbit_predictor::band& orbit_predictor::band_of(std::size_t k) {
@@ -499,7 +422,6 @@ std::optional<Eigen::VectorXd> orbit_predictor::evaluate(const model_point& m, b
     kinds_[k] = predict(k, m, harmonics);
     if (kinds_[k] != orbit_kind::failed) fill(k, r);
   });
-  if (!chord_mode_) chord_of_ = m;  // the caches' chord starts: its converged dwells'
   if (std::find(kinds_.begin(), kinds_.end(), orbit_kind::failed) != kinds_.end()) return std::nullopt;
   auto row = static_cast<Eigen::Index>(rows - (rows_ - orbit_rows_));  // the priors are the last rows in both layouts
   for (std::size_t k = 0; k < dwells_.size(); ++k)
@@ -559,12 +481,8 @@ const std::array<double, 4>& orbit_predictor::data_state(std::size_t k) {
 }
 
 void orbit_predictor::reset() {
-  for (auto& c : caches_) {  // the sorted phases stay: they depend on the timing alone
-    c.started = c.last_ok = c.chord_ok = false;
-    c.chord_misclosure.reset();
-  }
+  for (auto& c : caches_) c.started = c.last_ok = false;  // the sorted phases stay: they depend on the timing alone
   harmonics_of_.reset();
-  chord_of_.reset();
 }
 
 void orbit_predictor::anchor(const model_point& m) {
@@ -577,7 +495,6 @@ void orbit_predictor::anchor(const model_point& m) {
     c.start = c.last;
   }
   harmonics_of_.reset();  // the next evaluation shoots from the new anchor
-  chord_of_.reset();
 }
 
 void orbit_predictor::anchor(const model_point& m, const orbit_anchors& from) {
@@ -590,7 +507,6 @@ void orbit_predictor::anchor(const model_point& m, const orbit_anchors& from) {
     c.start = c.last;
   }
   harmonics_of_.reset();  // the next evaluation shoots from the new anchor
-  chord_of_.reset();
 }
 
 orbit_anchors orbit_predictor::last_orbits() const {

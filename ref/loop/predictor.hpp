@@ -96,20 +96,8 @@ class orbit_predictor {
   // harmonics of the last harmonic_residuals() call: what the comparison in harmonics sees.
   std::array<double, 2> band_reading(std::size_t k, double t, double shift) const;
 
-  // The same two comparisons at m for a Jacobian's column near `base` (a point a difference step
-  // away): each dwell's orbit found from base's periodic orbit by chord steps (Newton's steps with
-  // base's monodromy), each one flow of the map without the variational equations that Newton's
-  // carry, until the orbit closes within the shooting's tolerance, then sampled as every orbit is;
-  // a dwell where it does not close, or where base had no periodic orbit, is shot as every
-  // evaluation is. base is evaluated first unless the last evaluation under the current anchor was
-  // at it. The result depends on the anchor, base and m alone.
-  std::optional<Eigen::VectorXd> residuals_near(const model_point& m, const model_point& base);
-  std::optional<Eigen::VectorXd> harmonic_residuals_near(const model_point& m, const model_point& base);
-
   // How many residuals() calls this predictor has made (the loop's cost: each shoots every dwell).
   std::size_t evaluations() const { return evaluations_; }
-  // How many dwells' orbits chord steps have closed (residuals_near), not shot.
-  std::size_t chord_orbits() const;
   // Per dwell, how the last residuals() call got its orbit.
   const std::vector<orbit_kind>& kinds() const { return kinds_; }
   // The derivative of every residual with respect to each dwell's shift (columns by dwell).
@@ -140,16 +128,6 @@ class orbit_predictor {
     std::array<double, 6> last{};       // the last converged orbit's state at t = 0
     bool last_ok = false;
     std::optional<std::array<double, 4>> in_data;  // the data's state at t = 0 (x, y, vx, vy), once fitted
-    // The periodic orbit of the last evaluation outside the chord mode (chord_of_) and its
-    // monodromy: where a column's chord steps start.
-    std::array<double, 6> chord_start{};
-    Eigen::Matrix<double, 6, 6> chord_monodromy = Eigen::Matrix<double, 6, 6>::Zero();
-    bool chord_ok = false;
-    // Its own misclosure P(s) - s by the chord steps' flow, taken at the first column: a column's
-    // orbit closes on it, so that the difference of the two orbits carries no closure error.
-    std::optional<rotor_with_effects<identified>> chord_model;
-    std::optional<std::array<double, 6>> chord_misclosure;
-    std::size_t chord_closed = 0;  // orbits closed by chord steps (chord_orbits)
   };
   // Dwell k's harmonic band: the data's side, computed once, and the model's last harmonics.
   struct band {
@@ -173,10 +151,6 @@ class orbit_predictor {
   std::optional<Eigen::VectorXd> evaluate(const model_point& m, bool harmonics, std::size_t rows, Fill&& fill);
   // The model's orbit in dwell k sampled at the record's phases (harmonics false) or on the band's grid.
   orbit_kind predict(std::size_t k, const model_point& m, bool harmonics);
-  // Dwell k's orbit at m by chord steps from chord_start (residuals_near); false where it does not close.
-  bool chord(std::size_t k, const rotor_with_effects<identified>& sys, double period, const sample_grid& grid,
-             const std::vector<std::size_t>& order, std::vector<std::array<double, 6>>& states);
-  std::optional<Eigen::VectorXd> near(const model_point& m, const model_point& base, bool harmonics);
   enum class shot { converged, failed };
   shot shoot(std::size_t k, const model_point& m, const rotor_with_effects<identified>& sys, double period, const sample_grid& grid,
              const std::vector<std::size_t>& order, std::vector<std::array<double, 6>>& states);
@@ -193,8 +167,6 @@ class orbit_predictor {
   std::vector<std::size_t> harmonic_offsets_;
   std::size_t harmonic_rows_ = 0;
   std::optional<model_point> harmonics_of_;  // the last harmonic_residuals() call's point (harmonics_are_of)
-  std::optional<model_point> chord_of_;      // the point the caches' chord starts are of (since the last anchor)
-  bool chord_mode_ = false;                  // evaluations by chord steps (residuals_near)
 };
 
 }  // namespace rubref
