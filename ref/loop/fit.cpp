@@ -148,11 +148,6 @@ std::optional<Eigen::VectorXd> residual_at(orbit_predictor& predictor, const mod
   return predictor.residuals(m);
 }
 
-bool fits_alike(const fit_problem& problem, const fit_result& a, const fit_result& b) {
-  const double orbit_error = problem.predictor->orbit_options().orbit_error();
-  return std::abs(a.rss - b.rss) <= cost_uncertainty(a.r, a.remaining, orbit_error) + cost_uncertainty(b.r, b.remaining, orbit_error);
-}
-
 namespace {
 // A start's residual on its own orbits (or those found from the data); inf where it cannot be computed.
 start_outcome evaluate_start(const fit_problem& problem, const named_start& s) {
@@ -175,6 +170,8 @@ multistart_result fit_from_starts(const fit_problem& problem, const std::vector<
   // breaks: a lower residual by less than that is round-off, and the winner must not depend on it
   // (seed 7919 #10: two starts ended 6e-7 of the residual apart, 0.2 % apart in k1 along the law's
   // flat valley, and the dwells' order picked one and with it the trace's path).
+  const double orbit_error = problem.predictor->orbit_options().orbit_error();
+  const auto uncertainty = [&](const fit_result& f) { return cost_uncertainty(f.r, f.remaining, orbit_error); };
   std::size_t best_index = starts.size();
   int fits = 0;
   for (const std::size_t i : order) {
@@ -183,7 +180,7 @@ multistart_result fit_from_starts(const fit_problem& problem, const std::vector<
     ++fits;
     out.starts[i].rss_fit = f.rss;
     if (!f.ok) continue;
-    const bool tie = out.best.ok && fits_alike(problem, f, out.best);
+    const bool tie = out.best.ok && std::abs(f.rss - out.best.rss) <= uncertainty(f) + uncertainty(out.best);
     if (tie) out.tie = true;
     if (tie ? i < best_index : f.rss < out.best.rss) {
       out.tie = tie;  // a fit lower beyond the uncertainty wins outright
@@ -208,12 +205,7 @@ multistart_result race_starts(const fit_problem& problem, const std::vector<name
     if (std::isfinite(o.rss_start)) {
       fit_result f = fit(problem, problem.of(s.at), lap, s.orbits ? &*s.orbits : nullptr);
       o.rss_fit = f.rss;
-      if (f.ok && out.best.ok && fits_alike(problem, f, out.best)) {
-        out.tie = true;  // the earlier start leads
-      } else if (f.ok && f.rss < out.best.rss) {
-        out.tie = false;
-        out.best = std::move(f), leader = i;
-      }
+      if (f.ok && f.rss < out.best.rss) out.best = std::move(f), leader = i;
     }
     out.starts.push_back(std::move(o));
   }

@@ -67,11 +67,6 @@ fit_result fit(const fit_problem& problem, const Eigen::VectorXd& start, int max
 // nothing if the model's orbit cannot be computed in some dwell.
 std::optional<Eigen::VectorXd> residual_at(orbit_predictor& predictor, const model_point& m);
 
-// Two fits whose residuals lie within their numerical uncertainty of each other (cost_uncertainty:
-// the orbits' error and each fit's predicted remaining descent): which is lower is round-off, so a
-// choice between them goes by the starts' declared order, never by the last digits.
-bool fits_alike(const fit_problem& problem, const fit_result& a, const fit_result& b);
-
 // Fits from several starts (named for the report): every start is evaluated, the best is fitted,
 // and unless the best fit so far is `good_enough` (called right after that fit, so the predictor
 // holds its states) the next best start is fitted too, `max_fits` in all. The lowest fit wins.
@@ -98,8 +93,7 @@ multistart_result fit_from_starts(const fit_problem& problem, const std::vector<
 // from there with the rest of `max_iterations`. The start's own residual does not say where its
 // fit ends: a start off in the effect's coordinates but on the right base can pass one on a base
 // bent to absorb the effect within a step or two (docs/loop.md). Where the budget is not larger
-// than a lap per start, the lowest start alone is fitted (fit_from_starts). Laps that end alike
-// (fits_alike): the earlier start leads, as the before-fit's tie rule has it.
+// than a lap per start, the lowest start alone is fitted (fit_from_starts).
 multistart_result race_starts(const fit_problem& problem, const std::vector<named_start>& starts, int max_iterations, int lap);
 
 }  // namespace rubref
