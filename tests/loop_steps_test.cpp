@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <numbers>
@@ -12,6 +13,7 @@
 #include <vector>
 
 #include "ref/base/errors.hpp"
+#include "ref/inference/evidence.hpp"
 #include "ref/loop/coordinates.hpp"
 #include "ref/loop/fit.hpp"
 #include "ref/loop/loop.hpp"
@@ -574,6 +576,61 @@ TEST(loop_steps, validity_checks_bound_their_change_under_the_residual_error) {
   EXPECT_EQ(residual_error_of(r, 0.0), 0.0);
   EXPECT_TRUE(std::isinf(residual_error_of(r, std::numeric_limits<double>::infinity())));
   EXPECT_TRUE(std::isinf(residual_error_of(r, std::nan(""))));
+}
+
+// The verdict's check (docs/loop.md, "Check"): a loop whose check with tighter orbits names other
+// effects claims nothing, and whatever either chose is tentative, so that a re-run at other
+// tolerances can differ from it only by a claim against "tentative", never by a different effect.
+TEST(loop_steps, a_check_that_names_other_effects_leaves_both_tentative) {
+  const loop_settings s;
+  const auto claimed = [&](std::vector<std::string> names) {
+    loop_result r;
+    for (const auto& n : names) r.effects.push_back(loop_step{.effect = n});
+    r.validity_after.pass = true;  // the residual is noise: a full claim
+    claim_inputs in;
+    in.residual_is_noise = true;
+    r.decision = decide("effects", std::move(names), in, s.rules);
+    return r;
+  };
+  const auto sorted = [](std::vector<std::string> v) { return std::sort(v.begin(), v.end()), v; };
+  {  // the check names the same effects (in another order): the claim stands
+    loop_result r = claimed({"shaft_bow", "preload"});
+    apply_check(r, claimed({"preload", "shaft_bow"}).decision, "", s);
+    ASSERT_TRUE(r.check);
+    EXPECT_TRUE(r.check->agrees);
+    EXPECT_EQ(r.decision.claim, "full");
+    EXPECT_EQ(sorted(r.decision.named), sorted({"shaft_bow", "preload"}));
+    EXPECT_DOUBLE_EQ(r.check->tolerance_scale, s.orbits.tolerance_scale * s.check_tolerance_scale);
+  }
+  {  // the check names nothing: the fit's effect is tentative
+    loop_result r = claimed({"shaft_bow"});
+    apply_check(r, claimed({}).decision, "", s);
+    EXPECT_FALSE(r.check->agrees);
+    EXPECT_EQ(r.decision.claim, "tentative");
+    EXPECT_TRUE(r.decision.named.empty());
+    EXPECT_EQ(r.decision.tentative, std::vector<std::string>{"shaft_bow"});
+    EXPECT_NE(r.decision.reasons.front().find("names nothing where the fit names shaft_bow"), std::string::npos);
+  }
+  {  // the check names another effect: both are tentative
+    loop_result r = claimed({"shaft_bow"});
+    apply_check(r, claimed({"preload"}).decision, "", s);
+    EXPECT_EQ(r.decision.claim, "tentative");
+    EXPECT_TRUE(r.decision.named.empty());
+    EXPECT_EQ(sorted(r.decision.tentative), sorted({"shaft_bow", "preload"}));
+  }
+  {  // the fit names nothing and the check an effect: it is tentative, nothing is claimed
+    loop_result r = claimed({});
+    apply_check(r, claimed({"preload"}).decision, "", s);
+    EXPECT_TRUE(r.decision.named.empty());
+    EXPECT_EQ(r.decision.tentative, std::vector<std::string>{"preload"});
+  }
+  {  // the check failed: the verdict is tentative and says why
+    loop_result r = claimed({"shaft_bow"});
+    apply_check(r, std::nullopt, "no orbit", s);
+    EXPECT_FALSE(r.check->agrees);
+    EXPECT_EQ(r.decision.tentative, std::vector<std::string>{"shaft_bow"});
+    EXPECT_NE(r.decision.reasons.front().find("failed (no orbit)"), std::string::npos);
+  }
 }
 
 }  // namespace

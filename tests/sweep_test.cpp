@@ -3,11 +3,13 @@
 
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
 #include <cstring>
 #include <numbers>
 
 #include "ref/base/errors.hpp"
+#include "ref/base/parallel.hpp"
 #include "ref/analysis/orbit_summary.hpp"
 #include "ref/model/closed_form.hpp"
 #include "ref/run/simulate.hpp"
@@ -253,6 +255,20 @@ TEST(sweep, same_bits_whatever_the_thread_count) {
     expect_bitwise_equal(one[i], two[i]);
     expect_bitwise_equal(one[i], many[i]);
   }
+}
+
+// A parallel_for inside a parallel_for's task shares the outer call's threads among its workers
+// (ref/base/parallel.hpp): two tasks on four threads get two each, on two threads one each, and
+// outside any call the count is the caller's again.
+TEST(sweep, nested_parallel_calls_share_the_outer_threads) {
+  for (const auto& [outer, inner] : {std::pair{4u, 2u}, std::pair{2u, 1u}, std::pair{1u, 1u}}) {
+    std::array<unsigned, 2> seen{};
+    parallel_for(2, outer, [&](std::size_t i) { seen[i] = thread_count(0, 100); });
+    EXPECT_EQ(seen[0], inner) << outer << " threads";
+    EXPECT_EQ(seen[1], inner) << outer << " threads";
+  }
+  EXPECT_EQ(thread_count(3, 100), 3u);
+  EXPECT_EQ(nested_thread_budget(), 0u);
 }
 
 TEST(sweep_io, tables_have_a_row_per_speed_and_the_reported_orders) {

@@ -7,6 +7,7 @@
 #include <cstddef>
 #include <cstdlib>
 #include <exception>
+#include <limits>
 #include <mutex>
 #include <string>
 #include <thread>
@@ -26,6 +27,14 @@ inline std::atomic<unsigned>& default_threads() {
 }
 inline void set_default_threads(unsigned n) { default_threads() = n; }
 
+// The threads a task of parallel_for (below) may use for a parallel_for of its own: its outer
+// call's threads shared among that call's workers; 0 outside any. Nested calls then never run more
+// threads than the outer call was given (the loop's two fits, each with its candidates).
+inline unsigned& nested_thread_budget() {
+  thread_local unsigned n = 0;
+  return n;
+}
+
 // RUBREF_THREADS as a thread count: 0 when unset; input_error unless a whole number 1..4096.
 inline unsigned threads_from_environment() {
   const char* env = std::getenv("RUBREF_THREADS");
@@ -43,6 +52,7 @@ inline unsigned threads_from_environment() {
 // on it (tests/determinism_test.sh).
 inline unsigned thread_count(unsigned requested, std::size_t tasks) {
   unsigned n = requested;
+  if (n == 0) n = nested_thread_budget();
   if (n == 0) n = default_threads();
   if (n == 0) n = threads_from_environment();
   if (n == 0) n = std::max(1u, std::thread::hardware_concurrency());
@@ -61,8 +71,15 @@ void parallel_for(std::size_t n, unsigned threads, Task&& task) {
   std::exception_ptr error;
   std::size_t error_index = n;
   std::mutex error_mutex;
+  const unsigned count = thread_count(threads, n);
+  const unsigned share = std::max(1u, thread_count(threads, std::numeric_limits<std::size_t>::max()) / count);
   const auto worker = [&] {
     const stop_scope scope(stop);
+    struct budget_scope {
+      unsigned saved = nested_thread_budget();
+      explicit budget_scope(unsigned b) { nested_thread_budget() = b; }
+      ~budget_scope() { nested_thread_budget() = saved; }
+    } budget(share);
     for (std::size_t i; !failed && (i = next++) < n;) {
       try {
         throw_if_stop_requested();
@@ -74,7 +91,6 @@ void parallel_for(std::size_t n, unsigned threads, Task&& task) {
       }
     }
   };
-  const unsigned count = thread_count(threads, n);
   std::vector<std::thread> pool;
   for (unsigned t = 1; t < count; ++t) pool.emplace_back(worker);
   worker();

@@ -39,8 +39,9 @@ void run_on_table(const loop_state& st, staged_directory& dir) {
   if (st.files.size() != 1) throw input_error("an order-tracked table is fitted alone: give one table, not " + std::to_string(st.files.size()) + " files");
   const loop_settings defaults;
   if (st.settings.mass != defaults.mass || st.settings.clearance != defaults.clearance || st.settings.max_effects != defaults.max_effects ||
-      st.settings.refit_candidates != defaults.refit_candidates || st.settings.orbits.tolerance_scale != defaults.orbits.tolerance_scale)
-    throw input_error("--mass, --clearance, --max-effects, --refit and --orbit-tolerance-scale are settings of the loop on time records; " + st.files.front() +
+      st.settings.refit_candidates != defaults.refit_candidates || st.settings.orbits.tolerance_scale != defaults.orbits.tolerance_scale ||
+      st.settings.check_tolerance_scale != defaults.check_tolerance_scale)
+    throw input_error("--mass, --clearance, --max-effects, --refit, --orbit-tolerance-scale and --check-tolerance-scale are settings of the loop on time records; " + st.files.front() +
                       " is an order-tracked table (docs/real-data.md)");
   order_conventions c = st.conventions;
   if (st.scale != 0.0) c.scale_mV_per_um = st.scale;
@@ -83,6 +84,7 @@ void add_loop(CLI::App& app) {
   add_setting(*sub, s.max_effects, {"trace", "max_effects"});
   add_setting(*sub, s.refit_candidates, {"trace", "refit_candidates"});
   add_setting(*sub, s.orbits.tolerance_scale, {"fit_orbits", "tolerance_scale"});
+  add_setting(*sub, s.check_tolerance_scale, {"loop", "check_tolerance_scale"});
   // A callback, not CLI11's negated flag "!--no-figures", whose help shows "--no-figures{false}".
   sub->add_flag_callback("--no-figures", [st] { st->figures = false; }, "write the report without drawing figures");
   auto* table = sub->add_option_group("order-tracked tables", "conventions of a table the file does not declare (docs/data-format.md)");

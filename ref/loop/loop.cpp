@@ -1,10 +1,14 @@
 #include "ref/loop/loop.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
+#include <mutex>
+#include <optional>
 
 #include "ref/base/errors.hpp"
+#include "ref/base/parallel.hpp"
 #include "ref/inference/evidence.hpp"
 #include "ref/loop/paper_fit.hpp"
 
@@ -119,28 +123,36 @@ void measure(loop_result& out, orbit_predictor& predictor, double noise, const l
   }
 }
 
-// Loud, never silent: an estimate outside what the library describes, or a law without stiffness;
-// then what is claimed, by the evidence rules' claim rule. The effects are claimed together or not
-// at all: they were fitted together.
-void claim(loop_result& out, const loop_settings& s) {
+// The estimates outside what the library describes, one line each.
+std::vector<std::string> implausible_estimates(const loop_result& out) {
+  std::vector<std::string> implausible;
+  for (const auto& e : out.effects)
+    if (const auto* q = outside_fit_range(find_effect(e.effect), out.after))
+      implausible.push_back(e.effect + "'s " + std::string(q->key) + " = " + format_digits(out.after.fx.*q->member) + " " + std::string(q->unit) +
+                            " is outside the library's range [" + format_digits(q->lo) + ", " + format_digits(q->hi) + "]");
+  return implausible;
+}
+
+// Loud, never silent: an estimate outside what the library describes, or a law without stiffness.
+void warn_unphysical(loop_result& out, const loop_settings& s) {
   const auto warn = [&](const std::string& w) {
     out.warnings.push_back(w);
     s.progress("warning: " + w);
   };
-  std::vector<std::string> implausible;  // estimates the library's rows do not describe
-  for (const auto& e : out.effects)
-    if (const auto* q = outside_fit_range(find_effect(e.effect), out.after)) {
-      implausible.push_back(e.effect + "'s " + std::string(q->key) + " = " + format_digits(out.after.fx.*q->member) + " " + std::string(q->unit) +
-                            " is outside the library's range [" + format_digits(q->lo) + ", " + format_digits(q->hi) + "]");
-      warn(implausible.back());
-    }
+  for (const auto& w : implausible_estimates(out)) warn(w);
   if (!(out.after.p.k1 > 0.0)) warn("the law's k1 is 0: the contact has no linear stiffness (an effect the library lacks may carry it)");
   if (!(out.after.p.mu > 0.0)) warn("mu is 0: no friction at the contact");
+}
+
+// What is claimed, by the evidence rules' claim rule. The effects are claimed together or not at
+// all: they were fitted together. `check_reason`: why the verdict's check disagrees (empty: it does
+// not), `check` its verdict (nullptr: it failed).
+void claim(loop_result& out, const loop_settings& s, const std::string& check_reason = {}, const verdict* check = nullptr) {
   claim_inputs in;
   in.residual_is_noise = out.validity_after.pass;
   in.explained_share = out.decision.explained_share;
   in.explained_share_uncertainty = out.explained_share_uncertainty;
-  in.plausible = first_implausible(implausible).empty();
+  in.plausible = first_implausible(implausible_estimates(out)).empty();
   std::vector<std::string> names, reasons;
   std::string rival;  // the decisive-choice rule: an effect in the model with a rival is not decided
   for (const auto& e : out.effects) {
@@ -159,6 +171,16 @@ void claim(loop_result& out, const loop_settings& s) {
   std::vector<std::string> left_out;
   for (const auto& e : out.on_margin)
     if (std::find(names.begin(), names.end(), e) == names.end()) left_out.push_back(e);
+  // The verdict's check disagrees (`check_reason` says how): the orbits' accuracy, not the data,
+  // decided between the two, so nothing is claimed and what the check chose is tentative too.
+  if (!check_reason.empty()) {
+    in.on_margin = true;
+    reasons.push_back(check_reason);
+    if (check != nullptr)
+      for (const auto& e : check->chosen())
+        if (std::find(names.begin(), names.end(), e) == names.end() && std::find(left_out.begin(), left_out.end(), e) == left_out.end())
+          left_out.push_back(e);
+  }
   if (!left_out.empty()) {
     std::string list;
     for (const auto& e : left_out) list += (list.empty() ? "" : ", ") + e;
@@ -179,10 +201,16 @@ void loop_settings::validate() const {
   trace_settings::validate();
   check({"loop", "mass"}, mass);
   check({"loop", "clearance"}, clearance);
+  check({"loop", "check_tolerance_scale"}, check_tolerance_scale);
+  if (check_tolerance_scale > 0.0 && check_tolerance_scale * orbits.tolerance_scale < 1e-3)
+    throw input_error("check_tolerance_scale " + format_digits(check_tolerance_scale) + " times orbit_tolerance_scale " + format_digits(orbits.tolerance_scale) +
+                      " is below 1e-3, where the steppers reach rounding: loosen one, or set check_tolerance_scale to 0 (no check)");
 }
 
-loop_result run_loop(const std::vector<std::pair<record, std::string>>& records, const loop_settings& s) {
-  s.validate();
+namespace {
+
+// The loop itself (stages 1-4 of loop.hpp), without its check.
+loop_result fit_and_claim(const std::vector<std::pair<record, std::string>>& records, const loop_settings& s) {
   loop_result out;
   // 1. The dwells.
   prepared_dwells prep = prepare_dwells(records, s.mass, s.clearance);
@@ -237,7 +265,67 @@ loop_result run_loop(const std::vector<std::pair<record, std::string>>& records,
   measure(out, predictor, noise, s, traced);
   out.model_evaluations = predictor.evaluations();
   for (const auto& h : held_out) held_out_check(out, h, noise, s.orbits);
+  warn_unphysical(out, s);
   claim(out, s);
+  return out;
+}
+
+bool same_names(std::vector<std::string> a, std::vector<std::string> b) {
+  std::sort(a.begin(), a.end());
+  std::sort(b.begin(), b.end());
+  return a == b;
+}
+
+}  // namespace
+
+void apply_check(loop_result& out, std::optional<verdict> check, const std::string& failure, const loop_settings& s) {
+  out.check = verdict_check{s.orbits.tolerance_scale * s.check_tolerance_scale, check.value_or(verdict{}), check && same_names(out.decision.named, check->named)};
+  if (out.check->agrees) return;
+  const auto list = [](const std::vector<std::string>& v) {
+    std::string l;
+    for (const auto& e : v) l += (l.empty() ? "" : ", ") + e;
+    return v.empty() ? std::string("nothing") : l;
+  };
+  const std::string what = "the verdict's check (the loop again with orbit tolerances " + format_digits(s.check_tolerance_scale) + " times the fit's) " +
+                           (check ? "names " + list(check->named) + " where the fit names " + list(out.decision.named) +
+                                        ": the orbits' accuracy, not the data, chose between them, so both are tentative"
+                                  : "failed (" + failure + "): the verdict is tentative");
+  claim(out, s, what, check ? &out.check->decision : nullptr);
+  s.progress("warning: " + what);
+}
+
+// The loop and its check side by side on the machine's threads (each fit deterministic, so the
+// pair is the same whatever the thread count). The check is the stability test (docs/loop.md) run
+// on every call: with every orbit tolerance check_tolerance_scale times the fit's, the loop must
+// name the same effects, or the verdict is tentative.
+loop_result run_loop(const std::vector<std::pair<record, std::string>>& records, const loop_settings& s) {
+  s.validate();
+  if (s.check_tolerance_scale == 0.0) return fit_and_claim(records, s);
+  std::mutex lines;  // the two fits' progress, a whole line at a time
+  const auto say = [&](std::string prefix) {
+    return [&lines, &s, prefix = std::move(prefix)](const std::string& line) {
+      const std::lock_guard lock(lines);
+      s.progress(prefix + line);
+    };
+  };
+  loop_settings fit = s, check = s;
+  fit.progress = say("");
+  check.orbits.tolerance_scale *= s.check_tolerance_scale;
+  check.progress = say("[check] ");
+  s.progress("the verdict's check: the same loop with orbit tolerances " + format_digits(s.check_tolerance_scale) +
+             " times these, beside it ([check] lines); an effect the two do not both name is tentative");
+  std::array<std::optional<loop_result>, 2> runs;
+  std::string check_failed;
+  parallel_for(2, 0, [&](std::size_t i) {
+    if (i == 0) return void(runs[0] = fit_and_claim(records, fit));
+    try {
+      runs[1] = fit_and_claim(records, check);
+    } catch (const numerical_error& e) {
+      check_failed = e.what();
+    }
+  });
+  loop_result out = std::move(*runs[0]);
+  apply_check(out, runs[1] ? std::optional<verdict>(runs[1]->decision) : std::nullopt, check_failed, s);
   return out;
 }
 

@@ -7,6 +7,7 @@
 //   3. trace.hpp       the residual traced to library effects (search.hpp: profiles, dip search)
 //   4. residuals.hpp   errors, spectrum and validity before and after; report.hpp: the report
 
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -23,6 +24,9 @@ namespace rubref {
 struct loop_settings : trace_settings {
   double mass = default_of("loop", "mass");            // kg; 0: the records' m_kg metadata, else the paper's
   double clearance = default_of("loop", "clearance");  // m, for records without clearance_m (0: the records' own)
+  // The verdict's check (docs/loop.md, "Check"): the whole loop again with every orbit tolerance
+  // this many times the fit's; an effect the two do not both name is tentative (0: no check).
+  double check_tolerance_scale = default_of("loop", "check_tolerance_scale");
   // input_error naming the setting, its range and its reason (the trace's too).
   void validate() const;
 };
@@ -41,6 +45,15 @@ struct dwell_error {
 struct spectrum_by_order {
   std::vector<int> orders;            // -H..H (negative: backward whirl)
   std::vector<double> before, after;  // m, RMS over contact dwells of |c_k|
+};
+
+// The loop run again with tighter orbits (loop_settings::check_tolerance_scale): whether its
+// verdict names the same effects. A verdict that changes with the orbits' accuracy was decided by
+// it, not by the data.
+struct verdict_check {
+  double tolerance_scale = 0.0;  // the check's orbit tolerances, times the defaults
+  verdict decision;              // the check's own verdict
+  bool agrees = true;            // it names the effects the loop's fit names
 };
 
 struct loop_result {
@@ -63,6 +76,7 @@ struct loop_result {
   std::vector<effect_candidate> last_round;  // the round that added nothing (if any)
   double explained_share_uncertainty = 0.0;  // decision.explained_share's numerical uncertainty
   std::vector<std::string> on_margin;        // effects decided within their statistics' numerical uncertainty (trace_result::on_margin)
+  std::optional<verdict_check> check;        // none when check_tolerance_scale is 0
   std::size_t model_evaluations = 0;          // of every dwell's orbits on all dwells (the loop's cost; out-of-sample ones apart)
   validity_report validity_before, validity_after;
   std::vector<dwell_error> errors;
@@ -76,5 +90,10 @@ struct loop_result {
 // Records with their names. input_error for unusable data (e.g. fewer than two speeds without
 // contact). Every dwell left out is in `excluded` with its reason, and reported on `progress`.
 loop_result run_loop(const std::vector<std::pair<record, std::string>>& records, const loop_settings& s);
+
+// The verdict's check applied to the loop's result `out`: its verdict `check` (nullopt: it failed,
+// `failure` says how). Where the two name other effects, nothing is claimed and the effects either
+// chose are tentative, with the reason. run_loop calls it; it is here for its tests.
+void apply_check(loop_result& out, std::optional<verdict> check, const std::string& failure, const loop_settings& s);
 
 }  // namespace rubref

@@ -91,6 +91,9 @@ json to_json(const loop_result& r) {
   }
   j["verdict"] = to_json(r.decision);
   j["on_margin"] = r.on_margin;  // effects decided within their statistics' numerical uncertainty (docs/loop.md, "Margins")
+  // The verdict's check (docs/loop.md, "Check"): the loop again with tighter orbits.
+  j["check"] = r.check ? json{{"orbit_tolerance_scale", r.check->tolerance_scale}, {"agrees", r.check->agrees}, {"verdict", to_json(r.check->decision)}}
+                       : json(nullptr);
   j["removed"] = json::array();
   for (const auto& e : r.removed)
     j["removed"].push_back({{"name", e.effect},
@@ -146,6 +149,16 @@ std::string to_markdown(const loop_result& r) {
   o << "| residual consistent with noise (" << fmt(r.noise * 1e6) << " um) | " << noise_verdict(r.validity_before) << " | "
     << noise_verdict(r.validity_after) << " |\n\n";
   o << to_markdown(r.decision);
+  if (r.check) {
+    const auto names = [](const verdict& v) {
+      std::string l;
+      for (const auto& e : v.named) l += (l.empty() ? "" : ", ") + e;
+      return v.named.empty() ? std::string("nothing") : l;
+    };
+    o << "- the verdict's check (the loop again with orbit tolerances " << fmt(r.check->tolerance_scale) << " times the defaults) names "
+      << names(r.check->decision) << " (claim: " << r.check->decision.claim << "): "
+      << (r.check->agrees ? "the same effects" : "other effects, so the verdict above is tentative") << "\n\n";
+  }
   o << "Effects the trace added, in order (" << (r.decision.named.empty() ? "not claimed" : "claimed: " + r.decision.claim) << "):";
   if (r.effects.empty()) o << " none.";
   o << "\n\n";
