@@ -209,8 +209,11 @@ void loop_settings::validate() const {
 
 namespace {
 
-// The loop itself (stages 1-4 of loop.hpp), without its check.
-loop_result fit_and_claim(const std::vector<std::pair<record, std::string>>& records, const loop_settings& s) {
+// The loop itself (stages 1-4 of loop.hpp), without its check. `announce` goes to progress once the
+// records are found fit to fit (an input error is then the run's only line); the dwells left out
+// in stage 1 are said only where `say_dwells` (the check's stage 1 is the loop's, bit for bit).
+loop_result fit_and_claim(const std::vector<std::pair<record, std::string>>& records, const loop_settings& s, const std::string& announce = {},
+                          bool say_dwells = true) {
   loop_result out;
   // 1. The dwells.
   prepared_dwells prep = prepare_dwells(records, s.mass, s.clearance);
@@ -219,7 +222,7 @@ loop_result fit_and_claim(const std::vector<std::pair<record, std::string>>& rec
   out.notes = std::move(prep.notes);
   out.dwells = std::move(prep.dwells);
   for (const auto& e : prep.excluded)
-    s.progress("warning: " + e.record + " (" + format_digits(e.rpm) + " rpm) left out: " + e.reason);
+    if (say_dwells) s.progress("warning: " + e.record + " (" + format_digits(e.rpm) + " rpm) left out: " + e.reason);
   out.excluded = std::move(prep.excluded);
   const double noise = std::max(out.noise, 1e-12);
   const auto nothing_to_fit = [&](const std::string& why) {
@@ -233,6 +236,7 @@ loop_result fit_and_claim(const std::vector<std::pair<record, std::string>>& rec
     return nothing_to_fit("no synchronous dwell with contact: the loop cannot fit these records");
   }
 
+  if (!announce.empty()) s.progress(announce);
   // 2. The paper's model: staged, then every coordinate on every dwell's orbit.
   out.initial = staged_model(out.dwells, prep.mass, out.notes);
   std::vector<std::pair<loop_dwell, std::size_t>> held_out;
@@ -312,14 +316,14 @@ loop_result run_loop(const std::vector<std::pair<record, std::string>>& records,
   fit.progress = say("");
   check.orbits.tolerance_scale *= s.check_tolerance_scale;
   check.progress = say("[check] ");
-  s.progress("the verdict's check: the same loop with orbit tolerances " + format_digits(s.check_tolerance_scale) +
-             " times these, beside it ([check] lines); an effect the two do not both name is tentative");
+  const std::string announce = "the verdict's check: the same loop with orbit tolerances " + format_digits(s.check_tolerance_scale) +
+                               " times these, beside it ([check] lines); an effect the two do not both name is tentative";
   std::array<std::optional<loop_result>, 2> runs;
   std::string check_failed;
   parallel_for(2, 0, [&](std::size_t i) {
-    if (i == 0) return void(runs[0] = fit_and_claim(records, fit));
+    if (i == 0) return void(runs[0] = fit_and_claim(records, fit, announce));
     try {
-      runs[1] = fit_and_claim(records, check);
+      runs[1] = fit_and_claim(records, check, {}, false);
     } catch (const numerical_error& e) {
       check_failed = e.what();
     }
