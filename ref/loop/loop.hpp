@@ -24,7 +24,7 @@ namespace rubref {
 struct loop_settings : trace_settings {
   double mass = default_of("loop", "mass");            // kg; 0: the records' m_kg metadata, else the paper's
   double clearance = default_of("loop", "clearance");  // m, for records without clearance_m (0: the records' own)
-  // The verdict's check (docs/loop.md, "Check"): the whole loop again with every orbit tolerance
+  // The verdict's check (docs/loop.md, "The verdict's check"): the whole loop again with every orbit tolerance
   // this many times the fit's; an effect the two do not both name is tentative (0: no check).
   double check_tolerance_scale = default_of("loop", "check_tolerance_scale");
   // input_error naming the setting, its range and its reason (the trace's too).

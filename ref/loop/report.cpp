@@ -91,7 +91,7 @@ json to_json(const loop_result& r) {
   }
   j["verdict"] = to_json(r.decision);
   j["on_margin"] = r.on_margin;  // effects decided within their statistics' numerical uncertainty (docs/loop.md, "Margins")
-  // The verdict's check (docs/loop.md, "Check"): the loop again with tighter orbits.
+  // The verdict's check (docs/loop.md, "The verdict's check"): the loop again with tighter orbits.
   j["check"] = r.check ? json{{"orbit_tolerance_scale", r.check->tolerance_scale}, {"agrees", r.check->agrees}, {"verdict", to_json(r.check->decision)}}
                        : json(nullptr);
   j["removed"] = json::array();

@@ -190,7 +190,7 @@ inline constexpr auto settings_registry = std::to_array<setting_info>({
      "a Jacobian costs an orbit fit one shooting per coordinate and dwell; three steps on one keep its error below the step's gain"},
     {"loop", "check_tolerance_scale", "check-tolerance-scale", "check_tolerance_scale", "-", 0.1, {.lo = 0.0, .hi = 1.0, .hi_open = true},
      "the verdict's check: the whole fit again with every orbit tolerance times this (0: no check); what the two fits do not both name is tentative",
-     "a check at the fit's own tolerances or looser tests nothing; 0.1 is the stability check's step (docs/loop.md, \"Check\")"},
+     "a check at the fit's own tolerances or looser tests nothing; 0.1 is the stability check's step (docs/loop.md, \"The verdict's check\")"},
     {"trace", "max_effects", "max-effects", "max_effects", "-", 4, range::count_in(0, 11), "effects added to the model at most",
      "the effect library has 11"},
     {"trace", "refit_candidates", "refit", "refit_candidates", "-", 3, range::count_in(1, 11), "effects refitted per round first (best linearised scores)",
