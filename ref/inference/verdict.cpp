@@ -7,13 +7,11 @@
 
 namespace rubref {
 
-namespace {
 std::string joined(const std::vector<std::string>& names) {
   std::string s;
   for (const auto& n : names) s += (s.empty() ? "" : ", ") + n;
   return s;
 }
-}  // namespace
 
 std::vector<std::string> verdict::chosen() const {
   std::vector<std::string> all = named;

@@ -35,6 +35,9 @@ struct evidence_rules;
 verdict decide(std::string subject, std::vector<std::string> chosen, const claim_inputs& in, const evidence_rules& rules,
                std::string rival = {}, std::vector<std::string> reasons = {});
 
+// Names as a list in prose: "a, b, c" ("" for none).
+std::string joined(const std::vector<std::string>& names);
+
 // Its JSON object ({"subject", "claim", "named", "tentative", "explained_share", "residual_is_noise",
 // "unexplained", "rival", "reasons"}) and its Markdown section (a "## Verdict" heading).
 nlohmann::ordered_json to_json(const verdict& v);

@@ -181,11 +181,7 @@ void claim(loop_result& out, const loop_settings& s, const std::string& check_re
         if (std::find(names.begin(), names.end(), e) == names.end() && std::find(left_out.begin(), left_out.end(), e) == left_out.end())
           left_out.push_back(e);
   }
-  if (!left_out.empty()) {
-    std::string list;
-    for (const auto& e : left_out) list += (list.empty() ? "" : ", ") + e;
-    reasons.push_back("left out on the margin (tentative): " + list);
-  }
+  if (!left_out.empty()) reasons.push_back("left out on the margin (tentative): " + joined(left_out));
   if (names.empty() && in.on_margin) names = std::move(left_out), left_out.clear();  // nothing chosen: the margin's effects are the tentative ones
   out.decision = decide("effects", std::move(names), in, s.rules, std::move(rival), std::move(reasons));
   out.decision.tentative.insert(out.decision.tentative.end(), left_out.begin(), left_out.end());
@@ -285,11 +281,7 @@ bool same_names(std::vector<std::string> a, std::vector<std::string> b) {
 void apply_check(loop_result& out, std::optional<verdict> check, const std::string& failure, const loop_settings& s) {
   out.check = verdict_check{s.orbits.tolerance_scale * s.check_tolerance_scale, check.value_or(verdict{}), check && same_names(out.decision.named, check->named)};
   if (out.check->agrees) return;
-  const auto list = [](const std::vector<std::string>& v) {
-    std::string l;
-    for (const auto& e : v) l += (l.empty() ? "" : ", ") + e;
-    return v.empty() ? std::string("nothing") : l;
-  };
+  const auto list = [](const std::vector<std::string>& v) { return v.empty() ? std::string("nothing") : joined(v); };
   const std::string what = "the verdict's check (the loop again with orbit tolerances " + format_digits(s.check_tolerance_scale) + " times the fit's) " +
                            (check ? "names " + list(check->named) + " where the fit names " + list(out.decision.named) +
                                         ": the orbits' accuracy, not the data, chose between them, so both are tentative"

@@ -150,13 +150,9 @@ std::string to_markdown(const loop_result& r) {
     << noise_verdict(r.validity_after) << " |\n\n";
   o << to_markdown(r.decision);
   if (r.check) {
-    const auto names = [](const verdict& v) {
-      std::string l;
-      for (const auto& e : v.named) l += (l.empty() ? "" : ", ") + e;
-      return v.named.empty() ? std::string("nothing") : l;
-    };
+    const verdict& c = r.check->decision;
     o << "- the verdict's check (the loop again with orbit tolerances " << fmt(r.check->tolerance_scale) << " times the defaults) names "
-      << names(r.check->decision) << " (claim: " << r.check->decision.claim << "): "
+      << (c.named.empty() ? std::string("nothing") : joined(c.named)) << " (claim: " << c.claim << "): "
       << (r.check->agrees ? "the same effects" : "other effects, so the verdict above is tentative") << "\n\n";
   }
   o << "Effects the trace added, in order (" << (r.decision.named.empty() ? "not claimed" : "claimed: " + r.decision.claim) << "):";
