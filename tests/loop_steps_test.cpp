@@ -585,7 +585,11 @@ TEST(loop_steps, a_check_that_names_other_effects_leaves_both_tentative) {
   const loop_settings s;
   const auto claimed = [&](std::vector<std::string> names) {
     loop_result r;
-    for (const auto& n : names) r.effects.push_back(loop_step{.effect = n});
+    for (const auto& n : names) {
+      loop_step step;
+      step.effect = n;
+      r.effects.push_back(std::move(step));
+    }
     r.validity_after.pass = true;  // the residual is noise: a full claim
     claim_inputs in;
     in.residual_is_noise = true;
