@@ -452,6 +452,58 @@ TEST(loop_steps, harmonic_shift_columns_are_the_harmonic_residuals_derivative) {
   }
 }
 
+// The harmonic Jacobian's model columns from the orbits' exact sensitivities
+// (orbit_predictor::harmonic_columns: the implicit-function theorem on each dwell's fixed point,
+// one flow for all columns) against central differences of the harmonic residuals, at a point
+// away from the truth with effects on: the paper's coordinates, an effect in the free flight's
+// matrix (cross-coupling), one in the contact's normal (its angle) and the probes' own (runout,
+// misorientation). They need no new evaluation; a column whose move switches on another state
+// (a stator's compliance from rigid) is differenced instead, one evaluation each.
+TEST(loop_steps, exact_sensitivities_are_the_harmonic_residuals_derivative) {
+  at_the_truth at;
+  model_point m = at.truth;
+  m.p.e *= 1.05;
+  m.p.k1 *= 0.9;
+  m.fx.k_xy = 2e3;
+  m.fx.contact_angle = 0.05;
+  m.fx.runout_1x = 2e-6;
+  m.fx.misorientation = 0.02;
+  std::vector<fit_coordinate> coords = paper_coordinates();
+  for (const char* name : {"cross_coupling", "contact_angle", "probe_runout", "probe_misorientation"})
+    for (auto& c : effect_coordinates(find_effect(name))) coords.push_back(std::move(c));
+  const std::size_t dynamic = coords.size();
+  for (auto& c : effect_coordinates(find_effect("stator_compliance"))) coords.push_back(std::move(c));
+  fit_problem problem = make_problem(at.predictor, at.dwells, m, coords, at.req.probes.noise);
+  const Eigen::VectorXd u = problem.of(m);
+  m = problem.at(u);  // the point the coordinates give (their charts round)
+  at.predictor.anchor(m);
+  const Eigen::VectorXd r0 = at.predictor.harmonic_residuals(m).value();
+  const std::size_t before = at.predictor.evaluations();
+  const Eigen::MatrixXd J = problem.harmonic_jacobian(u, r0);
+  // The stator's switch is differenced (its move makes the stator's states move); its shapes,
+  // with the stator rigid, move nothing and are exact zeros.
+  EXPECT_EQ(at.predictor.evaluations() - before, 1u) << "every other column must come from the sensitivities";
+  for (std::size_t j = 0; j < dynamic; ++j) {
+    // A step moving the residuals by ~1e-8 m, 1e4 times the orbits' error (the shooting's
+    // 1e-12 m), and at least 1e-4 in the scaled coordinates: k3's column is ~1e-6 of the others
+    // (z^3 at micrometres of penetration) and needs a step of ~1, at most half its way to its bound
+    // (0) so that both sides are the law's.
+    const Eigen::VectorXd col = J.col(static_cast<Eigen::Index>(j));
+    const double room = u[static_cast<Eigen::Index>(j)] - coords[j].lower / coords[j].scale;
+    const double kStep = std::min(std::max(1e-4, 1e-8 / col.norm()), 0.5 * room);
+    Eigen::VectorXd up = u, down = u;
+    up[static_cast<Eigen::Index>(j)] += kStep;
+    down[static_cast<Eigen::Index>(j)] -= kStep;
+    const Eigen::VectorXd fd =
+        (at.predictor.harmonic_residuals(problem.at(up)).value() - at.predictor.harmonic_residuals(problem.at(down)).value()) / (2.0 * kStep);
+    // The difference's own error (the shooting's 1e-12 m over the 1e-8 m change, 1e-4) and the
+    // sensitivities' (the vector field's central difference, ~1e-8): 1e-3 of the column.
+    constexpr double kAgreement = 1e-3;
+    EXPECT_LT((fd - col).norm(), kAgreement * fd.norm()) << coords[j].name;
+    EXPECT_GT(fd.norm(), 0.0) << coords[j].name;
+  }
+}
+
 // The synchronous energy (the synchronous check's and the share rule's measure): at the truth
 // it is the noise's, chi^2 with `dof` degrees of freedom; a forward order-2 whirl of amplitude a
 // added to the residual adds n a^2 per dwell, to within the cross term with the noise.

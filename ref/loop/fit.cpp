@@ -12,6 +12,12 @@ namespace {
 // Relative finite-difference step of the Jacobian, in scaled coordinates: orbit changes of
 // ~1e-9..1e-7 m, far above the 1e-13 m integration error and small enough to stay linear.
 constexpr double kStep = 1e-3;
+// The step of the exact sensitivities' vector-field differences (orbit_predictor::harmonic_columns),
+// in scaled coordinates, central where both sides lie within the bounds: no orbit is shot there,
+// so it need not clear any integration error; the vector field's curvature leaves ~1e-8 of a
+// column (one-sided at a bound: ~1e-4, where the coordinates enter linearly), the rounding of its
+// largest terms ~1e-10 of an acceleration per unit.
+constexpr double kVectorFieldStep = 1e-4;
 }  // namespace
 
 model_point fit_problem::at(const Eigen::VectorXd& u) const {
@@ -52,10 +58,33 @@ Eigen::MatrixXd fit_problem::columns(const Eigen::VectorXd& u, const Eigen::Vect
       J.col(static_cast<Eigen::Index>(coords.size() + j)) = S.col(static_cast<Eigen::Index>(shifted[j])) * shift_scale[j];
   };
   const model_point m = at(u);
+  // The exact columns need the band's harmonics at u: one evaluation there, where the last was elsewhere.
+  const bool exact = harmonics && exact_columns && !coords.empty() && (predictor->harmonics_are_of(m) || predictor->harmonic_residuals(m));
   const bool shifts_done = !shifted.empty() && harmonics && predictor->harmonics_are_of(m);
   if (shifts_done) shift_columns(m);
+  std::vector<std::optional<Eigen::VectorXd>> sensitivities(coords.size());
+  if (exact) {
+    std::vector<model_point> up, down;
+    std::vector<double> span;
+    for (std::size_t j = 0; j < coords.size(); ++j) {
+      const auto col = static_cast<Eigen::Index>(j);
+      const double lo = coords[j].lower / coords[j].scale, hi = coords[j].upper / coords[j].scale, h = kVectorFieldStep;
+      const bool above = u[col] + h <= hi, below = u[col] - h >= lo;
+      Eigen::VectorXd a = u, b = u;
+      if (above) a[col] += h;
+      if (below) b[col] -= h;
+      up.push_back(at(a));
+      down.push_back(at(b));
+      span.push_back(static_cast<double>(above + below) * h);  // 0: no room either way, differenced below
+    }
+    sensitivities = predictor->harmonic_columns(m, up, down, span);
+  }
   for (std::size_t j = 0; j < coords.size(); ++j) {
     const auto col = static_cast<Eigen::Index>(j);
+    if (sensitivities[j]) {
+      J.col(col) = *sensitivities[j];
+      continue;
+    }
     for (const double h : {kStep, -kStep}) {
       Eigen::VectorXd v = u;
       v[col] += h;

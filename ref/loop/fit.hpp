@@ -24,6 +24,10 @@ struct fit_problem {
   model_point base;                    // every other coordinate
   std::vector<double> shift_scale;     // s, per fitted dwell
   double noise = 0.0;                  // m, the convergence test's unit
+  // The harmonic Jacobian's model columns from the orbits' exact sensitivities
+  // (orbit_predictor::harmonic_columns) where they can be had; false: all by differences (the
+  // sensitivities' test).
+  bool exact_columns = true;
 
   Eigen::Index size() const { return static_cast<Eigen::Index>(coords.size() + shifted.size()); }
   model_point at(const Eigen::VectorXd& u) const;
@@ -32,7 +36,8 @@ struct fit_problem {
   Eigen::VectorXd feasible(Eigen::VectorXd u) const;
   // The Jacobian at u (residual r0 there): model coordinates by forward differences (backward
   // where the forward point cannot be computed; a coordinate with neither is held for the step),
-  // shifts analytically.
+  // shifts analytically. (In harmonics, the model coordinates from the exact sensitivities where
+  // they can be had: exact_columns.)
   Eigen::MatrixXd jacobian(const Eigen::VectorXd& u, const Eigen::VectorXd& r0) const;
   // The same for the residuals in harmonics (orbit_predictor::harmonic_residuals), as fit() searches.
   Eigen::MatrixXd harmonic_jacobian(const Eigen::VectorXd& u, const Eigen::VectorXd& r0) const;

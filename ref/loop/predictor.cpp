@@ -12,6 +12,7 @@
 #include "ref/analysis/spectrum.hpp"
 #include "ref/base/errors.hpp"
 #include "ref/base/parallel.hpp"
+#include "ref/integrate/parameter_columns.hpp"
 #include "ref/orbits/fit_orbits.hpp"
 
 namespace rubref {
@@ -472,6 +473,113 @@ Eigen::MatrixXd orbit_predictor::harmonic_shift_columns(const model_point& m) {
     if (std::isfinite(dwells_[k].timing_sigma)) J(row++, col) = noise_ / dwells_[k].timing_sigma;
   }
   return J;
+}
+
+namespace {
+// Columns per flow: the flow carries s, Phi and this many parameter columns (6 + 6 x 14 states);
+// a fit's coordinates take one or two flows per dwell.
+constexpr int kColumnsPerFlow = 8;
+using columns_system = parameter_columns_system<model, kColumnsPerFlow>;
+
+// Whether two points' rotors move alike: they differ at most in what only the probes see
+// (runout, misorientation: ref/rig/probes.hpp), so a column between them has no orbit part.
+bool same_dynamics(const model_point& a, const model_point& b) {
+  const auto rotor_only = [](effect_parameters fx) {
+    fx.runout_1x = fx.runout_1x_phase = fx.runout_2x = fx.runout_2x_phase = fx.misorientation = 0.0;
+    return fx;
+  };
+  return a.p == b.p && rotor_only(a.fx) == rotor_only(b.fx);
+}
+}  // namespace
+
+std::vector<std::optional<Eigen::VectorXd>> orbit_predictor::harmonic_columns(const model_point& m, const std::vector<model_point>& up,
+                                                                               const std::vector<model_point>& down, const std::vector<double>& span) {
+  const std::size_t P = up.size();
+  std::vector<std::optional<Eigen::VectorXd>> out(P);
+  if (P == 0 || !harmonics_are_of(m) || std::any_of(kinds_.begin(), kinds_.end(), [](orbit_kind k) { return k != orbit_kind::periodic; }))
+    return out;
+  Eigen::MatrixXd cols = Eigen::MatrixXd::Zero(static_cast<Eigen::Index>(harmonic_rows_), static_cast<Eigen::Index>(P));
+  // Per dwell and column: whether it was had.
+  std::vector<std::vector<char>> had(dwells_.size(), std::vector<char>(P, 0));
+  const double tolerance = orbits_.orbit_error();
+  parallel_for(dwells_.size(), 0, [&](std::size_t k) {
+    const cache& c = caches_[k];
+    if (!c.last_ok) return;
+    const band& b = *bands_[k];
+    const dwell& d = dwells_[k].data;
+    const int periods = dwells_[k].periods;
+    const double w = d.omega(), w_motion = w / periods;
+    const double shift = m.shift.empty() ? 0.0 : m.shift[k];
+    const auto model_at = [&](const model_point& at) {
+      parameters p = at.p;
+      p.clearance = d.clearance;
+      return model(p, at.fx, w);
+    };
+    const model sys = model_at(m);
+    const std::size_t M = b.grid.size();
+    // The orbit's part: d(state)/d(coordinate) at each grid point, for the columns whose rotor moves.
+    std::vector<std::vector<Eigen::Matrix<double, 6, 1>>> dstate(P);
+    std::vector<std::size_t> dynamic;
+    for (std::size_t j = 0; j < P; ++j) {
+      if (!(span[j] > 0.0)) continue;
+      if (same_dynamics(m, up[j]) && same_dynamics(m, down[j])) {
+        dstate[j].assign(M, Eigen::Matrix<double, 6, 1>::Zero());
+        had[k][j] = 1;
+      } else if (model_at(up[j]).moving_states() == sys.moving_states() && model_at(down[j]).moving_states() == sys.moving_states()) {
+        dynamic.push_back(j);
+      }
+    }
+    const integration_options opt = fit_shooting(periods, orbits_).integration;
+    for (std::size_t first = 0; first < dynamic.size(); first += kColumnsPerFlow) {
+      const std::size_t count = std::min<std::size_t>(kColumnsPerFlow, dynamic.size() - first);
+      std::vector<model> ups, downs;
+      std::vector<double> spans;
+      for (std::size_t i = 0; i < count; ++i) {
+        ups.push_back(model_at(up[dynamic[first + i]]));
+        downs.push_back(model_at(down[dynamic[first + i]]));
+        spans.push_back(span[dynamic[first + i]]);
+      }
+      try {
+        const columns_system aug(sys, std::move(ups), std::move(downs), std::move(spans));
+        const auto oc = periodic_orbit_columns(aug, c.last, 0.0, periods, opt, sample_grid(0.0, b.spacing, M), tolerance);
+        for (std::size_t i = 0; i < count; ++i) {
+          const std::size_t j = dynamic[first + i];
+          dstate[j].resize(M);
+          for (std::size_t g = 0; g < M; ++g) dstate[j][g] = oc.at[g].col(static_cast<Eigen::Index>(i));
+          had[k][j] = 1;
+        }
+      } catch (const numerical_error&) {
+        // these columns are differenced by the caller
+      }
+    }
+    // Readings: the probes turn the orbit's part (linear in x, y: the runout cancels in the
+    // difference) and add their own (the moved probes' difference at the same states).
+    const probe_model probes(m.fx);
+    const auto n = static_cast<Eigen::Index>(2 * b.harmonics + 1), at = static_cast<Eigen::Index>(harmonic_offsets_[k]);
+    std::vector<double> rx(M), ry(M);
+    for (std::size_t j = 0; j < P; ++j) {
+      if (!had[k][j]) continue;
+      const probe_model probes_up(up[j].fx), probes_down(down[j].fx);
+      for (std::size_t g = 0; g < M; ++g) {
+        const auto& s = b.states[g];
+        const double psi = w * b.grid[g];
+        const auto zero = probes(0.0, 0.0, psi), turned_part = probes(dstate[j][g][idx::x], dstate[j][g][idx::y], psi);
+        const auto own_up = probes_up(s[idx::x], s[idx::y], psi), own_down = probes_down(s[idx::x], s[idx::y], psi);
+        rx[g] = turned_part[0] - zero[0] + (own_up[0] - own_down[0]) / span[j];
+        ry[g] = turned_part[1] - zero[1] + (own_up[1] - own_down[1]) / span[j];
+      }
+      const auto [ax, ay] = harmonics_on_grid(rx, ry, b.harmonics);
+      const auto col = static_cast<Eigen::Index>(j);
+      cols.col(col).segment(at, n) = b.Lt.triangularView<Eigen::Upper>() * turned(ax, w_motion * shift);
+      cols.col(col).segment(at + n, n) = b.Lt.triangularView<Eigen::Upper>() * turned(ay, w_motion * shift);
+    }
+  });
+  for (std::size_t j = 0; j < P; ++j) {
+    bool all = true;
+    for (std::size_t k = 0; k < dwells_.size(); ++k) all = all && had[k][j];
+    if (all && cols.col(static_cast<Eigen::Index>(j)).allFinite()) out[j] = cols.col(static_cast<Eigen::Index>(j));
+  }
+  return out;
 }
 
 const std::array<double, 4>& orbit_predictor::data_state(std::size_t k) {

@@ -86,6 +86,17 @@ class orbit_predictor {
   // The derivative of harmonic_residuals() with respect to each dwell's shift (columns by dwell):
   // a shift turns harmonic h by h w_T s, exactly. Uses the harmonics of the last harmonic_residuals() call.
   Eigen::MatrixXd harmonic_shift_columns(const model_point& m);
+  // The derivative of harmonic_residuals() at m in each of several coordinates, from the orbits'
+  // exact sensitivities (ref/integrate/parameter_columns.hpp: one flow per dwell for every column,
+  // in place of a shooting per column): up[j] and down[j] are m with coordinate j moved to either
+  // side (or one of them m), span[j] apart in that coordinate; the model's and the probes'
+  // differences between them at the same states are the sensitivities' sources.
+  // Needs the last harmonic_residuals() call at m with every dwell's orbit periodic (harmonics_are_of);
+  // a column that cannot be had so in some dwell (the move changes which states move: a stator
+  // switched on; a flow that does not close on its orbit; a multiplier at 1) is nothing, and its
+  // caller differences it instead.
+  std::vector<std::optional<Eigen::VectorXd>> harmonic_columns(const model_point& m, const std::vector<model_point>& up,
+                                                               const std::vector<model_point>& down, const std::vector<double>& span);
   // Whether the last harmonic_residuals() call since the last anchor was at m and could be
   // computed: the band's harmonics (harmonic_shift_columns) are then m's, with no new evaluation
   // (an evaluation depends on the anchor and the point alone, so a new one would give the same bits).
