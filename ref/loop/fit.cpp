@@ -119,6 +119,7 @@ least_squares_options fit_options(int max_jacobians) {
 fit_result fit(const fit_problem& problem, const Eigen::VectorXd& start, int max_iterations, const orbit_anchors* from) {
   orbit_predictor& predictor = *problem.predictor;
   fit_result out;
+  const std::size_t evaluations_before = predictor.evaluations();
   out.at = problem.at(problem.feasible(start));
   if (from) predictor.anchor(out.at, *from);
   else predictor.anchor(out.at);
@@ -141,7 +142,7 @@ fit_result fit(const fit_problem& problem, const Eigen::VectorXd& start, int max
   lsq.noise = problem.noise;
   const least_squares_result s = solve_least_squares(lsq, start, fit_options(max_iterations));
   out.iterations = s.jacobians;
-  out.evaluations = s.evaluations + s.jacobians * static_cast<int>(problem.coords.size() + 1);  // a Jacobian: one per coordinate and its base
+  out.evaluations = static_cast<int>(predictor.evaluations() - evaluations_before);  // the Jacobians' differenced columns included
   out.rejected = s.rejected;
   if (!s.ok) return out;
   // The end on the samples, on the orbits the fit followed: every statistic is taken there. Where

@@ -57,7 +57,7 @@ struct fit_result {
   double remaining = 0.0;                                 // m^2: how much lower its minimum may lie (least_squares_result::remaining)
   orbit_anchors orbits;                                   // and those orbits
   int iterations = 0;     // Jacobians
-  int evaluations = 0;    // residual evaluations, the Jacobians' included
+  int evaluations = 0;    // residual evaluations, the start's and the Jacobians' differenced columns included
   int rejected = 0;       // trial points the model could not be computed at
   bool ok = false;        // false: the start itself could not be computed (at = the start)
 };

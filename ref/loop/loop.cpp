@@ -264,6 +264,7 @@ loop_result fit_and_claim(const std::vector<std::pair<record, std::string>>& rec
   // 4. Before and after, and what is claimed.
   measure(out, predictor, noise, s, traced);
   out.model_evaluations = predictor.evaluations();
+  out.sensitivity_evaluations = predictor.sensitivity_evaluations();
   for (const auto& h : held_out) held_out_check(out, h, noise, s.orbits);
   warn_unphysical(out, s);
   claim(out, s);

@@ -78,6 +78,7 @@ struct loop_result {
   std::vector<std::string> on_margin;        // effects decided within their statistics' numerical uncertainty (trace_result::on_margin)
   std::optional<verdict_check> check;        // none when check_tolerance_scale is 0
   std::size_t model_evaluations = 0;          // of every dwell's orbits on all dwells (the loop's cost; out-of-sample ones apart)
+  std::size_t sensitivity_evaluations = 0;    // of every dwell's orbit sensitivities (a Jacobian's, orbit_predictor::harmonic_columns)
   validity_report validity_before, validity_after;
   std::vector<dwell_error> errors;
   std::vector<excluded_dwell> excluded;     // left out of the fit, with the reason

@@ -579,6 +579,7 @@ std::vector<std::optional<Eigen::VectorXd>> orbit_predictor::harmonic_columns(co
     for (std::size_t k = 0; k < dwells_.size(); ++k) all = all && had[k][j];
     if (all && cols.col(static_cast<Eigen::Index>(j)).allFinite()) out[j] = cols.col(static_cast<Eigen::Index>(j));
   }
+  if (std::any_of(out.begin(), out.end(), [](const auto& c) { return c.has_value(); })) ++sensitivity_evaluations_;
   return out;
 }
 

@@ -109,6 +109,8 @@ class orbit_predictor {
 
   // How many residuals() calls this predictor has made (the loop's cost: each shoots every dwell).
   std::size_t evaluations() const { return evaluations_; }
+  // How many harmonic_columns() calls gave a column (each one flow of every dwell's sensitivities).
+  std::size_t sensitivity_evaluations() const { return sensitivity_evaluations_; }
   // Per dwell, how the last residuals() call got its orbit.
   const std::vector<orbit_kind>& kinds() const { return kinds_; }
   // The derivative of every residual with respect to each dwell's shift (columns by dwell).
@@ -174,6 +176,7 @@ class orbit_predictor {
   std::vector<std::size_t> offsets_;
   std::size_t rows_ = 0, orbit_rows_ = 0;
   std::size_t evaluations_ = 0;
+  std::size_t sensitivity_evaluations_ = 0;
   std::vector<std::optional<band>> bands_;
   std::vector<std::size_t> harmonic_offsets_;
   std::size_t harmonic_rows_ = 0;

@@ -110,6 +110,7 @@ json to_json(const loop_result& r) {
   for (const auto& st : r.starts)
     j["before_fit"]["starts"].push_back({{"name", st.name}, {"rss_start_m2", number(st.rss_start)}, {"rss_fit_m2", number(st.rss_fit)}});
   j["model_evaluations"] = r.model_evaluations;
+  j["sensitivity_evaluations"] = r.sensitivity_evaluations;
   j["noise_m"] = r.noise;
   j["mass_source"] = r.mass_source;
   j["model_staged"] = to_json(r.initial.p);
