@@ -318,6 +318,33 @@ TEST(RubFit, FromTheContactFreeFitOfARubRunUpItRecoversTheClearanceStiffnessAndF
   expect_within(rub.friction, req.params.mu, 0.02, "mu");
 }
 
+// The rub fit's Jacobian from the orbits' exact sensitivities (ref/integrate/parameter_columns.hpp:
+// a shot row's 1X from one flow for every coordinate, a closed-form row's from its closed form)
+// against central differences of the residuals from the same orbits, at the fit's end, column by
+// column, on a run-up of rows 100 rpm apart (both kinds of row).
+TEST(RubFit, ItsExactSensitivitiesAreTheResidualsDerivative) {
+  const rig_request req = rub_run_up(100.0);
+  const order_table table = track_orders(run_rig(req).measurement, "rig");
+  const response_fit linear = fit_response(table, with_anisotropy());
+  rub_fit_options o;
+  o.noise_m = linear.noise_m;
+  const rub_fit rub = fit_rub(table, linear, o);
+  ASSERT_GT(rub.rows_in_contact, 0u);
+  ASSERT_LT(rub.rows_in_contact, rub.rows.size());
+  // A step of 1e-4 in the coordinates (logarithms, shares, sizes over the unbalance's): orbit
+  // changes of ~1e-8 of the orbit, 1e4 times the shooting's tolerance; its truncation ~1e-8.
+  constexpr double kStep = 1e-4;
+  const rub_fit_jacobians J = rub_fit_jacobians_at(table, linear, rub, kStep);
+  ASSERT_EQ(J.exact.cols(), J.differenced.cols()) << "every row's orbit is periodic here: the sensitivities must be had";
+  for (Eigen::Index k = 0; k < J.exact.cols(); ++k) {
+    // The difference's own error (the orbits' 1e-12 m over its ~1e-12..1e-9 m changes in whitened
+    // units) and the sensitivities' (~1e-8): 1e-3 of the column.
+    constexpr double kAgreement = 1e-3;
+    EXPECT_LT((J.exact.col(k) - J.differenced.col(k)).norm(), kAgreement * J.differenced.col(k).norm()) << "coordinate " << k;
+    EXPECT_GT(J.differenced.col(k).norm(), 0.0) << "coordinate " << k;
+  }
+}
+
 // A rub run-up: the rig's rotor touches a stator 50 µm above its centre near its critical speeds
 // (the contact-free peak is ~80 µm), under the piecewise-linear law with the paper's friction,
 // run up with each speed starting where the last ended, order tracked by rubref. The loop's rub

@@ -10,6 +10,7 @@
 #include <boost/math/distributions/chi_squared.hpp>
 
 #include "ref/base/errors.hpp"
+#include "ref/integrate/parameter_columns.hpp"
 #include "ref/orbits/fit_orbits.hpp"
 #include "ref/model/rotor_model.hpp"
 #include "ref/inference/evidence.hpp"
@@ -62,6 +63,7 @@ constexpr double kStiffnessHi = 1e4;
 struct row_orbit {
   cplx x1{}, y1{}, x2{}, y2{};
   bool contact = false, periodic = true;
+  bool closed_form = false;     // the contact-free response in closed form (not shot)
   std::optional<state6> state;  // the orbit's state at t = 0 (rows shot to a stable orbit): the next speed's start
 };
 
@@ -163,6 +165,7 @@ struct rub_problem {
       const bool warm_shot = warm && (*warm)[i].state;
       if (!warm_shot && !previous_contact && std::abs(y) <= p.clearance) {
         o.x1 = x, o.y1 = y;
+        o.closed_form = true;
         continue;
       }
       const model sys(p, fx, w);
@@ -238,8 +241,102 @@ struct rub_problem {
     return r;
   }
 
-  // Forward differences at q (residuals r0 there) with every row started from the orbits `at`.
+  // The residuals' derivative at q, whose rows' orbits are `at`, from the orbits' exact
+  // sensitivities (ref/integrate/parameter_columns.hpp; docs/loop.md, "Exact sensitivities"): a
+  // shot row's 1X from one flow of its orbit's sensitivities in every free coordinate, a
+  // closed-form row's from central differences of the closed form; the sources are central
+  // differences of the moved models at the same states. Nothing where some row's orbit is a
+  // transient's last revolution or its sensitivities cannot be had (the caller differences then).
+  std::optional<Eigen::MatrixXd> exact_jacobian(const std::vector<double>& q, const std::vector<row_orbit>& at, const std::vector<cplx>* fixed) const {
+    // The sources' step in the coordinates (each of order 1: logarithms, shares, sizes over ref_m).
+    constexpr double kStep = 1e-4;
+    constexpr int kColumns = 8;
+    using columns_system = parameter_columns_system<model, kColumns>;
+    const std::size_t n = q.size();
+    const std::vector<double> f = full(q, base);
+    std::vector<std::vector<double>> up(n), down(n);
+    for (std::size_t k = 0; k < n; ++k) {
+      std::vector<double> a = q, b = q;
+      a[k] += kStep, b[k] -= kStep;
+      up[k] = full(a, base), down[k] = full(b, base);
+    }
+    const auto [p, fx] = rotor(f);
+    const integration_options opt = fit_shooting().integration;
+    const double tolerance = fit_orbit_options{}.orbit_error();
+    Eigen::MatrixXcd dX = Eigen::MatrixXcd::Zero(static_cast<Eigen::Index>(table.rows()), static_cast<Eigen::Index>(n)), dY = dX;
+    for (const std::size_t i : rows) {
+      const double w = table.rpm[i] * kRpmToRadS;
+      const auto r = static_cast<Eigen::Index>(i);
+      if (at[i].closed_form) {
+        for (std::size_t k = 0; k < n; ++k) {
+          const auto [xu, yu] = linear_xy(up[k], w);
+          const auto [xd, yd] = linear_xy(down[k], w);
+          dX(r, static_cast<Eigen::Index>(k)) = (xu - xd) / (2.0 * kStep), dY(r, static_cast<Eigen::Index>(k)) = (yu - yd) / (2.0 * kStep);
+        }
+        continue;
+      }
+      if (!at[i].state) return std::nullopt;
+      const model sys(p, fx, w);
+      const double period = sys.period();
+      for (std::size_t first = 0; first < n; first += kColumns) {
+        const std::size_t count = std::min<std::size_t>(kColumns, n - first);
+        std::vector<model> ups, downs;
+        for (std::size_t c = 0; c < count; ++c) {
+          const auto [pu, fu] = rotor(up[first + c]);
+          const auto [pd, fd] = rotor(down[first + c]);
+          ups.emplace_back(pu, fu, w), downs.emplace_back(pd, fd, w);
+          if (ups.back().moving_states() != sys.moving_states() || downs.back().moving_states() != sys.moving_states()) return std::nullopt;
+        }
+        try {
+          const columns_system aug(sys, std::move(ups), std::move(downs), std::vector<double>(count, 2.0 * kStep));
+          const auto oc = periodic_orbit_columns(aug, *at[i].state, 0.0, 1, opt,
+                                                 sample_grid(0.0, period / static_cast<double>(kReadSamples), kReadSamples), tolerance);
+          // The 1X as orbits() reads it: (2 / K) sum of the samples turned by e^{-i w t}.
+          for (std::size_t s = 0; s < kReadSamples; ++s) {
+            const double t = period * static_cast<double>(s) / static_cast<double>(kReadSamples);
+            const cplx e1 = std::polar(2.0 / kReadSamples, -w * t);
+            for (std::size_t c = 0; c < count; ++c) {
+              const auto col = static_cast<Eigen::Index>(first + c);
+              dX(r, col) += oc.at[s](idx::x, static_cast<Eigen::Index>(c)) * e1;
+              dY(r, col) += oc.at[s](idx::y, static_cast<Eigen::Index>(c)) * e1;
+            }
+          }
+        } catch (const numerical_error&) {
+          return std::nullopt;
+        }
+      }
+    }
+    // Residual (data - reading - runout) / sigma: the reading's derivative, less its mean over the
+    // fitted rows where the runout is solved (the mean of data - reading).
+    Eigen::MatrixXd J(static_cast<Eigen::Index>(2 * rows.size() * orders.size()), static_cast<Eigen::Index>(n));
+    for (std::size_t pr = 0; pr < orders.size(); ++pr) {
+      const double c = std::cos(beta[pr]), s = std::sin(beta[pr]);
+      for (std::size_t k = 0; k < n; ++k) {
+        const auto col = static_cast<Eigen::Index>(k);
+        cplx mean = 0.0;
+        if (!fixed) {
+          for (const std::size_t i : rows) mean += c * dX(static_cast<Eigen::Index>(i), col) + s * dY(static_cast<Eigen::Index>(i), col);
+          mean /= static_cast<double>(rows.size());
+        }
+        for (std::size_t m = 0; m < rows.size(); ++m) {
+          const auto i = static_cast<Eigen::Index>(rows[m]);
+          const cplx e = -(c * dX(i, col) + s * dY(i, col) - mean) / sigma[pr];
+          const auto row = static_cast<Eigen::Index>(2 * (pr * rows.size() + m));
+          J(row, col) = e.real(), J(row + 1, col) = e.imag();
+        }
+      }
+    }
+    if (!J.allFinite()) return std::nullopt;
+    return J;
+  }
+
+  // The residuals' derivative at q (residuals r0 there, its rows' orbits `at`): exact
+  // (exact_jacobian) where it can be had, else forward differences with every row started from `at`.
   Eigen::MatrixXd jacobian(const std::vector<double>& q, const Eigen::VectorXd& r0, const std::vector<row_orbit>& at, const std::vector<cplx>* fixed) {
+    if (auto J = exact_jacobian(q, at, fixed)) return *J;
+    return differenced_jacobian(q, r0, at, fixed);
+  }
+  Eigen::MatrixXd differenced_jacobian(const std::vector<double>& q, const Eigen::VectorXd& r0, const std::vector<row_orbit>& at, const std::vector<cplx>* fixed) {
     least_squares_problem warm;
     warm.residuals = [this, fixed, &at](const Eigen::VectorXd& v) {
       std::vector<cplx> ignored;
@@ -507,6 +604,31 @@ rub_fit fit_rub(const order_table& table, const response_fit& linear, const rub_
   f.evaluations = pr.evaluations;
   f.shots = pr.shots;
   return f;
+}
+
+rub_fit_jacobians rub_fit_jacobians_at(const order_table& table, const response_fit& linear, const rub_fit& fit, double step) {
+  rub_fit_options options;
+  options.rows = fit.rows;
+  options.noise_m = fit.noise_m;
+  options.start = &fit;
+  rub_problem pr = set_up(table, linear, options);
+  pr.base = fit.q;
+  pr.ref_m = fit.ref_m;
+  const std::vector<double> q = pr.reduce(fit.q);
+  std::vector<row_orbit> at;
+  std::vector<cplx> runout;
+  if (!pr.residuals(q, nullptr, &at, runout, nullptr)) throw numerical_error(table.source + ": the rub fit's orbits cannot be computed at its end");
+  rub_fit_jacobians out;
+  if (auto J = pr.exact_jacobian(q, at, nullptr)) out.exact = std::move(*J);
+  for (std::size_t k = 0; k < q.size(); ++k) {
+    std::vector<double> a = q, b = q;
+    a[k] += step, b[k] -= step;
+    const auto ra = pr.residuals(a, &at, nullptr, runout, nullptr), rb = pr.residuals(b, &at, nullptr, runout, nullptr);
+    if (!ra || !rb) throw numerical_error(table.source + ": the rub fit's orbits cannot be computed a step from its end");
+    if (out.differenced.size() == 0) out.differenced.resize(ra->size(), static_cast<Eigen::Index>(q.size()));
+    out.differenced.col(static_cast<Eigen::Index>(k)) = (*ra - *rb) / (2.0 * step);
+  }
+  return out;
 }
 
 response_fit linear_part(const response_fit& linear, const rub_fit& rub) {

@@ -15,6 +15,7 @@
 // fitted by rubref's one least-squares solver (ref/inference/least_squares.hpp); the runouts by
 // least squares at every step.
 
+#include <Eigen/Dense>
 #include <complex>
 #include <string>
 #include <vector>
@@ -72,6 +73,14 @@ struct rub_fit_options {
 // input_error when a probe's angle was not declared (the stator's direction is then unknown
 // against the probes) or `linear` has no probes.
 rub_fit fit_rub(const order_table& table, const response_fit& linear, const rub_fit_options& options);
+
+// A rub fit's Jacobian at its end (its residuals in its free coordinates, the runouts solved), from
+// the orbits' exact sensitivities and by central differences of `step` from the same orbits: the
+// sensitivities' test. `exact` is empty where some row's orbit has none (a transient's).
+struct rub_fit_jacobians {
+  Eigen::MatrixXd exact, differenced;
+};
+rub_fit_jacobians rub_fit_jacobians_at(const order_table& table, const response_fit& linear, const rub_fit& fit, double step);
 
 // The linear part of a rub fit as a response fit (the chosen 1X fit's frame, the rub fit's
 // coordinates): its modes for the 2X's forced response.
