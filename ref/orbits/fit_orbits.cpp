@@ -23,7 +23,6 @@ shooting_settings fit_shooting(int periods, const fit_orbit_options& o) {
 integration_options fit_sampling(int revolutions, const fit_orbit_options& o) {
   o.validate();
   integration_options opt;  // the registry's rtol and atol
-  opt.stepper.kind = stepper_kind::rkf78;  // (fit_orbits.hpp)
   opt.stepper.rtol *= o.tolerance_scale;
   opt.stepper.atol *= o.tolerance_scale;
   opt.max_steps = static_cast<std::size_t>(o.max_steps_per_revolution) * static_cast<std::size_t>(std::max(revolutions, 1));

@@ -31,9 +31,7 @@ shooting_settings fit_shooting(int periods = 1, const fit_orbit_options& o = {})
 
 // The integration that samples a shot orbit on the data's grid, or settles a transient of
 // `revolutions`: the registry's integration tolerances (rtol 1e-10, atol 1e-14: ~1e-13 m on a
-// 0.3 mm orbit, below every difference a fit takes) with the shooting's eighth-order stepper
-// (rkf78: a fraction of dopri5's steps there, and more so at the stability check's tighter
-// tolerances; docs/performance.md, "Work-precision"), the step budget as the shooting's per revolution.
+// 0.3 mm orbit, below every difference a fit takes), the step budget as the shooting's per revolution.
 integration_options fit_sampling(int revolutions = 1, const fit_orbit_options& o = {});
 
 // The model's periodic orbit of `periods` revolutions near `guess` at t0.
