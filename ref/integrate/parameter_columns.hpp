@@ -45,10 +45,20 @@ class columns_free_flight {
   columns_free_flight(const linear_dynamics<N>& d, const std::vector<linear_dynamics<N>>& up, const std::vector<linear_dynamics<N>>& down,
                       std::vector<double> span)
       : ff_(d), span_(std::move(span)) {
+    // A parameter that does not enter the free flight (the law's, friction, the contact's angle:
+    // they move the normal, not the flow) has no free-flight source: its two flights would be the
+    // same bits, and their difference exactly 0, so they are not made.
+    const auto same_flow = [](const linear_dynamics<N>& a, const linear_dynamics<N>& b) {
+      return a.A == b.A && a.b == b.b && a.F[0] == b.F[0] && a.F[1] == b.F[1] && a.omega == b.omega;
+    };
     up_.reserve(up.size());
     down_.reserve(down.size());
-    for (const auto& u : up) up_.emplace_back(u);
-    for (const auto& v : down) down_.emplace_back(v);
+    for (std::size_t j = 0; j < up.size(); ++j)
+      if (!same_flow(up[j], down[j])) {
+        sourced_.push_back(j);
+        up_.emplace_back(up[j]);
+        down_.emplace_back(down[j]);
+      }
   }
 
   class arc {
@@ -66,8 +76,9 @@ class columns_free_flight {
       std::copy(s.begin(), s.end(), a.begin());
       Eigen::Map<columns> cols(a.data() + N);
       cols.noalias() = owner_->ff_.transition(t - t0_) * cols0_;
-      for (std::size_t j = 0; j < up_.size(); ++j) {
-        const auto su = up_[j].at(t), sd = down_[j].at(t);
+      for (std::size_t k = 0; k < up_.size(); ++k) {
+        const std::size_t j = owner_->sourced_[k];
+        const auto su = up_[k].at(t), sd = down_[k].at(t);
         for (int i = 0; i < N; ++i)
           cols(i, N + static_cast<Eigen::Index>(j)) += (su[static_cast<std::size_t>(i)] - sd[static_cast<std::size_t>(i)]) / owner_->span_[j];
       }
@@ -96,7 +107,8 @@ class columns_free_flight {
 
  private:
   free_flight<N> ff_;
-  std::vector<free_flight<N>> up_, down_;  // (reserved: the arcs point at them)
+  std::vector<std::size_t> sourced_;       // the columns whose parameter enters the free flight
+  std::vector<free_flight<N>> up_, down_;  // theirs (reserved: the arcs point at them)
   std::vector<double> span_;
 };
 
