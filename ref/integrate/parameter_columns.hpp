@@ -22,7 +22,6 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
-#include <span>
 #include <string>
 #include <vector>
 
@@ -34,8 +33,9 @@ namespace rubref {
 // The closed-form free flight of s, Phi and the columns (ref/model/free_flight.hpp). Out of contact
 // q_j' = A q_j + dA/dlambda_j s + db/dlambda_j + dF/dlambda_j(t), whose solution from q_j(t0) is
 // e^{A tau} q_j(t0) plus the derivative of the free flight from s(t0) held: that derivative is the
-// difference of the moved models' own free flights from the same state, each in closed form
-// (exact to rounding: no integration error, and the arc's events are the base's, as the shooting's).
+// difference of the moved models' own free flights from the same state, each in closed form (no
+// integration error: the difference's own, as the vector field's above; and the arc's events are
+// the base's, as the shooting's).
 template <int N, int P>
 class columns_free_flight {
  public:
