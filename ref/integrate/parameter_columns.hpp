@@ -299,4 +299,14 @@ orbit_columns<static_cast<int>(std::tuple_size_v<state_of<System>>), P> periodic
   return out;
 }
 
+// The fits' flows: a model with effects under a compliant law, eight columns a flow (the loop's
+// predictor and the tables' rub fit), compiled once in ref/integrate/instances_parameter_columns.cpp.
+inline constexpr int kFitColumnsPerFlow = 8;
+template <compliant_law Law>
+using fit_columns_system = parameter_columns_system<rotor_with_effects<Law>, kFitColumnsPerFlow>;
+#define RUBREF_PARAMETER_COLUMNS_INSTANCE(PREFIX, LAW) RUBREF_INTEGRATOR_INSTANCE(PREFIX, fit_columns_system<LAW>)
+#define RUBREF_EXTERN_PARAMETER_COLUMNS(LAW) RUBREF_PARAMETER_COLUMNS_INSTANCE(extern, LAW)
+RUBREF_FOR_EACH_COMPLIANT_VARIANT(RUBREF_EXTERN_PARAMETER_COLUMNS)
+#undef RUBREF_EXTERN_PARAMETER_COLUMNS
+
 }  // namespace rubref

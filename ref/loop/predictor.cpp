@@ -478,8 +478,8 @@ Eigen::MatrixXd orbit_predictor::harmonic_shift_columns(const model_point& m) {
 namespace {
 // Columns per flow: the flow carries s, Phi and this many parameter columns (6 + 6 x 14 states);
 // a fit's coordinates take one or two flows per dwell.
-constexpr int kColumnsPerFlow = 8;
-using columns_system = parameter_columns_system<model, kColumnsPerFlow>;
+constexpr int kColumnsPerFlow = kFitColumnsPerFlow;
+using columns_system = fit_columns_system<identified>;
 
 // Whether two points' rotors move alike: they differ at most in what only the probes see
 // (runout, misorientation: ref/rig/probes.hpp), so a column between them has no orbit part.

@@ -250,8 +250,8 @@ struct rub_problem {
   std::optional<Eigen::MatrixXd> exact_jacobian(const std::vector<double>& q, const std::vector<row_orbit>& at, const std::vector<cplx>* fixed) const {
     // The sources' step in the coordinates (each of order 1: logarithms, shares, sizes over ref_m).
     constexpr double kStep = 1e-4;
-    constexpr int kColumns = 8;
-    using columns_system = parameter_columns_system<model, kColumns>;
+    constexpr int kColumns = kFitColumnsPerFlow;
+    using columns_system = fit_columns_system<identified>;
     const std::size_t n = q.size();
     const std::vector<double> f = full(q, base);
     std::vector<std::vector<double>> up(n), down(n);
