@@ -303,14 +303,25 @@ rig_request rub_run_up(double step_rpm) {
   return req;
 }
 
+// A rub run-up's table order tracked by rubref, its contact-free anisotropic fit, and the rub fit
+// from there (built in place: the fits hold nothing of the table).
+struct rub_fit_of_run_up {
+  explicit rub_fit_of_run_up(double step_rpm) : req(rub_run_up(step_rpm)) {}
+  rig_request req;
+  order_table table = track_orders(run_rig(req).measurement, "rig");
+  response_fit linear = fit_response(table, with_anisotropy());
+  rub_fit rub = [this] {
+    rub_fit_options o;
+    o.noise_m = linear.noise_m;
+    return fit_rub(table, linear, o);
+  }();
+};
+
 // The rub fit alone, from the contact-free anisotropic fit of a rub run-up's table.
 TEST(RubFit, FromTheContactFreeFitOfARubRunUpItRecoversTheClearanceStiffnessAndFriction) {
-  const rig_request req = rub_run_up(kSanitized ? 100.0 : 50.0);
-  const order_table table = track_orders(run_rig(req).measurement, "rig");
-  const response_fit linear = fit_response(table, with_anisotropy());
-  rub_fit_options o;
-  o.noise_m = linear.noise_m;
-  const rub_fit rub = fit_rub(table, linear, o);
+  const rub_fit_of_run_up at(kSanitized ? 100.0 : 50.0);
+  const rig_request& req = at.req;
+  const rub_fit& rub = at.rub;
   EXPECT_GT(rub.rows_in_contact, 0u);
   // 0.5 % and 2 %: as the loop's test below.
   expect_within(rub.clearance_m, 50e-6, 5e-3, "clearance");
@@ -323,18 +334,14 @@ TEST(RubFit, FromTheContactFreeFitOfARubRunUpItRecoversTheClearanceStiffnessAndF
 // against central differences of the residuals from the same orbits, at the fit's end, column by
 // column, on a run-up of rows 100 rpm apart (both kinds of row).
 TEST(RubFit, ItsExactSensitivitiesAreTheResidualsDerivative) {
-  const rig_request req = rub_run_up(100.0);
-  const order_table table = track_orders(run_rig(req).measurement, "rig");
-  const response_fit linear = fit_response(table, with_anisotropy());
-  rub_fit_options o;
-  o.noise_m = linear.noise_m;
-  const rub_fit rub = fit_rub(table, linear, o);
+  const rub_fit_of_run_up at(100.0);
+  const rub_fit& rub = at.rub;
   ASSERT_GT(rub.rows_in_contact, 0u);
   ASSERT_LT(rub.rows_in_contact, rub.rows.size());
   // A step of 1e-4 in the coordinates (logarithms, shares, sizes over the unbalance's): orbit
   // changes of ~1e-8 of the orbit, 1e4 times the shooting's tolerance; its truncation ~1e-8.
   constexpr double kStep = 1e-4;
-  const rub_fit_jacobians J = rub_fit_jacobians_at(table, linear, rub, kStep);
+  const rub_fit_jacobians J = rub_fit_jacobians_at(at.table, at.linear, rub, kStep);
   ASSERT_EQ(J.exact.cols(), J.differenced.cols()) << "every row's orbit is periodic here: the sensitivities must be had";
   for (Eigen::Index k = 0; k < J.exact.cols(); ++k) {
     // The difference's own error (the orbits' 1e-12 m over its ~1e-12..1e-9 m changes in whitened

@@ -61,17 +61,18 @@ class columns_free_flight {
       }
   }
 
-  class arc {
+  class arc : public augmented_arc_base<N> {
    public:
     arc(const columns_free_flight& owner, double t0, const state& a)
-        : owner_(&owner), base_(owner.ff_.from(t0, head(a))), t0_(t0), cols0_(Eigen::Map<const columns>(a.data() + N)) {
+        : augmented_arc_base<N>(owner.ff_, t0, a), owner_(&owner), t0_(t0), cols0_(Eigen::Map<const columns>(a.data() + N)) {
+      const std::array<double, N> s0 = this->head(a);
       up_.reserve(owner.up_.size());
       down_.reserve(owner.down_.size());
-      for (const auto& f : owner.up_) up_.push_back(f.from(t0, head(a)));
-      for (const auto& f : owner.down_) down_.push_back(f.from(t0, head(a)));
+      for (const auto& f : owner.up_) up_.push_back(f.from(t0, s0));
+      for (const auto& f : owner.down_) down_.push_back(f.from(t0, s0));
     }
     state at(double t) const {
-      const auto s = base_.at(t);
+      const auto s = this->base_.at(t);
       state a{};
       std::copy(s.begin(), s.end(), a.begin());
       Eigen::Map<columns> cols(a.data() + N);
@@ -84,20 +85,9 @@ class columns_free_flight {
       }
       return a;
     }
-    std::optional<std::pair<double, double>> first_onset(double from, double t_end, double min_depth, double time_tol, double window,
-                                                         std::size_t* steps = nullptr) const {
-      return base_.first_onset(from, t_end, min_depth, time_tol, window, steps);
-    }
-    std::pair<double, double> rounding(double t) const { return base_.rounding(t); }
 
    private:
-    static std::array<double, N> head(const state& a) {
-      std::array<double, N> s{};
-      std::copy(a.begin(), a.begin() + N, s.begin());
-      return s;
-    }
     const columns_free_flight* owner_;
-    typename free_flight<N>::arc base_;
     std::vector<typename free_flight<N>::arc> up_, down_;
     double t0_;
     columns cols0_;
@@ -193,14 +183,10 @@ class parameter_columns_system {
     before.sys_(s, fm, t);
     sys_(head(post), fp, t);
     const base_state g = sys_.penetration_gradient();
-    double denom = 0.0;
-    for (int i = 0; i < N; ++i) denom += g[static_cast<std::size_t>(i)] * fm[static_cast<std::size_t>(i)];
-    if (!(std::abs(denom) > 0.0))
-      throw numerical_error("a grazing contact event (zero normal velocity) at t = " + std::to_string(t) +
-                            " s: the saltation matrix is unbounded there");
-    const Eigen::Map<const Eigen::Matrix<double, N, 1>> fmv(fm.data()), fpv(fp.data()), gv(g.data());
-    const Eigen::Matrix<double, N, 1> jump = (fpv - fmv) / denom;
-    const square_matrix<N> S = square_matrix<N>::Identity() + jump * gv.transpose();
+    const saltation<N> sal = saltation_at<N>(fm, fp, g, square_matrix<N>::Identity(), t);
+    // S as I + jump g^T (the form these columns were measured with; the same S to rounding).
+    const Eigen::Matrix<double, N, 1> jump = sal.difference / sal.denominator;
+    const square_matrix<N> S = square_matrix<N>::Identity() + jump * Eigen::Map<const Eigen::Matrix<double, N, 1>>(g.data()).transpose();
     state_type a = post;
     Eigen::Map<Eigen::Matrix<double, N, C>> cols(a.data() + N);
     cols.noalias() = S * Eigen::Map<const Eigen::Matrix<double, N, C>>(pre.data() + N);

@@ -138,6 +138,54 @@ class particular_rate {
   std::array<cvector, linear_dynamics<N>::kMaxHarmonics> P_{cvector::Zero(), cvector::Zero()}, dP_{cvector::Zero(), cvector::Zero()};
 };
 
+// What an augmented state's closed-form free arc shares (sensitivity_free_flight here,
+// columns_free_flight in ref/integrate/parameter_columns.hpp): the model's own arc from the head
+// of the state, whose events and rounding are the arc's.
+template <int N>
+class augmented_arc_base {
+ public:
+  std::optional<std::pair<double, double>> first_onset(double from, double t_end, double min_depth, double time_tol, double window,
+                                                       std::size_t* steps = nullptr) const {
+    return base_.first_onset(from, t_end, min_depth, time_tol, window, steps);
+  }
+  std::pair<double, double> rounding(double t) const { return base_.rounding(t); }
+
+ protected:
+  template <std::size_t K>
+  augmented_arc_base(const free_flight<N>& ff, double t0, const std::array<double, K>& a) : base_(ff.from(t0, head(a))) {}
+  template <std::size_t K>
+  static std::array<double, N> head(const std::array<double, K>& a) {
+    std::array<double, N> s{};
+    std::copy(a.begin(), a.begin() + N, s.begin());
+    return s;
+  }
+  typename free_flight<N>::arc base_;
+};
+
+// The saltation across an event at t (top of this file): S = R + (f+ - R f-) g^T / (g . f-), with
+// its parts f+ - R f- and g . f-, which also carry a parameter's move of the event
+// ((f+ - R f-) dz/dlambda / (g . f-)). numerical_error at a grazing event (g . f- = 0), where S is
+// unbounded.
+template <int N>
+struct saltation {
+  square_matrix<N> S;
+  Eigen::Matrix<double, N, 1> difference;  // f+ - R f-
+  double denominator = 0.0;               // g . f-
+};
+template <int N>
+saltation<N> saltation_at(const std::array<double, N>& f_before, const std::array<double, N>& f_after, const std::array<double, N>& g,
+                          const square_matrix<N>& R, double t) {
+  const Eigen::Map<const Eigen::Matrix<double, N, 1>> fm(f_before.data()), fp(f_after.data()), gv(g.data());
+  saltation<N> out;
+  for (int i = 0; i < N; ++i) out.denominator += g[static_cast<std::size_t>(i)] * f_before[static_cast<std::size_t>(i)];
+  if (!(std::abs(out.denominator) > 0.0))
+    throw numerical_error("a grazing contact event (zero normal velocity) at t = " + std::to_string(t) +
+                          " s: the saltation matrix is unbounded there");
+  out.difference = fp - R * fm;
+  out.S = R + out.difference * gv.transpose() / out.denominator;
+  return out;
+}
+
 // The closed-form free flight of the state, of Phi (Phi(t) = e^{A (t - t0)} Phi(t0)) and, with
 // P = 1, of the parameter column (q(t) = p_l(t) + e^{A (t - t0)} (q(t0) - p_l(t0))).
 template <int N, int P = 0>
@@ -153,14 +201,14 @@ class sensitivity_free_flight {
     requires(P == 1)
       : ff_(d), rate_(std::in_place, d, rate) {}
 
-  class arc {
+  class arc : public augmented_arc_base<N> {
    public:
     arc(const sensitivity_free_flight& owner, double t0, const state& a)
-        : owner_(&owner), base_(owner.ff_.from(t0, head(a))), t0_(t0), cols0_(Eigen::Map<const columns>(a.data() + N)) {
+        : augmented_arc_base<N>(owner.ff_, t0, a), owner_(&owner), t0_(t0), cols0_(Eigen::Map<const columns>(a.data() + N)) {
       if constexpr (P == 1) cols0_.col(N) -= owner.rate_->at(t0);  // q(t0) - p_l(t0)
     }
     state at(double t) const {
-      const auto s = base_.at(t);
+      const auto s = this->base_.at(t);
       state a{};
       std::copy(s.begin(), s.end(), a.begin());
       Eigen::Map<columns> cols(a.data() + N);
@@ -168,20 +216,9 @@ class sensitivity_free_flight {
       if constexpr (P == 1) cols.col(N) += owner_->rate_->at(t);
       return a;
     }
-    std::optional<std::pair<double, double>> first_onset(double from, double t_end, double min_depth, double time_tol,
-                                                         double window, std::size_t* steps = nullptr) const {
-      return base_.first_onset(from, t_end, min_depth, time_tol, window, steps);
-    }
-    std::pair<double, double> rounding(double t) const { return base_.rounding(t); }
 
    private:
-    static std::array<double, N> head(const state& a) {
-      std::array<double, N> s{};
-      std::copy(a.begin(), a.begin() + N, s.begin());
-      return s;
-    }
     const sensitivity_free_flight* owner_;
-    typename free_flight<N>::arc base_;
     double t0_;
     columns cols0_;
   };
@@ -289,21 +326,14 @@ class sensitivity_system {
     base_state fm{}, fp{};
     before.sys_(head(pre), fm, t);
     sys_(head(post), fp, t);
-    const base_state g = sys_.penetration_gradient();
-    double denom = 0.0;
-    for (int i = 0; i < N; ++i) denom += g[static_cast<std::size_t>(i)] * fm[static_cast<std::size_t>(i)];
-    if (!(std::abs(denom) > 0.0))
-      throw numerical_error("a grazing contact event (zero normal velocity) at t = " + std::to_string(t) +
-                            " s: the saltation matrix is unbounded there");
-    Eigen::Map<const Eigen::Matrix<double, N, 1>> fmv(fm.data()), fpv(fp.data()), gv(g.data());
-    const square_matrix<N> S = R + (fpv - R * fmv) * gv.transpose() / denom;
+    const saltation<N> sal = saltation_at<N>(fm, fp, sys_.penetration_gradient(), R, t);
     state_type a = post;
     Eigen::Map<Eigen::Matrix<double, N, C>> cols(a.data() + N);
-    cols.noalias() = S * Eigen::Map<const Eigen::Matrix<double, N, C>>(pre.data() + N);
+    cols.noalias() = sal.S * Eigen::Map<const Eigen::Matrix<double, N, C>>(pre.data() + N);
     if constexpr (P == 1) {
       // z = y - delta: z_lambda = -d delta/dlambda; a stick puts y on delta (R_lambda = e_y d delta/dlambda).
       const double ddelta = sys_.clearance_rate(parameter_);
-      cols.col(N) += (fpv - R * fmv) * (-ddelta / denom);
+      cols.col(N) += sal.difference * (-ddelta / sal.denominator);
       if constexpr (!System::compliant)
         if (kind == event_kind::stick) cols(idx::y, N) += ddelta;
     }
