@@ -4,9 +4,14 @@
 #include <gtest/gtest.h>
 
 #include <array>
+#include <atomic>
+#include <chrono>
 #include <cmath>
 #include <cstring>
+#include <mutex>
 #include <numbers>
+#include <set>
+#include <thread>
 
 #include "ref/base/errors.hpp"
 #include "ref/base/parallel.hpp"
@@ -257,18 +262,52 @@ TEST(sweep, same_bits_whatever_the_thread_count) {
   }
 }
 
-// A parallel_for inside a parallel_for's task shares the outer call's threads among its workers
-// (ref/base/parallel.hpp): two tasks on four threads get two each, on two threads one each, and
-// outside any call the count is the caller's again.
+// Calls nested in a parallel_for's tasks share its threads (ref/base/parallel.hpp): together they
+// never run more than the outermost call was given, and a thread out of tasks is taken by a
+// nested call still running (the loop's check gets its fit's thread when the fit is done).
 TEST(sweep, nested_parallel_calls_share_the_outer_threads) {
-  for (const auto& [outer, inner] : {std::pair{4u, 2u}, std::pair{2u, 1u}, std::pair{1u, 1u}}) {
-    std::array<unsigned, 2> seen{};
-    parallel_for(2, outer, [&](std::size_t i) { seen[i] = thread_count(0, 100); });
-    EXPECT_EQ(seen[0], inner) << outer << " threads";
-    EXPECT_EQ(seen[1], inner) << outer << " threads";
+  // Never more threads than given: both outer tasks run a nested call of many tasks at once.
+  for (const unsigned outer : {1u, 2u, 3u}) {
+    std::atomic<int> running{0}, most{0};
+    parallel_for(2, outer, [&](std::size_t) {
+      parallel_for(16, 0, [&](std::size_t) {
+        const int now = ++running;
+        for (int seen = most.load(); now > seen && !most.compare_exchange_weak(seen, now);) {
+        }
+        std::this_thread::sleep_for(std::chrono::milliseconds(2));
+        --running;
+      });
+    });
+    EXPECT_LE(most.load(), static_cast<int>(outer)) << outer << " threads";
   }
+  // The finished task's thread helps the other's nested call: task 0 ends at once; task 1 waits
+  // (up to kPatience, far beyond any scheduling delay: the wait is for the other thread to leave
+  // its loop, not a speed) until its team has a free thread, then its nested tasks must run on
+  // two threads.
+  constexpr auto kPatience = std::chrono::seconds(20);
+  std::set<std::thread::id> ran_on;
+  std::mutex ids;
+  unsigned free_seen = 0;
+  parallel_for(2, 2, [&](std::size_t i) {
+    if (i == 0) return;
+    const auto until = std::chrono::steady_clock::now() + kPatience;
+    while (thread_count(0, 100) < 2 && std::chrono::steady_clock::now() < until) std::this_thread::yield();
+    free_seen = thread_count(0, 100);
+    std::atomic<int> arrived{0};
+    parallel_for(2, 0, [&](std::size_t) {
+      {
+        const std::lock_guard lock(ids);
+        ran_on.insert(std::this_thread::get_id());
+      }
+      ++arrived;  // each waits for the other, so the two cannot run on one thread in turn
+      while (arrived.load() < 2 && std::chrono::steady_clock::now() < until) std::this_thread::yield();
+    });
+  });
+  EXPECT_EQ(free_seen, 2u);
+  EXPECT_EQ(ran_on.size(), 2u);
+  // Outside any call the count is the caller's again.
   EXPECT_EQ(thread_count(3, 100), 3u);
-  EXPECT_EQ(nested_thread_budget(), 0u);
+  EXPECT_EQ(current_team(), nullptr);
 }
 
 TEST(sweep_io, tables_have_a_row_per_speed_and_the_reported_orders) {
