@@ -7,9 +7,11 @@
 #include "tests/sanitized.hpp"
 
 #include <cmath>
+#include <cstring>
 #include <numbers>
 #include <random>
 
+#include "ref/base/parallel.hpp"
 #include "ref/format/order_table.hpp"
 #include "ref/model/closed_form.hpp"
 #include "ref/rig/rig.hpp"
@@ -350,6 +352,24 @@ TEST(RubFit, ItsExactSensitivitiesAreTheResidualsDerivative) {
     EXPECT_LT((J.exact.col(k) - J.differenced.col(k)).norm(), kAgreement * J.differenced.col(k).norm()) << "coordinate " << k;
     EXPECT_GT(J.differenced.col(k).norm(), 0.0) << "coordinate " << k;
   }
+}
+
+// The rub fit's starts, fits and Jacobian rows run on the machine's threads, each task into its own
+// slot: the fit is the same, bit for bit, on one thread and on two.
+TEST(RubFit, IsTheSameBitForBitOnOneAndTwoThreads) {
+  const auto on = [](unsigned threads) {
+    set_default_threads(threads);
+    rub_fit_of_run_up at(100.0);
+    set_default_threads(0);
+    return at.rub;
+  };
+  const rub_fit one = on(1), two = on(2);
+  ASSERT_GT(one.rows_in_contact, 0u);
+  ASSERT_EQ(one.q.size(), two.q.size());
+  for (std::size_t k = 0; k < one.q.size(); ++k) EXPECT_EQ(std::memcmp(&one.q[k], &two.q[k], sizeof(double)), 0) << "coordinate " << k;
+  EXPECT_EQ(std::memcmp(&one.chi2, &two.chi2, sizeof(double)), 0);
+  EXPECT_EQ(one.evaluations, two.evaluations);
+  EXPECT_EQ(one.shots, two.shots);
 }
 
 // A rub run-up: the rig's rotor touches a stator 50 µm above its centre near its critical speeds

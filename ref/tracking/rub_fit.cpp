@@ -1,8 +1,11 @@
 #include "ref/tracking/rub_fit.hpp"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
+#include <deque>
 #include <limits>
+#include <memory>
 #include <numbers>
 #include <optional>
 
@@ -10,6 +13,7 @@
 #include <boost/math/distributions/chi_squared.hpp>
 
 #include "ref/base/errors.hpp"
+#include "ref/base/parallel.hpp"
 #include "ref/integrate/parameter_columns.hpp"
 #include "ref/orbits/fit_orbits.hpp"
 #include "ref/model/rotor_model.hpp"
@@ -67,6 +71,20 @@ struct row_orbit {
   std::optional<state6> state;  // the orbit's state at t = 0 (rows shot to a stable orbit): the next speed's start
 };
 
+// A count that tasks on several threads add to (the problem's evaluations and shots): the total
+// is the same whatever the thread count; copied with its problem.
+struct shared_count {
+  std::atomic<long long> n{0};
+  shared_count() = default;
+  shared_count(const shared_count& o) : n(o.n.load()) {}
+  shared_count& operator=(const shared_count& o) {
+    n = o.n.load();
+    return *this;
+  }
+  void add() { n.fetch_add(1, std::memory_order_relaxed); }
+  long long value() const { return n.load(); }
+};
+
 struct sample_recorder {
   std::vector<state6>* out;
   template <class System>
@@ -85,8 +103,9 @@ struct rub_problem {
   std::vector<std::size_t> rows;    // fitted
   std::vector<std::size_t> free;
   double w_lo = 1.0, w_hi = 1.0, ref_m = 1.0, peak_m = 1.0;
-  int evaluations = 0;
-  std::size_t shots = 0;
+  // Evaluations (every row's orbit at a point) and shootings, counted by the tasks that make them
+  // (starts' costs, fits and a Jacobian's rows run on the machine's threads).
+  shared_count evaluations, shots;
 
   void lay_out() {
     free = {ln_wx, ln_zx};
@@ -152,7 +171,7 @@ struct rub_problem {
   // there and shot again; where it still finds none, a transient's last revolution, counted.
   // A failed integration is a numerical_error: the point is rejected, never read.
   std::vector<row_orbit> orbits(const std::vector<double>& f, const std::vector<row_orbit>* warm) {
-    ++evaluations;
+    evaluations.add();
     const auto [p, fx] = rotor(f);
     std::vector<row_orbit> out(table.rows());
     // Shot, settled and read as every fit's orbit (ref/orbits/fit_orbits.hpp).
@@ -175,7 +194,7 @@ struct rub_problem {
       else if (i > 0 && out[i - 1].state) guess = *out[i - 1].state;
       const double period = sys.period();
       const auto shoot = [&](const state6& g) -> std::optional<state6> {
-        ++shots;
+        shots.add();
         const auto orbit = shoot_fit_orbit(sys, g, 0.0);
         if (orbit.stable()) return orbit.state;
         return std::nullopt;
@@ -260,11 +279,16 @@ struct rub_problem {
       a[k] += kStep, b[k] -= kStep;
       up[k] = full(a, base), down[k] = full(b, base);
     }
-    const auto [p, fx] = rotor(f);
+    const std::pair<parameters, effect_parameters> here = rotor(f);  // named: the row tasks below capture it
+    const parameters& p = here.first;
+    const effect_parameters& fx = here.second;
     const integration_options opt = fit_shooting().integration;
     const double tolerance = fit_orbit_options{}.orbit_error();
     Eigen::MatrixXcd dX = Eigen::MatrixXcd::Zero(static_cast<Eigen::Index>(table.rows()), static_cast<Eigen::Index>(n)), dY = dX;
-    for (const std::size_t i : rows) {
+    // Row by row on the machine's threads: each task writes its own row of dX and dY.
+    std::vector<char> lacking(rows.size(), 0);  // a row whose sensitivities cannot be had
+    parallel_for(rows.size(), 0, [&](std::size_t m) {
+      const std::size_t i = rows[m];
       const double w = table.rpm[i] * kRpmToRadS;
       const auto r = static_cast<Eigen::Index>(i);
       if (at[i].closed_form) {
@@ -273,9 +297,9 @@ struct rub_problem {
           const auto [xd, yd] = linear_xy(down[k], w);
           dX(r, static_cast<Eigen::Index>(k)) = (xu - xd) / (2.0 * kStep), dY(r, static_cast<Eigen::Index>(k)) = (yu - yd) / (2.0 * kStep);
         }
-        continue;
+        return;
       }
-      if (!at[i].state) return std::nullopt;
+      if (!at[i].state) return void(lacking[m] = 1);
       const model sys(p, fx, w);
       const double period = sys.period();
       for (std::size_t first = 0; first < n; first += kColumns) {
@@ -285,7 +309,7 @@ struct rub_problem {
           const auto [pu, fu] = rotor(up[first + c]);
           const auto [pd, fd] = rotor(down[first + c]);
           ups.emplace_back(pu, fu, w), downs.emplace_back(pd, fd, w);
-          if (ups.back().moving_states() != sys.moving_states() || downs.back().moving_states() != sys.moving_states()) return std::nullopt;
+          if (ups.back().moving_states() != sys.moving_states() || downs.back().moving_states() != sys.moving_states()) return void(lacking[m] = 1);
         }
         try {
           const columns_system aug(sys, std::move(ups), std::move(downs), std::vector<double>(count, 2.0 * kStep));
@@ -302,10 +326,11 @@ struct rub_problem {
             }
           }
         } catch (const numerical_error&) {
-          return std::nullopt;
+          return void(lacking[m] = 1);
         }
       }
-    }
+    });
+    if (std::find(lacking.begin(), lacking.end(), 1) != lacking.end()) return std::nullopt;
     // Residual (data - reading - runout) / sigma: the reading's derivative, less its mean over the
     // fitted rows where the runout is solved (the mean of data - reading).
     Eigen::MatrixXd J(static_cast<Eigen::Index>(2 * rows.size() * orders.size()), static_cast<Eigen::Index>(n));
@@ -350,18 +375,37 @@ struct rub_problem {
   // box: the residuals (runouts solved for, or `fixed`), and a Jacobian whose forward differences
   // start every row from the orbits of the point they differ from (so that each stays on the
   // branch that point followed).
+  // One solve's problem: a solve is one thread's, so each has its own (its recent orbits below).
   least_squares_problem solver_problem(const std::vector<cplx>* fixed = nullptr) {
     least_squares_problem lsq;
     const auto as_q = [](const Eigen::VectorXd& u) { return std::vector<double>(u.data(), u.data() + u.size()); };
-    lsq.residuals = [this, fixed, as_q](const Eigen::VectorXd& u) {
-      std::vector<cplx> runout;
-      return residuals(as_q(u), nullptr, nullptr, runout, fixed);
+    // The orbits of the solve's last few evaluations: its Jacobian is taken at its point, whose
+    // orbits the evaluation that accepted it made (a point's orbits are a function of the point:
+    // the same bits as evaluating it again, at none of the cost).
+    struct evaluated {
+      std::vector<double> q;
+      std::vector<row_orbit> orbits;
     };
-    lsq.jacobian = [this, fixed, as_q](const Eigen::VectorXd& u, const Eigen::VectorXd& r0) {
+    constexpr std::size_t kRecent = 4;
+    auto recent = std::make_shared<std::deque<evaluated>>();
+    lsq.residuals = [this, fixed, as_q, recent](const Eigen::VectorXd& u) {
+      std::vector<cplx> runout;
+      evaluated e{as_q(u), {}};
+      auto r = residuals(e.q, nullptr, &e.orbits, runout, fixed);
+      if (r) {
+        recent->push_back(std::move(e));
+        if (recent->size() > kRecent) recent->pop_front();
+      }
+      return r;
+    };
+    lsq.jacobian = [this, fixed, as_q, recent](const Eigen::VectorXd& u, const Eigen::VectorXd& r0) {
+      const std::vector<double> q = as_q(u);
+      for (auto e = recent->rbegin(); e != recent->rend(); ++e)
+        if (e->q == q) return jacobian(q, r0, e->orbits, fixed);
       std::vector<row_orbit> here;
       std::vector<cplx> runout;
-      (void)residuals(as_q(u), nullptr, &here, runout, fixed);
-      return jacobian(as_q(u), r0, here, fixed);
+      (void)residuals(q, nullptr, &here, runout, fixed);
+      return jacobian(q, r0, here, fixed);
     };
     std::vector<double> lo(kRubSlots, -std::numeric_limits<double>::infinity()), hi(kRubSlots, std::numeric_limits<double>::infinity());
     for (const std::size_t k : {ln_wx, ln_wy}) lo[k] = std::log(w_lo), hi[k] = std::log(w_hi);
@@ -386,7 +430,7 @@ namespace {
 // coordinates and amplitudes as the start f0 (pr.base).
 rub_problem set_up(const order_table& table, const response_fit& linear, const rub_fit_options& options) {
   if (linear.probes.empty() || linear.theta.empty()) throw input_error("fit_rub: the 1X fit it starts from has no probes");
-  rub_problem pr{table, linear.parts, {}, {}, {}, options.rows, {}, 1.0, 1.0, 1.0, 1.0, 0, 0, {}};
+  rub_problem pr{table, linear.parts, {}, {}, {}, options.rows, {}, 1.0, 1.0, 1.0, 1.0, {}, {}, {}};
   for (std::size_t p = 0; p < linear.probes.size(); ++p) {
     if (linear.probe_angle_fitted[p] || !(linear.probe_angle_deg[p].hi - linear.probe_angle_deg[p].lo < 1e-9))
       throw input_error(table.source + ": the rub fit needs every probe's angle declared (the stator is at +y of those angles)");
@@ -435,7 +479,7 @@ std::vector<std::vector<double>> starts_of(rub_problem& pr, const rub_fit_option
     from.push_back(pr.clamp(pr.reduce(options.start->q)));
     return from;
   }
-  std::vector<std::pair<double, std::vector<double>>> starts;
+  std::vector<std::pair<double, std::vector<double>>> starts;  // (cost, q): the costs below
   for (const double scale : {linear_peak, data_peak})
     for (const double share : kClearanceShares)
       for (const double ratio : kStiffnessRatios)
@@ -444,8 +488,7 @@ std::vector<std::vector<double>> starts_of(rub_problem& pr, const rub_fit_option
           std::vector<double> f = f0;
           f[ln_delta] = std::log(share * scale), f[ln_kappa] = std::log(ratio) + 2.0 * f0[ln_wx], f[friction_mu] = kFrictionStart;
           f[ln_zx] += std::log(damping), f[ln_zy] += std::log(damping);
-          const std::vector<double> q = pr.clamp(pr.reduce(f));
-          starts.emplace_back(cost_of(q), q);
+          starts.emplace_back(0.0, pr.clamp(pr.reduce(f)));
         }
   // A fit of other parts: of fewer, with this fit's extra parts off (equal modes, no bow, no
   // cross-coupling); of more, with its extra parts dropped (an isotropic fit keeps x's mode); its
@@ -454,9 +497,10 @@ std::vector<std::vector<double>> starts_of(rub_problem& pr, const rub_fit_option
     std::vector<double> f = other->q;
     const double rescale = other->ref_m / pr.ref_m;
     for (const std::size_t k : {re_a, im_a, re_b, im_b}) f[k] *= rescale;
-    const std::vector<double> q = pr.clamp(pr.reduce(f));
-    starts.emplace_back(cost_of(q), q);
+    starts.emplace_back(0.0, pr.clamp(pr.reduce(f)));
   }
+  // Each start's cost on the machine's threads, into its own slot.
+  parallel_for(starts.size(), 0, [&](std::size_t i) { starts[i].first = cost_of(starts[i].second); });
   std::stable_sort(starts.begin(), starts.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
   for (std::size_t i = 0; i < std::min(kFittedStarts, starts.size()); ++i)
     if (std::isfinite(starts[i].first)) from.push_back(starts[i].second);
@@ -468,13 +512,16 @@ std::pair<std::vector<double>, double> best_fit(rub_problem& pr, const std::vect
   least_squares_options o;
   o.max_jacobians = default_count_of("rub_fit", "max_jacobians");
   o.difference_step = default_of("rub_fit", "difference_step");
-  const least_squares_problem lsq = pr.solver_problem();
+  // One fit per start on the machine's threads, each into its own slot; the lowest wins, the
+  // first of equals (the order a single thread would meet them in).
+  std::vector<least_squares_result> fits(from.size());
+  parallel_for(from.size(), 0, [&](std::size_t i) {
+    fits[i] = solve_least_squares(pr.solver_problem(), Eigen::Map<const Eigen::VectorXd>(from[i].data(), static_cast<Eigen::Index>(from[i].size())), o);
+  });
   std::vector<double> best_q;
   double best_cost = std::numeric_limits<double>::infinity(), best_remaining = 0.0;
-  for (const auto& q0 : from) {
-    const least_squares_result f = solve_least_squares(lsq, Eigen::Map<const Eigen::VectorXd>(q0.data(), static_cast<Eigen::Index>(q0.size())), o);
+  for (const auto& f : fits)
     if (f.ok && f.cost < best_cost) best_cost = f.cost, best_remaining = f.remaining, best_q.assign(f.u.data(), f.u.data() + f.u.size());
-  }
   if (!std::isfinite(best_cost)) throw numerical_error(pr.table.source + ": the rub fit found no point whose every orbit could be computed");
   return {best_q, best_remaining};
 }
@@ -601,8 +648,8 @@ rub_fit fit_rub(const order_table& table, const response_fit& linear, const rub_
   f.q = best;
   f.ref_m = pr.ref_m;
   f.rows = pr.rows;
-  f.evaluations = pr.evaluations;
-  f.shots = pr.shots;
+  f.evaluations = static_cast<int>(pr.evaluations.value());
+  f.shots = static_cast<std::size_t>(pr.shots.value());
   return f;
 }
 
