@@ -19,6 +19,7 @@
 #include "ref/tracking/response_fit.hpp"
 #include "ref/tracking/rub_fit.hpp"
 #include "ref/tracking/tracking_loop.hpp"
+#include "ref/tracking/tracking_report.hpp"
 
 namespace rubref {
 namespace {
@@ -370,6 +371,22 @@ TEST(RubFit, IsTheSameBitForBitOnOneAndTwoThreads) {
   EXPECT_EQ(std::memcmp(&one.chi2, &two.chi2, sizeof(double)), 0);
   EXPECT_EQ(one.evaluations, two.evaluations);
   EXPECT_EQ(one.shots, two.shots);
+}
+
+// The table loop fits a level's rub combinations side by side (each from the level before): its
+// report is the same, byte for byte, on one thread and on two.
+TEST(TrackingLoop, ARubRunUpsReportIsTheSameOnOneAndTwoThreads) {
+  if (kSanitized) GTEST_SKIP() << "release builds only: the rub fit's threads run sanitized above";
+  const order_table table = track_orders(run_rig(rub_run_up(100.0)).measurement, "rig");
+  const auto on = [&](unsigned threads) {
+    set_default_threads(threads);
+    const std::string report = to_json(run_tracking_loop(table)).dump();
+    set_default_threads(0);
+    return report;
+  };
+  const std::string one = on(1), two = on(2);
+  EXPECT_NE(one.find("\"rub\""), std::string::npos);
+  EXPECT_EQ(one, two);
 }
 
 // A rub run-up: the rig's rotor touches a stator 50 µm above its centre near its critical speeds

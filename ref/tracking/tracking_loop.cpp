@@ -10,6 +10,7 @@
 #include <boost/math/distributions/chi_squared.hpp>
 
 #include "ref/base/errors.hpp"
+#include "ref/base/parallel.hpp"
 #include "ref/base/number_text.hpp"
 #include "ref/inference/evidence.hpp"
 #include "ref/model/effects.hpp"
@@ -295,32 +296,60 @@ std::vector<double> fit_contact_free(table_run& run) {
 // and said so (its parts are then judged without contact only).
 void fit_rubs(table_run& run, std::vector<std::string>& notes) {
   run.say("rub: every combination with the paper's contact at the top, its orbits shot at every speed ...");
-  for (const unsigned mask : {0u, 1u, 2u, 4u, 3u, 5u, 6u, 7u}) {
-    rub_fit_options o = run.rub_options();
-    for (unsigned k = 0; k < 3; ++k)
-      if ((mask & (1u << k)) && run.rubs[(mask & ~(1u << k)) | kRub]) o.also_from.push_back(&*run.rubs[(mask & ~(1u << k)) | kRub]);
-    try {
-      run.rubs[mask | kRub] = fit_rub(run.table, run.fits[mask], o);
-      run.masks.push_back(mask | kRub);
-    } catch (const numerical_error& e) {
-      run.rubs[mask | kRub].reset();
-      notes.push_back("the rub fit with " + part_list(mask) + " found no point whose orbits could all be computed: " + e.what());
+  // A level's combinations start from the level before, never from one another: they are fitted
+  // on the machine's threads, each into its own slot, and kept (and said) in the order one thread
+  // meets them.
+  const auto by_levels = [&](const std::vector<std::vector<unsigned>>& levels, bool grid, const auto& starts_of, const auto& keep) {
+    for (const auto& level : levels) {
+      std::vector<std::optional<rub_fit>> fitted(level.size());
+      std::vector<std::string> failed(level.size());
+      parallel_for(level.size(), 0, [&](std::size_t i) {
+        rub_fit_options o = run.rub_options();
+        o.grid = grid;
+        starts_of(level[i], o);
+        if (!grid && o.also_from.empty()) return;
+        try {
+          fitted[i] = fit_rub(run.table, run.fits[level[i]], o);
+        } catch (const numerical_error& e) {
+          failed[i] = e.what();
+        }
+      });
+      for (std::size_t i = 0; i < level.size(); ++i) keep(level[i], fitted[i], failed[i]);
     }
-  }
-  for (const unsigned mask : {7u, 6u, 5u, 3u, 4u, 2u, 1u, 0u}) {
-    rub_fit_options o = run.rub_options();
-    o.grid = false;
-    for (unsigned k = 0; k < 3; ++k)
-      if (!(mask & (1u << k)) && run.rubs[mask | (1u << k) | kRub]) o.also_from.push_back(&*run.rubs[mask | (1u << k) | kRub]);
-    if (o.also_from.empty()) continue;
-    try {
-      rub_fit again = fit_rub(run.table, run.fits[mask], o);
-      if (!run.rubs[mask | kRub]) run.masks.push_back(mask | kRub);
-      if (!run.rubs[mask | kRub] || again.chi2 < run.rubs[mask | kRub]->chi2) run.rubs[mask | kRub] = std::move(again);
-    } catch (const numerical_error&) {
-      // no better start: the fit from the grid stands (or the combination stays left out)
-    }
-  }
+  };
+  // From the contact-free fit of its parts and the rub fits of one effect fewer.
+  by_levels(
+      {{0u}, {1u, 2u, 4u}, {3u, 5u, 6u}, {7u}}, true,
+      [&](unsigned mask, rub_fit_options& o) {
+        for (unsigned k = 0; k < 3; ++k)
+          if ((mask & (1u << k)) && run.rubs[(mask & ~(1u << k)) | kRub]) o.also_from.push_back(&*run.rubs[(mask & ~(1u << k)) | kRub]);
+      },
+      [&](unsigned mask, std::optional<rub_fit>& f, const std::string& failed) {
+        run.say("  rub with " + part_list(mask) + (f ? ": chi^2/dof " + format_digits(f->chi2 / static_cast<double>(std::max<std::size_t>(f->dof, 1))) : ": its orbits cannot be computed"));
+        if (f) {
+          run.rubs[mask | kRub] = std::move(f);
+          run.masks.push_back(mask | kRub);
+        } else {
+          run.rubs[mask | kRub].reset();
+          notes.push_back("the rub fit with " + part_list(mask) + " found no point whose orbits could all be computed: " + failed);
+        }
+      });
+  // Again from the rub fits of one effect more; where none gives a better start, the fit from the
+  // grid stands (or the combination stays left out).
+  run.say("rub: each combination again from the rub fits of one effect more ...");
+  by_levels(
+      {{7u}, {6u, 5u, 3u}, {4u, 2u, 1u}, {0u}}, false,
+      [&](unsigned mask, rub_fit_options& o) {
+        for (unsigned k = 0; k < 3; ++k)
+          if (!(mask & (1u << k)) && run.rubs[mask | (1u << k) | kRub]) o.also_from.push_back(&*run.rubs[mask | (1u << k) | kRub]);
+      },
+      [&](unsigned mask, std::optional<rub_fit>& again, const std::string&) {
+        if (!again) return;
+        const bool better = !run.rubs[mask | kRub] || again->chi2 < run.rubs[mask | kRub]->chi2;
+        run.say("  rub with " + part_list(mask) + (better ? ": chi^2/dof " + format_digits(again->chi2 / static_cast<double>(std::max<std::size_t>(again->dof, 1))) + " (better)" : ": no better"));
+        if (!run.rubs[mask | kRub]) run.masks.push_back(mask | kRub);
+        if (!run.rubs[mask | kRub] || again->chi2 < run.rubs[mask | kRub]->chi2) run.rubs[mask | kRub] = std::move(again);
+      });
 }
 
 // Whether part k of `mask` is needed: the combination without it against this one, by the
