@@ -348,7 +348,7 @@ void fit_rubs(table_run& run, std::vector<std::string>& notes) {
         const bool better = !run.rubs[mask | kRub] || again->chi2 < run.rubs[mask | kRub]->chi2;
         run.say("  rub with " + part_list(mask) + (better ? ": chi^2/dof " + format_digits(again->chi2 / static_cast<double>(std::max<std::size_t>(again->dof, 1))) + " (better)" : ": no better"));
         if (!run.rubs[mask | kRub]) run.masks.push_back(mask | kRub);
-        if (!run.rubs[mask | kRub] || again->chi2 < run.rubs[mask | kRub]->chi2) run.rubs[mask | kRub] = std::move(again);
+        if (better) run.rubs[mask | kRub] = std::move(again);
       });
 }
 
