@@ -288,6 +288,34 @@ TEST(loop_steps, an_orbit_that_cannot_be_computed_is_a_failure_not_a_number) {
     EXPECT_EQ(predictor.kinds()[k] == orbit_kind::failed, dwells[k].data.rpm > 1400.0) << dwells[k].data.rpm;
 }
 
+// A finite difference about a point where a dwell took the transient (no periodic orbit found
+// near its data) takes the transient there again, without a shot (harmonic_residuals_as): at the
+// point itself that is the same vector bit for bit (the transient continues the failed shot's
+// first settle, step for step), and beside it the dwell keeps the transient where a shot would
+// converge; the other dwells are shot as ever. The point: a 1 kg stator on 1 MN/m with 10 N s/m
+// (ring frequency 1000 rad/s), whose 1600 rpm dwell has no period-1 orbit Newton finds.
+TEST(loop_steps, a_difference_about_a_transient_takes_the_transient_again) {
+  const rig_request req = truth_rig();
+  const auto dwells = truth_timed_dwells(req);
+  orbit_predictor predictor(dwells, req.probes.noise);
+  model_point at;
+  at.shift.assign(dwells.size(), 0.0);
+  at.fx.stator_k = 1e6, at.fx.stator_m = 1.0, at.fx.stator_c = 10.0;
+  const Eigen::VectorXd r = predictor.harmonic_residuals(at).value();
+  const std::vector<orbit_kind> kinds = predictor.kinds();
+  ASSERT_EQ(kinds, (std::vector<orbit_kind>{orbit_kind::periodic, orbit_kind::transient, orbit_kind::periodic}));
+  const Eigen::VectorXd again = predictor.harmonic_residuals_as(at, kinds).value();
+  EXPECT_TRUE(again == r) << "largest difference " << (again - r).cwiseAbs().maxCoeff() << " m";
+  EXPECT_EQ(predictor.kinds(), kinds);
+  // Beside it, where every dwell's shot converges (a 200 g stator), the held dwell stays the transient.
+  model_point beside = at;
+  beside.fx.stator_m = 0.2;
+  ASSERT_TRUE(predictor.harmonic_residuals(beside).has_value());
+  EXPECT_EQ(predictor.kinds(), std::vector<orbit_kind>(3, orbit_kind::periodic));
+  ASSERT_TRUE(predictor.harmonic_residuals_as(beside, kinds).has_value());
+  EXPECT_EQ(predictor.kinds(), kinds);
+}
+
 // The loop leaves out a dwell whose orbit no start of its fit can compute, and only such a dwell.
 TEST(loop_steps, dwells_no_start_can_compute_are_named) {
   const rig_request req = truth_rig();

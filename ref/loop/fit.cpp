@@ -79,6 +79,10 @@ Eigen::MatrixXd fit_problem::columns(const Eigen::VectorXd& u, const Eigen::Vect
     }
     sensitivities = predictor->harmonic_columns(m, up, down, span);
   }
+  // A differenced column takes the transient where m's evaluation did (orbit_predictor::harmonic_residuals_as).
+  std::optional<std::vector<orbit_kind>> held;
+  if (harmonics && predictor->harmonics_are_of(m)) held = predictor->kinds();
+  const auto differenced = [&](const model_point& v) { return held ? predictor->harmonic_residuals_as(v, *held) : residuals(v); };
   for (std::size_t j = 0; j < coords.size(); ++j) {
     const auto col = static_cast<Eigen::Index>(j);
     if (sensitivities[j]) {
@@ -88,7 +92,7 @@ Eigen::MatrixXd fit_problem::columns(const Eigen::VectorXd& u, const Eigen::Vect
     for (const double h : {kStep, -kStep}) {
       Eigen::VectorXd v = u;
       v[col] += h;
-      if (const auto r = residuals(at(v))) {
+      if (const auto r = differenced(at(v))) {
         J.col(col) = (*r - r0) / h;
         break;
       }

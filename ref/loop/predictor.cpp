@@ -26,9 +26,13 @@ using model = rotor_with_effects<identified>;
 // 1e-12 m, far below probe resolution and far below the orbit changes the fit's finite
 // differences make (>= 1e-9 m).
 // Revolutions integrated from a first guess taken from the data before shooting starts: damps
-// what the guess gets wrong of fast motions (contact ringing) so that Newton starts close.
+// what the guess gets wrong of fast motions (contact ringing) so that Newton starts close. Newton
+// from there is inexact while far (shooting_settings::coarse_while_far): the settle leaves the
+// guess away from the orbit by the ringing it has not damped yet, and where no periodic orbit is
+// near (the fallback below) its failing iterations cost about half as much.
 constexpr int kFirstSettleRevs = 10;
-// Revolutions the model runs from the data's state when Newton finds no periodic orbit there.
+// Revolutions the model runs from the data's state when Newton finds no periodic orbit there
+// (the first shot's settle, continued).
 constexpr int kFallbackSettleRevs = 30;
 
 // Puts each sample of a flow on the sorted grid straight into its record sample's place.
@@ -294,7 +298,7 @@ void orbit_predictor::sort_phases(std::size_t k, double shift, double period) {
   }
 }
 
-orbit_kind orbit_predictor::predict(std::size_t k, const model_point& m, bool harmonics) {
+orbit_kind orbit_predictor::predict(std::size_t k, const model_point& m, bool harmonics, bool transient) {
   const dwell& d = dwells_[k].data;
   cache& c = caches_[k];
   parameters p = m.p;
@@ -316,21 +320,26 @@ orbit_kind orbit_predictor::predict(std::size_t k, const model_point& m, bool ha
   // orbit is taken even where it is unstable: it stays a smooth function of the parameters, and
   // its distance from the data's (stable) orbit is what the fit must see to come back.
   c.last_ok = false;
-  const bool warm = c.started;
-  shot result = shoot(k, m, sys, period, grid, order, states);
-  if (result != shot::converged && warm) {  // from the data instead (the anchor stays)
-    c.started = false;
-    result = shoot(k, m, sys, period, grid, order, states);
-    c.started = true;
+  std::optional<settled_guess> from_data;  // the data's guess after its first settle, where a shot started there
+  if (!transient) {
+    const bool warm = c.started;
+    shot result = shoot(k, m, sys, period, grid, order, states, from_data);
+    if (result != shot::converged && warm) {  // from the data instead (the anchor stays)
+      c.started = false;
+      result = shoot(k, m, sys, period, grid, order, states, from_data);
+      c.started = true;
+    }
+    if (result == shot::converged) return orbit_kind::periodic;
   }
-  if (result == shot::converged) return orbit_kind::periodic;
   // No periodic orbit near the data (these parameters give a subharmonic, chaotic or far
   // orbit): compare the motion the model settles into from the data's state instead, so that the
-  // fit still sees how far off it is and which way to go.
+  // fit still sees how far off it is and which way to go. It continues the first settle (the
+  // shot's from the data, where one was made: the same flow either way, step for step).
   try {
-    const integration_options settle = fit_sampling(kFallbackSettleRevs, orbits_), opt = fit_sampling(periods, orbits_);
-    const rig_state settled =
-        flow(sys, guess_from_data(data_state(k), m.fx), kFallbackSettleRevs * 2.0 * std::numbers::pi / w, settle);
+    if (!from_data) from_data = first_settle(k, m, sys, period);
+    const int rest = kFallbackSettleRevs - std::min(from_data->revolutions, kFallbackSettleRevs);
+    const integration_options settle = fit_sampling(rest, orbits_), opt = fit_sampling(periods, orbits_);
+    const rig_state settled = rest > 0 ? flow(sys, from_data->state, rest * 2.0 * std::numbers::pi / w, settle) : from_data->state;
     return sample_flow(sys, settled, period, opt, grid, order, states) ? orbit_kind::transient : orbit_kind::failed;
   } catch (const numerical_error&) {
     return orbit_kind::failed;
@@ -338,21 +347,20 @@ orbit_kind orbit_predictor::predict(std::size_t k, const model_point& m, bool ha
 }
 
 orbit_predictor::shot orbit_predictor::shoot(std::size_t k, const model_point& m, const rotor_with_effects<identified>& sys, double period,
-                                             const sample_grid& grid, const std::vector<std::size_t>& order, std::vector<rig_state>& states) {
+                                             const sample_grid& grid, const std::vector<std::size_t>& order, std::vector<rig_state>& states,
+                                             std::optional<settled_guess>& from_data) {
   cache& c = caches_[k];
   const int periods = dwells_[k].periods;
   const integration_options opt = fit_sampling(periods, orbits_);
   try {
-    rig_state guess = c.started ? c.start : guess_from_data(data_state(k), m.fx);
+    rig_state guess = c.start;
     if (!c.started) {
-      // Whole multiples of the motion's period: a period-n orbit comes back to the guess's phase.
-      const int cycles = (kFirstSettleRevs + periods - 1) / periods;
-      const integration_options settle = fit_sampling(periods * cycles, orbits_);
-      guess = flow(sys, guess, cycles * period, settle);
+      from_data = first_settle(k, m, sys, period);
+      guess = from_data->state;
     }
     // The one shooting routine (ref/integrate/shooting.hpp): Newton with the exact monodromy of
-    // the `periods`-revolution map.
-    const auto orbit = shoot_fit_orbit(sys, guess, 0.0, periods, orbits_);
+    // the `periods`-revolution map, inexact while far where the guess is the data's.
+    const auto orbit = shoot_fit_orbit(sys, guess, 0.0, periods, orbits_, !c.started);
     if (!orbit.converged) return shot::failed;
     if (!sample_flow(sys, orbit.state, period, opt, grid, order, states)) return shot::failed;
     c.last = orbit.state;
@@ -361,6 +369,13 @@ orbit_predictor::shot orbit_predictor::shoot(std::size_t k, const model_point& m
   } catch (const numerical_error&) {
   }
   return shot::failed;
+}
+
+orbit_predictor::settled_guess orbit_predictor::first_settle(std::size_t k, const model_point& m, const rotor_with_effects<identified>& sys, double period) {
+  // Whole multiples of the motion's period: a period-n orbit comes back to the guess's phase.
+  const int periods = dwells_[k].periods;
+  const int cycles = (kFirstSettleRevs + periods - 1) / periods;
+  return {flow(sys, guess_from_data(data_state(k), m.fx), cycles * period, fit_sampling(periods * cycles, orbits_)), cycles * periods};
 }
 
 orbit_predictor::band& orbit_predictor::band_of(std::size_t k) {
@@ -415,12 +430,15 @@ std::array<double, 2> orbit_predictor::band_reading(std::size_t k, double t, dou
 // dwell k's rows, then the shift priors close the vector of `rows`. A dwell that fails, or a
 // non-finite entry, makes the evaluation fail: never a number inside a residual.
 template <class Fill>
-std::optional<Eigen::VectorXd> orbit_predictor::evaluate(const model_point& m, bool harmonics, std::size_t rows, Fill&& fill) {
+std::optional<Eigen::VectorXd> orbit_predictor::evaluate(const model_point& m, bool harmonics, std::size_t rows, Fill&& fill,
+                                                        const std::vector<orbit_kind>* as) {
   ++evaluations_;
+  if (!harmonics) harmonics_of_.reset();  // the orbits (and kinds) are no longer the band's
   Eigen::VectorXd r(static_cast<Eigen::Index>(rows));
+  const std::vector<orbit_kind> held = as ? *as : std::vector<orbit_kind>{};  // (as may be kinds_ itself)
   kinds_.assign(dwells_.size(), orbit_kind::failed);
   parallel_for(dwells_.size(), 0, [&](std::size_t k) {
-    kinds_[k] = predict(k, m, harmonics);
+    kinds_[k] = predict(k, m, harmonics, k < held.size() && held[k] == orbit_kind::transient);
     if (kinds_[k] != orbit_kind::failed) fill(k, r);
   });
   if (std::find(kinds_.begin(), kinds_.end(), orbit_kind::failed) != kinds_.end()) return std::nullopt;
@@ -431,7 +449,13 @@ std::optional<Eigen::VectorXd> orbit_predictor::evaluate(const model_point& m, b
   return r;
 }
 
-std::optional<Eigen::VectorXd> orbit_predictor::harmonic_residuals(const model_point& m) {
+std::optional<Eigen::VectorXd> orbit_predictor::harmonic_residuals(const model_point& m) { return harmonic_residuals(m, nullptr); }
+
+std::optional<Eigen::VectorXd> orbit_predictor::harmonic_residuals_as(const model_point& m, const std::vector<orbit_kind>& as) {
+  return harmonic_residuals(m, &as);
+}
+
+std::optional<Eigen::VectorXd> orbit_predictor::harmonic_residuals(const model_point& m, const std::vector<orbit_kind>* as) {
   prepare_bands();
   harmonics_of_.reset();
   auto out = evaluate(m, true, harmonic_rows_, [&](std::size_t k, Eigen::VectorXd& r) {
@@ -452,7 +476,7 @@ std::optional<Eigen::VectorXd> orbit_predictor::harmonic_residuals(const model_p
     const auto n = static_cast<Eigen::Index>(2 * b.harmonics + 1), at = static_cast<Eigen::Index>(harmonic_offsets_[k]);
     r.segment(at, n) = b.Lt.triangularView<Eigen::Upper>() * turned(b.ax, w_motion * shift) - b.target_x;
     r.segment(at + n, n) = b.Lt.triangularView<Eigen::Upper>() * turned(b.ay, w_motion * shift) - b.target_y;
-  });
+  }, as);
   if (out) harmonics_of_ = m;
   return out;
 }

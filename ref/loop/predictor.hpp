@@ -80,6 +80,11 @@ class orbit_predictor {
   // for a model without readings above the band (the band ends at a quarter of a dwell's sampling
   // rate: the Gram matrix of one revolution's samples alone is then well conditioned).
   std::optional<Eigen::VectorXd> harmonic_residuals(const model_point& m);
+  // The same with each dwell whose kind in `as` is the transient taking the transient again,
+  // without a shot: for a finite difference about a point whose kinds are `as` (kinds()), which
+  // must compare like with like (an orbit that converges on one side only is a jump, not a slope)
+  // and need not repeat the shots that failed there.
+  std::optional<Eigen::VectorXd> harmonic_residuals_as(const model_point& m, const std::vector<orbit_kind>& as);
   std::size_t harmonic_rows();
   // Sum over dwells of |d - B a_d|^2 (m^2): what no model within the band can fit.
   double harmonic_offset();
@@ -111,7 +116,7 @@ class orbit_predictor {
   std::size_t evaluations() const { return evaluations_; }
   // How many harmonic_columns() calls gave a column (each one flow of every dwell's sensitivities).
   std::size_t sensitivity_evaluations() const { return sensitivity_evaluations_; }
-  // Per dwell, how the last residuals() call got its orbit.
+  // Per dwell, how the last residuals() or harmonic_residuals() call got its orbit.
   const std::vector<orbit_kind>& kinds() const { return kinds_; }
   // The derivative of every residual with respect to each dwell's shift (columns by dwell).
   Eigen::MatrixXd shift_columns(const model_point& m);
@@ -160,13 +165,24 @@ class orbit_predictor {
   band& band_of(std::size_t k);
   void prepare_bands();  // every dwell's band and the harmonic rows' layout
   void sort_phases(std::size_t k, double shift, double period);
+  std::optional<Eigen::VectorXd> harmonic_residuals(const model_point& m, const std::vector<orbit_kind>* as);
   template <class Fill>
-  std::optional<Eigen::VectorXd> evaluate(const model_point& m, bool harmonics, std::size_t rows, Fill&& fill);
-  // The model's orbit in dwell k sampled at the record's phases (harmonics false) or on the band's grid.
-  orbit_kind predict(std::size_t k, const model_point& m, bool harmonics);
+  std::optional<Eigen::VectorXd> evaluate(const model_point& m, bool harmonics, std::size_t rows, Fill&& fill,
+                                          const std::vector<orbit_kind>* as = nullptr);
+  // The model's orbit in dwell k sampled at the record's phases (harmonics false) or on the band's
+  // grid; `transient`: the transient without a shot (harmonic_residuals_as).
+  orbit_kind predict(std::size_t k, const model_point& m, bool harmonics, bool transient = false);
   enum class shot { converged, failed };
+  // The data's guess after `revolutions` of settling, where a shot started from the data.
+  struct settled_guess {
+    std::array<double, 6> state;
+    int revolutions;
+  };
+  // Dwell k's guess from its data after the first settle (kFirstSettleRevs, whole periods): where
+  // a shot from the data starts, and the transient too.
+  settled_guess first_settle(std::size_t k, const model_point& m, const rotor_with_effects<identified>& sys, double period);
   shot shoot(std::size_t k, const model_point& m, const rotor_with_effects<identified>& sys, double period, const sample_grid& grid,
-             const std::vector<std::size_t>& order, std::vector<std::array<double, 6>>& states);
+             const std::vector<std::size_t>& order, std::vector<std::array<double, 6>>& states, std::optional<settled_guess>& from_data);
 
   const std::vector<loop_dwell>& dwells_;
   double noise_;
