@@ -292,12 +292,24 @@ rm -f "$work/mm.csv" "$work/mm.summary.json"
 
 # An interrupted run removes its unfinished output and dies of the signal (128 + signal): SIGTERM,
 # and SIGINT (Ctrl-C) with job control on, as in a terminal (a background job of a script ignores it).
+# The signal is sent once the run's staging folder exists (its handler is in place by then): on a
+# loaded machine that can take many seconds, so the wait is by the clock (up to 120 s), and a run
+# that never makes one is a failure of its own, not a signal sent too early.
+staging_of() {  # staging_of <pid>: waits for interrupted.tmp-*; false if it never comes or the run ended
+  local deadline=$((SECONDS + 120))
+  while [ "$SECONDS" -lt "$deadline" ]; do
+    ls -d "$work"/interrupted.tmp-* >/dev/null 2>&1 && return 0
+    kill -0 "$1" 2>/dev/null || return 1
+    sleep 0.05
+  done
+  return 1
+}
 for sig in TERM INT; do
   set -m
   "$rubref" reproduce --no-figures --out "$work/interrupted" 2>"$work/stderr" >/dev/null &
   pid=$!
   set +m
-  for _ in $(seq 1 200); do ls -d "$work"/interrupted.tmp-* >/dev/null 2>&1 && break; sleep 0.05; done
+  staging_of "$pid" || fail "SIG$sig: reproduce made no staging folder within 120 s: $(cat "$work/stderr")"
   kill -"$sig" "$pid"
   wait "$pid"
   rc=$?
@@ -310,7 +322,7 @@ done
 mkdir "$work/interrupted"
 "$rubref" reproduce --no-figures --out "$work/interrupted" 2>"$work/stderr" >/dev/null &
 pid=$!
-for _ in $(seq 1 200); do ls -d "$work"/interrupted.tmp-* >/dev/null 2>&1 && break; sleep 0.05; done
+staging_of "$pid" || fail "SIGTERM into an empty folder: reproduce made no staging folder within 120 s: $(cat "$work/stderr")"
 kill -TERM "$pid"
 wait "$pid"
 rc=$?

@@ -15,7 +15,8 @@ namespace rubref {
 
 namespace {
 
-std::mutex registry_mutex;
+// Recursive: while_not_interrupted's f registers paths. The clean-up keeps it until the process ends.
+std::recursive_mutex registry_mutex;
 std::set<std::filesystem::path>& registry() {
   static std::set<std::filesystem::path> paths;
   return paths;
@@ -77,6 +78,11 @@ void register_staging(const std::filesystem::path& p) {
 void unregister_staging(const std::filesystem::path& p) {
   const std::lock_guard lock(registry_mutex);
   registry().erase(p);
+}
+
+void while_not_interrupted(const std::function<void()>& f) {
+  const std::lock_guard lock(registry_mutex);
+  f();
 }
 
 void register_child(pid_t pid) {

@@ -6,6 +6,7 @@
 #include <signal.h>
 
 #include <filesystem>
+#include <functional>
 
 namespace rubref {
 
@@ -23,6 +24,12 @@ sigset_t interrupt_signals();
 // Paths removed (recursively) when the process is interrupted, until unregistered.
 void register_staging(const std::filesystem::path& p);
 void unregister_staging(const std::filesystem::path& p);
+
+// Runs f where no clean-up can run meanwhile: what creates a staging path or anything inside one
+// (a folder, a file) runs so, or it could re-create a path the clean-up has just removed (the run
+// is not stopped while its clean-up runs). Once a clean-up has begun, f never runs: the process is
+// ending. f may register and unregister paths.
+void while_not_interrupted(const std::function<void()>& f);
 
 // A child process (python drawing into a staging folder) is sent the same signal first.
 void register_child(pid_t pid);

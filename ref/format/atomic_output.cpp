@@ -52,18 +52,22 @@ void atomic_output::stage(const std::filesystem::path& target, const std::string
   if (std::filesystem::is_directory(target, ec)) throw input_error(target.string() + ": is a directory");
   auto temp = target;
   temp += ".tmp-" + std::to_string(::getpid()) + "-" + std::to_string(files_.size());
-  {
+  bool opened = false, written = false;
+  while_not_interrupted([&] {  // registered and created with no clean-up in between
     register_staging(temp);
     std::ofstream out(temp, std::ios::binary | std::ios::trunc);
     if (!out) {
       unregister_staging(temp);
-      throw input_error(target.string() + ": cannot write (" + temp.string() + ")");
+      return;
     }
+    opened = true;
     files_.push_back({temp, target});
     out.write(content.data(), static_cast<std::streamsize>(content.size()));
     out.flush();
-    if (!out) throw input_error(target.string() + ": write failed");
-  }
+    written = static_cast<bool>(out);
+  });
+  if (!opened) throw input_error(target.string() + ": cannot write (" + temp.string() + ")");
+  if (!written) throw input_error(target.string() + ": write failed");
 }
 
 void atomic_output::commit() {
@@ -111,11 +115,13 @@ staged_directory::staged_directory(fs::path target) : target_(std::move(target))
   staging_ = target_;
   staging_ += ".tmp-" + std::to_string(::getpid());
   fs::remove_all(staging_, ec);
-  register_staging(staging_);
-  if (!fs::create_directory(staging_, ec)) {
-    unregister_staging(staging_);
-    throw input_error(staging_.string() + ": cannot create (" + ec.message() + ")");
-  }
+  bool created = false;
+  while_not_interrupted([&] {  // registered and created with no clean-up in between
+    register_staging(staging_);
+    created = fs::create_directory(staging_, ec);
+    if (!created) unregister_staging(staging_);
+  });
+  if (!created) throw input_error(staging_.string() + ": cannot create (" + ec.message() + ")");
   write(kOutputMarker, "made by rubref; the whole folder is replaced by the next run writing here\n");
 }
 
@@ -129,13 +135,20 @@ staged_directory::~staged_directory() {
 
 void staged_directory::write(const std::string& relative, const std::string& content) {
   const fs::path file = staging_ / relative;
-  std::error_code ec;
-  fs::create_directories(file.parent_path(), ec);
-  std::ofstream out(file, std::ios::binary | std::ios::trunc);
-  if (!out) throw input_error(file.string() + ": cannot write");
-  out.write(content.data(), static_cast<std::streamsize>(content.size()));
-  out.flush();
-  if (!out) throw input_error(file.string() + ": write failed");
+  bool opened = false, written = false;
+  // create_directories would re-create the staging folder itself if a clean-up had just removed it.
+  while_not_interrupted([&] {
+    std::error_code ec;
+    fs::create_directories(file.parent_path(), ec);
+    std::ofstream out(file, std::ios::binary | std::ios::trunc);
+    if (!out) return;
+    opened = true;
+    out.write(content.data(), static_cast<std::streamsize>(content.size()));
+    out.flush();
+    written = static_cast<bool>(out);
+  });
+  if (!opened) throw input_error(file.string() + ": cannot write");
+  if (!written) throw input_error(file.string() + ": write failed");
 }
 
 void staged_directory::commit() {
