@@ -34,7 +34,9 @@ shooting_settings fit_shooting(int periods = 1, const fit_orbit_options& o = {})
 // 0.3 mm orbit, below every difference a fit takes), the step budget as the shooting's per revolution.
 integration_options fit_sampling(int revolutions = 1, const fit_orbit_options& o = {});
 
-// The model's periodic orbit of `periods` revolutions near `guess` at t0.
+// The model's periodic orbit of `periods` revolutions near `guess` at t0. `far_guess`: a guess
+// not from a neighbouring orbit (the data's, after a settle), where Newton is inexact while far
+// (shooting_settings::coarse_while_far).
 template <class System>
 auto shoot_fit_orbit(const System& sys, const state_of<System>& guess, double t0, int periods = 1, const fit_orbit_options& o = {},
                      bool far_guess = false) {
