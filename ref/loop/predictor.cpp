@@ -26,10 +26,9 @@ using model = rotor_with_effects<identified>;
 // 1e-12 m, far below probe resolution and far below the orbit changes the fit's finite
 // differences make (>= 1e-9 m).
 // Revolutions integrated from a first guess taken from the data before shooting starts: damps
-// what the guess gets wrong of fast motions (contact ringing) so that Newton starts close. Newton
-// from there is inexact while far (shooting_settings::coarse_while_far): the settle leaves the
-// guess away from the orbit by the ringing it has not damped yet, and where no periodic orbit is
-// near (the fallback below) its failing iterations cost about half as much.
+// what the guess gets wrong of fast motions (contact ringing) so that Newton starts close. (Newton
+// inexact while far from there, shooting_settings::coarse_while_far, halved the cost of the shots
+// that fail but doubled the loop's time on docs/loop.md's stator example: docs/loop.md.)
 constexpr int kFirstSettleRevs = 10;
 // Revolutions the model runs from the data's state when Newton finds no periodic orbit there
 // (the first shot's settle, continued).
@@ -359,8 +358,8 @@ orbit_predictor::shot orbit_predictor::shoot(std::size_t k, const model_point& m
       guess = from_data->state;
     }
     // The one shooting routine (ref/integrate/shooting.hpp): Newton with the exact monodromy of
-    // the `periods`-revolution map, inexact while far where the guess is the data's.
-    const auto orbit = shoot_fit_orbit(sys, guess, 0.0, periods, orbits_, !c.started);
+    // the `periods`-revolution map.
+    const auto orbit = shoot_fit_orbit(sys, guess, 0.0, periods, orbits_);
     if (!orbit.converged) return shot::failed;
     if (!sample_flow(sys, orbit.state, period, opt, grid, order, states)) return shot::failed;
     c.last = orbit.state;

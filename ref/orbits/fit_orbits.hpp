@@ -34,15 +34,10 @@ shooting_settings fit_shooting(int periods = 1, const fit_orbit_options& o = {})
 // 0.3 mm orbit, below every difference a fit takes), the step budget as the shooting's per revolution.
 integration_options fit_sampling(int revolutions = 1, const fit_orbit_options& o = {});
 
-// The model's periodic orbit of `periods` revolutions near `guess` at t0. `far_guess`: a guess
-// not from a neighbouring orbit (the data's, after a settle), where Newton is inexact while far
-// (shooting_settings::coarse_while_far).
+// The model's periodic orbit of `periods` revolutions near `guess` at t0.
 template <class System>
-auto shoot_fit_orbit(const System& sys, const state_of<System>& guess, double t0, int periods = 1, const fit_orbit_options& o = {},
-                     bool far_guess = false) {
-  shooting_settings set = fit_shooting(periods, o);
-  set.coarse_while_far = far_guess;
-  return shoot_periodic_orbit(sys, guess, t0, periods, set);
+auto shoot_fit_orbit(const System& sys, const state_of<System>& guess, double t0, int periods = 1, const fit_orbit_options& o = {}) {
+  return shoot_periodic_orbit(sys, guess, t0, periods, fit_shooting(periods, o));
 }
 
 }  // namespace rubref
