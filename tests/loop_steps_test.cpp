@@ -295,11 +295,9 @@ TEST(loop_steps, an_orbit_that_cannot_be_computed_is_a_failure_not_a_number) {
 // converge; the other dwells are shot as ever. The point: a 1 kg stator on 1 MN/m with 10 N s/m
 // (ring frequency 1000 rad/s), whose 1600 rpm dwell has no period-1 orbit Newton finds.
 TEST(loop_steps, a_difference_about_a_transient_takes_the_transient_again) {
-  const rig_request req = truth_rig();
-  const auto dwells = truth_timed_dwells(req);
-  orbit_predictor predictor(dwells, req.probes.noise);
-  model_point at;
-  at.shift.assign(dwells.size(), 0.0);
+  at_the_truth truth;
+  orbit_predictor& predictor = truth.predictor;
+  model_point at = truth.truth;
   at.fx.stator_k = 1e6, at.fx.stator_m = 1.0, at.fx.stator_c = 10.0;
   const Eigen::VectorXd r = predictor.harmonic_residuals(at).value();
   const std::vector<orbit_kind> kinds = predictor.kinds();
