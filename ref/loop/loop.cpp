@@ -205,39 +205,53 @@ void loop_settings::validate() const {
 
 namespace {
 
-// The loop itself (stages 1-4 of loop.hpp), without its check. `announce` goes to progress once the
-// records are found fit to fit (an input error is then the run's only line); the dwells left out
-// in stage 1 are said only where `say_dwells` (the check's stage 1 is the loop's, bit for bit).
-loop_result fit_and_claim(const std::vector<std::pair<record, std::string>>& records, const loop_settings& s, const std::string& announce = {},
-                          bool say_dwells = true) {
+// Stage 1 and the staged start of stage 2, which take no orbit setting: the fit and its check
+// share them (the staged start's orbit fit, the costliest part before the trace, runs once, on
+// every thread). `fitted` is false where nothing can be fitted (`out` then says why).
+struct loop_start {
   loop_result out;
+  bool fitted = false;
+};
+
+// The result for records that leave nothing to fit, with why.
+loop_result& nothing_to_fit(loop_result& out, const loop_settings& s, const std::string& why) {
+  out.decision = decide("effects", {}, claim_inputs{}, s.rules, {}, {why});
+  out.error_before = out.error_after = std::numeric_limits<double>::quiet_NaN();
+  out.notes.push_back(why);
+  return out;
+}
+
+// `announce` goes to progress once the records are found fit to fit (an input error is then the
+// run's only line).
+loop_start start_loop(const std::vector<std::pair<record, std::string>>& records, const loop_settings& s, const std::string& announce) {
+  loop_start start;
+  loop_result& out = start.out;
   // 1. The dwells.
   prepared_dwells prep = prepare_dwells(records, s.mass, s.clearance);
   out.noise = prep.noise;
   out.mass_source = prep.mass_source;
   out.notes = std::move(prep.notes);
   out.dwells = std::move(prep.dwells);
-  for (const auto& e : prep.excluded)
-    if (say_dwells) s.progress("warning: " + e.record + " (" + format_digits(e.rpm) + " rpm) left out: " + e.reason);
+  for (const auto& e : prep.excluded) s.progress("warning: " + e.record + " (" + format_digits(e.rpm) + " rpm) left out: " + e.reason);
   out.excluded = std::move(prep.excluded);
-  const double noise = std::max(out.noise, 1e-12);
-  const auto nothing_to_fit = [&](const std::string& why) {
-    out.decision = decide("effects", {}, claim_inputs{}, s.rules, {}, {why});
-    out.error_before = out.error_after = std::numeric_limits<double>::quiet_NaN();
-    out.notes.push_back(why);
-    return out;
-  };
   if (!any_contact(out.dwells)) {
     if (out.excluded.empty()) throw input_error("no dwell reaches its clearance: there is no contact for the loop to fit");
-    return nothing_to_fit("no synchronous dwell with contact: the loop cannot fit these records");
+    nothing_to_fit(out, s, "no synchronous dwell with contact: the loop cannot fit these records");
+    return start;
   }
-
   if (!announce.empty()) s.progress(announce);
-  // 2. The paper's model: staged, then every coordinate on every dwell's orbit.
+  // 2. The paper's model: staged (here), then every coordinate on every dwell's orbit (fit_and_claim).
   out.initial = staged_model(out.dwells, prep.mass, out.notes);
+  start.fitted = true;
+  return start;
+}
+
+// The loop itself from its start (stages 2-4 of loop.hpp), without its check.
+loop_result fit_and_claim(loop_result out, const loop_settings& s) {
+  const double noise = std::max(out.noise, 1e-12);
   std::vector<std::pair<loop_dwell, std::size_t>> held_out;
   exclude_uncomputable(out, noise, s, held_out);
-  if (!any_contact(out.dwells)) return nothing_to_fit("the model's orbit cannot be computed in any dwell with contact");
+  if (!any_contact(out.dwells)) return nothing_to_fit(out, s, "the model's orbit cannot be computed in any dwell with contact");
   s.progress("      every coordinate together (Levenberg-Marquardt) ...");
   orbit_predictor predictor(out.dwells, noise, s.orbits);
   const multistart_result before = fit_paper_model(predictor, out.dwells, out.initial, noise, s.max_jacobians, [&](const fit_result& f) {
@@ -297,7 +311,7 @@ void apply_check(loop_result& out, std::optional<verdict> check, const std::stri
 // name the same effects, or the verdict is tentative.
 loop_result run_loop(const std::vector<std::pair<record, std::string>>& records, const loop_settings& s) {
   s.validate();
-  if (s.check_tolerance_scale == 0.0) return fit_and_claim(records, s);
+  const bool checked = s.check_tolerance_scale != 0.0;
   std::mutex lines;  // the two fits' progress, a whole line at a time
   const auto say = [&](std::string prefix) {
     return [&lines, &s, prefix = std::move(prefix)](const std::string& line) {
@@ -305,18 +319,22 @@ loop_result run_loop(const std::vector<std::pair<record, std::string>>& records,
       s.progress(prefix + line);
     };
   };
+  const std::string announce = checked ? "the verdict's check: the same loop with orbit tolerances " + format_digits(s.check_tolerance_scale) +
+                                             " times these, beside it ([check] lines); an effect the two do not both name is tentative"
+                                       : std::string();
+  loop_start start = start_loop(records, s, announce);
+  if (!start.fitted) return std::move(start.out);
+  if (!checked) return fit_and_claim(std::move(start.out), s);
   loop_settings fit = s, check = s;
   fit.progress = say("");
   check.orbits.tolerance_scale *= s.check_tolerance_scale;
   check.progress = say("[check] ");
-  const std::string announce = "the verdict's check: the same loop with orbit tolerances " + format_digits(s.check_tolerance_scale) +
-                               " times these, beside it ([check] lines); an effect the two do not both name is tentative";
   std::array<std::optional<loop_result>, 2> runs;
   std::string check_failed;
   parallel_for(2, 0, [&](std::size_t i) {
-    if (i == 0) return void(runs[0] = fit_and_claim(records, fit, announce));
+    if (i == 0) return void(runs[0] = fit_and_claim(start.out, fit));
     try {
-      runs[1] = fit_and_claim(records, check, {}, false);
+      runs[1] = fit_and_claim(start.out, check);
     } catch (const numerical_error& e) {
       check_failed = e.what();
     }

@@ -203,16 +203,19 @@ std::string to_markdown(const loop_result& r) {
     o << "\n";
   }
   if (!r.plot_x.empty()) o << "![orbit](orbit.png)\n\n![residual spectrum](residual_spectrum.png)\n\n![residual](residual.png)\n\n";
-  o << "## Validity checks (after)\n\n| check | value | limit | pass |\n|---|---|---|---|\n";
-  const auto passed = [](const correlation_check& c) { return std::string(c.pass ? "yes" : "no") + (c.on_margin ? " (on the margin)" : ""); };
-  for (const auto* c : {&r.validity_after.noise_level, &r.validity_after.synchronous, &r.validity_after.whiteness})
-    o << "| " << c->name << " | " << fmt(c->value) << " | " << fmt(c->limit) << " | " << passed(*c) << " |\n";
-  for (const auto& c : r.validity_after.state) o << "| corr " << c.name << " | " << fmt(c.value) << " | " << fmt(c.limit) << " | " << passed(c) << " |\n";
-  o << "\n## Per dwell\n\n| record | rpm | contact | samples | orbit | NRMSE before | NRMSE after | RMS before [um] | RMS after [um] |\n"
-       "|---|---|---|---|---|---|---|---|---|\n";
-  for (const auto& e : r.errors)
-    o << "| " << e.record << " | " << e.rpm << " | " << (e.contact ? "yes" : "no") << " | " << e.samples << " | " << e.orbit << (e.periods > 1 ? ", period " + std::to_string(e.periods) : std::string()) << " | " << fmt(e.nrmse_before) << " | "
-      << fmt(e.nrmse_after) << " | " << fmt(e.rms_before * 1e6) << " | " << fmt(e.rms_after * 1e6) << " |\n";
+  // Nothing fitted: no check was made and no dwell compared (the tables would be empty rows).
+  if (fitted) {
+    o << "## Validity checks (after)\n\n| check | value | limit | pass |\n|---|---|---|---|\n";
+    const auto passed = [](const correlation_check& c) { return std::string(c.pass ? "yes" : "no") + (c.on_margin ? " (on the margin)" : ""); };
+    for (const auto* c : {&r.validity_after.noise_level, &r.validity_after.synchronous, &r.validity_after.whiteness})
+      o << "| " << c->name << " | " << fmt(c->value) << " | " << fmt(c->limit) << " | " << passed(*c) << " |\n";
+    for (const auto& c : r.validity_after.state) o << "| corr " << c.name << " | " << fmt(c.value) << " | " << fmt(c.limit) << " | " << passed(c) << " |\n";
+    o << "\n## Per dwell\n\n| record | rpm | contact | samples | orbit | NRMSE before | NRMSE after | RMS before [um] | RMS after [um] |\n"
+         "|---|---|---|---|---|---|---|---|---|\n";
+    for (const auto& e : r.errors)
+      o << "| " << e.record << " | " << e.rpm << " | " << (e.contact ? "yes" : "no") << " | " << e.samples << " | " << e.orbit << (e.periods > 1 ? ", period " + std::to_string(e.periods) : std::string()) << " | " << fmt(e.nrmse_before) << " | "
+        << fmt(e.nrmse_after) << " | " << fmt(e.rms_before * 1e6) << " | " << fmt(e.rms_after * 1e6) << " |\n";
+  }
   for (const auto& w : r.warnings) o << "\n**Warning:** " << w << "\n";
   for (const auto& n : r.notes) o << "\nNote: " << n << "\n";
   return o.str();
