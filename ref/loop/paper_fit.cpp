@@ -128,8 +128,8 @@ parameters fit_linear_harmonic(const std::vector<loop_dwell>& dwells, double mas
 model_point staged_model(const std::vector<loop_dwell>& dwells, double mass, std::vector<std::string>& notes) {
   // The paper's pipeline (docs/identification.md) on the re-timed dwells: the linear part without
   // contact (here by harmonic balance), then the identified law's terms by FROLS on the contact
-  // forces. (Its orbit fit and NLopt output-error stage are left to the before-fit, which refines
-  // every coordinate on every dwell at once.)
+  // forces. (Its NLopt output-error stage is left to the before-fit, which refines every
+  // coordinate on every dwell at once.)
   // (Only the dwells that repeat every revolution: the pipeline averages one revolution.)
   std::vector<dwell> plain;
   for (const auto& ld : dwells)
@@ -156,13 +156,9 @@ model_point staged_model(const std::vector<loop_dwell>& dwells, double mass, std
                     "mass), and the before-fit fits it on every dwell");
   }
   is.average = averaging::always;  // every dwell here repeats each revolution (periods == 1)
-  // The weak form's own terms, not refined by identify's orbit fit: the before-fit refines every
-  // coordinate on every dwell's orbit from here with exact sensitivities, where identify's fit
-  // takes finite differences on the averaged cycles (and, without a keyphasor, a second pass on
-  // the angles it found). That refinement was most of the loop's time before its trace (seed
-  // 2718 #39: 72 -> 24 s without it, the same verdict; docs/loop.md measures the whole campaign).
+  // The staged start as validated by the loop's campaign: the weak form's own terms, refined by
+  // the orbit fit (the structure comparison is identify's default; not yet measured on the loop).
   is.compare_structures = false;
-  is.orbit_fit = false;
   is.library = "z1,z3,zd2";  // Eq. 5's terms: the loop's base model is the identified law
   is.frols.rho = 0.0;
   is.frols.err_threshold = 0.0;
