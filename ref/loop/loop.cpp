@@ -26,7 +26,7 @@ void exclude(loop_result& out, std::size_t k, std::string reason, const loop_set
 // and so are period-n dwells where it has no period-n orbit there (held out: the final model is
 // checked on them after the fit, held_out_check).
 void exclude_uncomputable(loop_result& out, double noise, const loop_settings& s, std::vector<std::pair<loop_dwell, std::size_t>>& held_out) {
-  const auto starts = before_fit_starts(out.initial);
+  const auto starts = before_fit_starts(out.initial, out.initial_weak_form);
   const auto failed = uncomputable_dwells(out.dwells, noise, starts, s.orbits);
   const auto orbitless = dwells_without_their_orbit(out.dwells, noise, starts, s.orbits);
   std::vector<loop_dwell> kept;
@@ -241,7 +241,9 @@ loop_start start_loop(const std::vector<std::pair<record, std::string>>& records
   }
   if (!announce.empty()) s.progress(announce);
   // 2. The paper's model: staged (here), then every coordinate on every dwell's orbit (fit_and_claim).
-  out.initial = staged_model(out.dwells, prep.mass, out.notes);
+  staged_start staged = staged_model(out.dwells, prep.mass, out.notes);
+  out.initial = std::move(staged.model);
+  out.initial_weak_form = std::move(staged.weak_form);
   start.fitted = true;
   return start;
 }
@@ -254,7 +256,7 @@ loop_result fit_and_claim(loop_result out, const loop_settings& s) {
   if (!any_contact(out.dwells)) return nothing_to_fit(out, s, "the model's orbit cannot be computed in any dwell with contact");
   s.progress("      every coordinate together (Levenberg-Marquardt) ...");
   orbit_predictor predictor(out.dwells, noise, s.orbits);
-  const multistart_result before = fit_paper_model(predictor, out.dwells, out.initial, noise, s.max_jacobians, [&](const fit_result& f) {
+  const multistart_result before = fit_paper_model(predictor, out.dwells, out.initial, out.initial_weak_form, noise, s.max_jacobians, [&](const fit_result& f) {
     return validity(out.dwells, predictor, f.at, f.r, noise, s.orders, s.whiteness_lags).pass;
   });
   if (!before.best.ok) throw numerical_error("the paper's model cannot be computed at any start of its fit");
@@ -266,7 +268,7 @@ loop_result fit_and_claim(loop_result out, const loop_settings& s) {
              format_digits(noise * 1e6) + " um");
 
   // 3. The trace.
-  trace_result traced = trace(out.dwells, predictor, noise, out.initial, before.best, s);
+  trace_result traced = trace(out.dwells, predictor, noise, {out.initial, out.initial_weak_form}, before.best, s);
   out.before = traced.before;
   out.after = traced.after;
   out.effects = std::move(traced.effects);

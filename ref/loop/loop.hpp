@@ -61,6 +61,7 @@ struct loop_result {
   double noise = 0.0;
   std::string mass_source;
   model_point initial, before, after;       // staged fit, paper model refined, final
+  std::optional<parameters> initial_weak_form;  // the staged fit with the weak form's own law (staged_start)
   std::vector<start_outcome> starts;        // the before-fit's starts
   std::string start_winner;                 // the one its best fit came from
   bool start_tie = false;                   // fits alike within their uncertainty: the first start in order won

@@ -125,7 +125,7 @@ parameters fit_linear_harmonic(const std::vector<loop_dwell>& dwells, double mas
   return p;
 }
 
-model_point staged_model(const std::vector<loop_dwell>& dwells, double mass, std::vector<std::string>& notes) {
+staged_start staged_model(const std::vector<loop_dwell>& dwells, double mass, std::vector<std::string>& notes) {
   // The paper's pipeline (docs/identification.md) on the re-timed dwells: the linear part without
   // contact (here by harmonic balance), then the identified law's terms by FROLS on the contact
   // forces. (Its NLopt output-error stage is left to the before-fit, which refines every
@@ -174,31 +174,49 @@ model_point staged_model(const std::vector<loop_dwell>& dwells, double mass, std
   start.p.k_y = lin.k_y;
   start.p.e = lin.e;
   start.p.unbalance_phase = lin.unbalance_phase;
+  staged_start out;
   try {
     const identification id = identify(plain, is);
     // The law's start: identify's coefficients where positive (else the paper's Table 2 value:
     // the fit searches logarithms), and its mu (Fig. 5's mean on the samples route; on noisy
     // records the weak form's, refined by the orbit fit, docs/identification.md §5).
-    for (const auto& t : id.estimates) {
-      if (t.name == "z1" && t.value > 0.0) start.p.k1 = t.value;
-      if (t.name == "z3" && t.value > 0.0) start.p.k3 = t.value;
-      if (t.name == "zd2" && t.value > 0.0) start.p.c2 = t.value;
+    const auto with_law = [&](parameters p, const std::vector<term_estimate>& terms, double mu) {
+      for (const auto& t : terms) {
+        if (t.name == "z1" && t.value > 0.0) p.k1 = t.value;
+        if (t.name == "z3" && t.value > 0.0) p.k3 = t.value;
+        if (t.name == "zd2" && t.value > 0.0) p.c2 = t.value;
+      }
+      if (std::isfinite(mu) && mu > 0.0 && mu < 2.0) p.mu = mu;
+      return p;
+    };
+    const parameters table2 = start.p;
+    start.p = with_law(table2, id.estimates, id.mu);
+    // The weak form's own law, where the orbit fit moved it: the before-fit's third start.
+    if (!id.weak_estimates.empty()) {
+      const parameters weak = with_law(table2, id.weak_estimates, std::isfinite(id.weak_mu) ? id.weak_mu : id.mu);
+      if (weak.k1 != start.p.k1 || weak.k3 != start.p.k3 || weak.c2 != start.p.c2 || weak.mu != start.p.mu) out.weak_form = weak;
     }
-    if (std::isfinite(id.mu) && id.mu > 0.0 && id.mu < 2.0) start.p.mu = id.mu;
   } catch (const input_error& e) {
     notes.push_back(std::string("FROLS start not available (") + e.what() + "); the law starts from the paper's Table 2");
   }
-  return start;
+  out.model = std::move(start);
+  return out;
 }
 
-std::vector<named_start> before_fit_starts(const model_point& staged) {
+std::vector<named_start> before_fit_starts(const model_point& staged, const std::optional<parameters>& weak_form) {
   model_point table2 = staged;
   const parameters paper;
   table2.p.k1 = paper.k1;
   table2.p.k3 = paper.k3;
   table2.p.c2 = paper.c2;
   table2.p.mu = paper.mu;
-  return {{"staged (FROLS law)", staged}, {"staged linear part, Table 2 law", table2}};
+  std::vector<named_start> starts{{"staged (FROLS law)", staged}, {"staged linear part, Table 2 law", table2}};
+  if (weak_form) {
+    model_point weak = staged;
+    weak.p = *weak_form;
+    starts.push_back({"staged, the weak form's law", std::move(weak)});
+  }
+  return starts;
 }
 
 std::vector<std::size_t> uncomputable_dwells(const std::vector<loop_dwell>& dwells, double noise, const std::vector<named_start>& starts,
@@ -229,10 +247,12 @@ std::vector<std::size_t> dwells_without_their_orbit(const std::vector<loop_dwell
   return out;
 }
 
-multistart_result fit_paper_model(orbit_predictor& predictor, const std::vector<loop_dwell>& dwells, const model_point& staged, double noise,
-                                  int max_iterations, const std::function<bool(const fit_result&)>& is_noise) {
+multistart_result fit_paper_model(orbit_predictor& predictor, const std::vector<loop_dwell>& dwells, const model_point& staged,
+                                  const std::optional<parameters>& weak_form, double noise, int max_iterations,
+                                  const std::function<bool(const fit_result&)>& is_noise) {
   const fit_problem problem = make_problem(predictor, dwells, staged, paper_coordinates(), noise);
-  return fit_from_starts(problem, before_fit_starts(staged), max_iterations, is_noise, 2);
+  const std::vector<named_start> starts = before_fit_starts(staged, weak_form);
+  return fit_from_starts(problem, starts, max_iterations, is_noise, static_cast<int>(starts.size()));
 }
 
 }  // namespace rubref

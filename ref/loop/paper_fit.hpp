@@ -5,6 +5,7 @@
 // on the orbits of every dwell, from several starts.
 
 #include <functional>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -17,13 +18,21 @@ namespace rubref {
 // its stiffnesses and dampers bounded below by a physical floor (noted in `notes` when active).
 parameters fit_linear_harmonic(const std::vector<loop_dwell>& dwells, double mass, std::vector<std::string>* notes = nullptr);
 
-// The staged model: the linear part from the dwells without contact, the law from FROLS (where
-// its coefficients are positive, else the paper's Table 2), mu from the force ratio (Fig. 5).
+// The staged model: the linear part from the dwells without contact, the law from the weak form
+// refined by identify's orbit fit (where its coefficients are positive, else the paper's Table 2),
+// mu likewise. `weak_form`: its parameters with the weak form's own law and mu, where the orbit fit
+// moved them (another start of the before-fit: from neither law does the before-fit land lower
+// on every record, docs/loop.md).
+struct staged_start {
+  model_point model;
+  std::optional<parameters> weak_form;
+};
 // Notes what it could not do.
-model_point staged_model(const std::vector<loop_dwell>& dwells, double mass, std::vector<std::string>& notes);
+staged_start staged_model(const std::vector<loop_dwell>& dwells, double mass, std::vector<std::string>& notes);
 
-// The before-fit's starts: the staged model, and the staged linear part with Table 2's law.
-std::vector<named_start> before_fit_starts(const model_point& staged);
+// The before-fit's starts, in the order that breaks their ties: the staged model, the staged
+// linear part with Table 2's law, and the staged model with the weak form's law (where it has one).
+std::vector<named_start> before_fit_starts(const model_point& staged, const std::optional<parameters>& weak_form);
 
 // The dwells whose model orbit cannot be computed at any of `starts` (Newton shooting and a
 // transient from the measured state both fail there): a fit cannot compare what the model cannot
@@ -39,10 +48,11 @@ std::vector<std::size_t> dwells_without_their_orbit(const std::vector<loop_dwell
                                                     const fit_orbit_options& orbits = {});
 
 // The before-fit: every coordinate of the paper's model, by the solver (fit.hpp) from the best of
-// its starts, and, while the fit leaves more than the noise, from the other start too. The lowest fit wins; it is never worse than the best
+// its starts, and, while the fit leaves more than the noise, from the others too. The lowest fit wins; it is never worse than the best
 // start (every accepted step lowers the residual).
 // `is_noise` tells a fit whose residual passes the validity checks (the predictor holds its states).
-multistart_result fit_paper_model(orbit_predictor& predictor, const std::vector<loop_dwell>& dwells, const model_point& staged, double noise,
-                                  int max_iterations, const std::function<bool(const fit_result&)>& is_noise);
+multistart_result fit_paper_model(orbit_predictor& predictor, const std::vector<loop_dwell>& dwells, const model_point& staged,
+                                  const std::optional<parameters>& weak_form, double noise, int max_iterations,
+                                  const std::function<bool(const fit_result&)>& is_noise);
 
 }  // namespace rubref
