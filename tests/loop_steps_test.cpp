@@ -415,6 +415,32 @@ TEST(loop_steps, fits_from_starts_that_end_alike_are_a_tie_won_by_the_first_star
   }
 }
 
+// The staged model keeps the weak form's own law beside the one identify's orbit fit refined from
+// it, and the before-fit starts from both (neither leads it lower on every record, docs/loop.md
+// step 2): the third start carries the staged linear part with the weak form's law, and it is
+// fitted while the others leave more than noise.
+TEST(loop_steps, the_weak_forms_own_law_is_a_start_of_the_before_fit) {
+  at_the_truth at;
+  std::vector<std::string> notes;
+  const staged_start staged = staged_model(at.dwells, at.req.params.m, notes);
+  ASSERT_TRUE(staged.weak_form.has_value()) << "the orbit fit left the weak form's law as it was";
+  const std::vector<named_start> starts = before_fit_starts(staged.model, staged.weak_form);
+  ASSERT_EQ(starts.size(), 3u);
+  const parameters& third = starts[2].at.p;
+  EXPECT_EQ(third.k1, staged.weak_form->k1);
+  EXPECT_EQ(third.c2, staged.weak_form->c2);
+  EXPECT_EQ(third.mu, staged.weak_form->mu);
+  EXPECT_EQ(third.k_x, staged.model.p.k_x);  // the linear part is the staged one
+  EXPECT_EQ(third.e, staged.model.p.e);
+  EXPECT_FALSE(third.k1 == staged.model.p.k1 && third.k3 == staged.model.p.k3 && third.c2 == staged.model.p.c2 && third.mu == staged.model.p.mu)
+      << "a third start with the staged law again";
+  constexpr int kJacobians = 3;  // enough to run each fit; the test is which starts are fitted
+  const auto never = [](const fit_result&) { return false; };
+  const multistart_result m = fit_paper_model(at.predictor, at.dwells, staged.model, staged.weak_form, at.req.probes.noise, kJacobians, never);
+  ASSERT_EQ(m.starts.size(), 3u);
+  for (const auto& o : m.starts) EXPECT_TRUE(std::isfinite(o.rss_fit)) << o.name;
+}
+
 // Comparing in harmonics (orbit_predictor::harmonic_residuals, what every fit searches on):
 // |r~|^2 plus the data's part outside the band is exactly |d - m_band|^2 on the samples, where
 // m_band is the model's reading summed from its band, at the truth and at a model far off it,
