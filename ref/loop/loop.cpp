@@ -268,7 +268,7 @@ loop_result fit_and_claim(loop_result out, const loop_settings& s) {
              format_digits(noise * 1e6) + " um");
 
   // 3. The trace.
-  trace_result traced = trace(out.dwells, predictor, noise, {out.initial, out.initial_weak_form}, before.best, s);
+  trace_result traced = trace(out.dwells, predictor, noise, out.initial, before.best, s);
   out.before = traced.before;
   out.after = traced.after;
   out.effects = std::move(traced.effects);

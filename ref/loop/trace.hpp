@@ -18,7 +18,6 @@
 
 #include "ref/inference/evidence.hpp"
 #include "ref/loop/fit.hpp"
-#include "ref/loop/paper_fit.hpp"
 #include "ref/loop/preprocess.hpp"
 
 namespace rubref {
@@ -110,9 +109,8 @@ struct trace_result {
   std::vector<std::string> notes;
 };
 
-// The trace from the paper's model's fit `before` (its orbit computable in every dwell), with the
-// staged start it came from (its law's starts are refitted after an effect is added).
-trace_result trace(const std::vector<loop_dwell>& dwells, orbit_predictor& predictor, double noise, const staged_start& staged,
+// The trace from the paper's model's fit `before` (its orbit computable in every dwell).
+trace_result trace(const std::vector<loop_dwell>& dwells, orbit_predictor& predictor, double noise, const model_point& staged,
                    const fit_result& before, const trace_settings& s);
 
 // The first parameter of the effect (present at m) whose value lies outside the library's fit range
