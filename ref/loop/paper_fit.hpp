@@ -18,16 +18,16 @@ namespace rubref {
 // its stiffnesses and dampers bounded below by a physical floor (noted in `notes` when active).
 parameters fit_linear_harmonic(const std::vector<loop_dwell>& dwells, double mass, std::vector<std::string>* notes = nullptr);
 
-// The staged model: the linear part from the dwells without contact, the law from the weak form
-// refined by identify's orbit fit (where its coefficients are positive, else the paper's Table 2),
-// mu likewise. `weak_form`: its parameters with the weak form's own law and mu, where the orbit fit
-// moved them (another start of the before-fit: from neither law does the before-fit land lower
-// on every record, docs/loop.md).
+// The staged model (`model`): the linear part from the dwells without contact, the law from the
+// weak form refined by identify's orbit fit (where its coefficients are positive, else the paper's
+// Table 2), mu likewise. `weak_form`: its parameters with the weak form's own law and mu, where the
+// orbit fit moved them (another start of the before-fit: from neither law does the before-fit land
+// lower on every record, docs/loop.md).
 struct staged_start {
   model_point model;
   std::optional<parameters> weak_form;
 };
-// Notes what it could not do.
+// The staged start of the dwells; notes what it could not do.
 staged_start staged_model(const std::vector<loop_dwell>& dwells, double mass, std::vector<std::string>& notes);
 
 // The before-fit's starts, in the order that breaks their ties: the staged model, the staged
