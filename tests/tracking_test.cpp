@@ -355,6 +355,23 @@ TEST(RubFit, ItsExactSensitivitiesAreTheResidualsDerivative) {
   }
 }
 
+// A row without sensitivities (a transient's last revolution) is differenced alone, as the whole
+// evaluation would be (forward, the solver's step, shot from the orbits it differs from): every
+// shot row differenced so against central differences of whole evaluations, column by column.
+TEST(RubFit, ARowDifferencedAloneIsTheResidualsDerivative) {
+  const rub_fit_of_run_up at(100.0);
+  ASSERT_GT(at.rub.rows_in_contact, 0u);
+  constexpr double kStep = 1e-4;  // the central differences', as above
+  const rub_fit_jacobians J = rub_fit_jacobians_at(at.table, at.linear, at.rub, kStep);
+  ASSERT_EQ(J.rows_differenced.cols(), J.differenced.cols()) << "every shot row must be differenced alone";
+  for (Eigen::Index k = 0; k < J.differenced.cols(); ++k) {
+    // The forward difference's truncation (~1e-5 of the column at the solver's step 1e-5) and the
+    // orbits' error (1e-12 m over changes of ~1e-9 m): 2e-3 of the column (measured: ~2e-4).
+    constexpr double kAgreement = 2e-3;
+    EXPECT_LT((J.rows_differenced.col(k) - J.differenced.col(k)).norm(), kAgreement * J.differenced.col(k).norm()) << "coordinate " << k;
+  }
+}
+
 // The rub fit's starts, fits and Jacobian rows run on the machine's threads, each task into its own
 // slot: the fit is the same, bit for bit, on one thread and on two.
 TEST(RubFit, IsTheSameBitForBitOnOneAndTwoThreads) {

@@ -164,67 +164,76 @@ struct rub_problem {
     return {p, fx};
   }
 
+  // One row's steady orbit at speed w, shot from `guess`; where Newton finds no stable orbit,
+  // settled from there and shot again; where it still finds none, a transient's last revolution
+  // (periodic false). Its 1X and 2X read from one period at kReadSamples. A failed integration is
+  // a numerical_error.
+  row_orbit shot_row(const parameters& p, const effect_parameters& fx, double w, const state6& guess) {
+    row_orbit o;
+    const model sys(p, fx, w);
+    // Shot, settled and read as every fit's orbit (ref/orbits/fit_orbits.hpp).
+    const integration_options settle = fit_sampling(kSettleRevs), read = fit_sampling();
+    const double period = sys.period();
+    const auto shoot = [&](const state6& g) -> std::optional<state6> {
+      shots.add();
+      const auto orbit = shoot_fit_orbit(sys, g, 0.0);
+      if (orbit.stable()) return orbit.state;
+      return std::nullopt;
+    };
+    std::optional<state6> on = shoot(guess);
+    state6 start = guess;
+    if (!on) {
+      null_observer none;
+      start = integrate_hybrid(sys, start_state(sys, guess, 0.0), kSettleRevs * period, settle, sample_grid{}, none).s;
+      on = shoot(start);
+    }
+    o.periodic = on.has_value();
+    std::vector<state6> samples;
+    sample_recorder rec{&samples};
+    integrate_hybrid(sys, start_state(sys, on ? *on : start, 0.0), period, read, sample_grid(0.0, period / static_cast<double>(kReadSamples), kReadSamples),
+                     rec);
+    if (on) o.state = *on;
+    if (samples.size() != kReadSamples) throw numerical_error("rub fit: a period read " + std::to_string(samples.size()) + " samples");
+    double top = -std::numeric_limits<double>::infinity();
+    for (std::size_t k = 0; k < kReadSamples; ++k) {
+      const double t = period * static_cast<double>(k) / static_cast<double>(kReadSamples);
+      const cplx e1 = std::polar(2.0 / kReadSamples, -w * t), e2 = std::polar(2.0 / kReadSamples, -2.0 * w * t);
+      o.x1 += samples[k][0] * e1, o.y1 += samples[k][1] * e1, o.x2 += samples[k][0] * e2, o.y2 += samples[k][1] * e2;
+      top = std::max(top, samples[k][1]);
+    }
+    o.contact = top > p.clearance;
+    return o;
+  }
+
+  // The guess a row is shot from when no warm orbit is given: the previous speed's orbit, else
+  // the contact-free response (a transient's state as a start, tried, led the fits astray:
+  // campaign seed 1, scenario 33).
+  static state6 contact_free_state(cplx x, cplx y, double w) {
+    const cplx j(0.0, 1.0);
+    return {x.real(), y.real(), (j * w * x).real(), (j * w * y).real(), 0.0, 0.0};
+  }
+
   // Every row's steady orbit, in rising speed: closed form while the contact-free response stays
-  // inside the clearance and the previous speed did not touch; else shot from `warm`'s orbit at
-  // that row (a finite difference stays on the branch its base point followed), the previous
-  // speed's, or the contact-free response; where Newton finds no stable orbit, settled from
-  // there and shot again; where it still finds none, a transient's last revolution, counted.
-  // A failed integration is a numerical_error: the point is rejected, never read.
+  // inside the clearance and the previous speed did not touch; else shot (shot_row) from `warm`'s
+  // orbit at that row (a finite difference stays on the branch its base point followed), the
+  // previous speed's, or the contact-free response.
   std::vector<row_orbit> orbits(const std::vector<double>& f, const std::vector<row_orbit>* warm) {
     evaluations.add();
     const auto [p, fx] = rotor(f);
     std::vector<row_orbit> out(table.rows());
-    // Shot, settled and read as every fit's orbit (ref/orbits/fit_orbits.hpp).
-    const integration_options settle = fit_sampling(kSettleRevs), read = fit_sampling();
     bool previous_contact = false;
     for (std::size_t i = 0; i < table.rows(); ++i) {
       const double w = table.rpm[i] * kRpmToRadS;
       const auto [x, y] = linear_xy(f, w);
-      row_orbit& o = out[i];
       const bool warm_shot = warm && (*warm)[i].state;
       if (!warm_shot && !previous_contact && std::abs(y) <= p.clearance) {
-        o.x1 = x, o.y1 = y;
-        o.closed_form = true;
+        out[i].x1 = x, out[i].y1 = y;
+        out[i].closed_form = true;
         continue;
       }
-      const model sys(p, fx, w);
-      const cplx j(0.0, 1.0);
-      state6 guess{x.real(), y.real(), (j * w * x).real(), (j * w * y).real(), 0.0, 0.0};
-      if (warm_shot) guess = *(*warm)[i].state;
-      else if (i > 0 && out[i - 1].state) guess = *out[i - 1].state;
-      const double period = sys.period();
-      const auto shoot = [&](const state6& g) -> std::optional<state6> {
-        shots.add();
-        const auto orbit = shoot_fit_orbit(sys, g, 0.0);
-        if (orbit.stable()) return orbit.state;
-        return std::nullopt;
-      };
-      std::optional<state6> on = shoot(guess);
-      state6 start = guess;
-      if (!on) {
-        null_observer none;
-        start = integrate_hybrid(sys, start_state(sys, guess, 0.0), kSettleRevs * period, settle, sample_grid{}, none).s;
-        on = shoot(start);
-      }
-      o.periodic = on.has_value();
-      std::vector<state6> samples;
-      sample_recorder rec{&samples};
-      integrate_hybrid(sys, start_state(sys, on ? *on : start, 0.0), period, read, sample_grid(0.0, period / static_cast<double>(kReadSamples), kReadSamples),
-                       rec);
-      // The next speed starts from this one's orbit; after a row without one, from the
-      // contact-free response (a transient's state as a start, tried, led the fits astray:
-      // campaign seed 1, scenario 33).
-      if (on) o.state = *on;
-      if (samples.size() != kReadSamples) throw numerical_error("rub fit: a period read " + std::to_string(samples.size()) + " samples");
-      double top = -std::numeric_limits<double>::infinity();
-      for (std::size_t k = 0; k < kReadSamples; ++k) {
-        const double t = period * static_cast<double>(k) / static_cast<double>(kReadSamples);
-        const cplx e1 = std::polar(2.0 / kReadSamples, -w * t), e2 = std::polar(2.0 / kReadSamples, -2.0 * w * t);
-        o.x1 += samples[k][0] * e1, o.y1 += samples[k][1] * e1, o.x2 += samples[k][0] * e2, o.y2 += samples[k][1] * e2;
-        top = std::max(top, samples[k][1]);
-      }
-      o.contact = top > p.clearance;
-      previous_contact = o.contact;
+      const state6 guess = warm_shot ? *(*warm)[i].state : i > 0 && out[i - 1].state ? *out[i - 1].state : contact_free_state(x, y, w);
+      out[i] = shot_row(p, fx, w, guess);
+      previous_contact = out[i].contact;
     }
     return out;
   }
@@ -264,9 +273,14 @@ struct rub_problem {
   // sensitivities (ref/integrate/parameter_columns.hpp; docs/loop.md, "Exact sensitivities"): a
   // shot row's 1X from one flow of its orbit's sensitivities in every free coordinate, a
   // closed-form row's from central differences of the closed form; the sources are central
-  // differences of the moved models at the same states. Nothing where some row's orbit is a
-  // transient's last revolution or its sensitivities cannot be had (the caller differences then).
-  std::optional<Eigen::MatrixXd> exact_jacobian(const std::vector<double>& q, const std::vector<row_orbit>& at, const std::vector<cplx>* fixed) const {
+  // differences of the moved models at the same states. A row whose orbit is a transient's last
+  // revolution, or whose sensitivities cannot be had, has none: with rows_lacking::differenced
+  // that row alone is differenced (forward, the solver's step, as the whole evaluation would be:
+  // shot from `at`'s orbits), else, or where that fails too, nothing (the caller differences every
+  // row then). rows_lacking::every_shot_row differences every shot row so (the test of that path).
+  enum class rows_lacking { none, differenced, every_shot_row };
+  std::optional<Eigen::MatrixXd> exact_jacobian(const std::vector<double>& q, const std::vector<row_orbit>& at, const std::vector<cplx>* fixed,
+                                                rows_lacking lacking_rows) {
     // The sources' step in the coordinates (each of order 1: logarithms, shares, sizes over ref_m).
     constexpr double kStep = 1e-4;
     constexpr int kColumns = kFitColumnsPerFlow;
@@ -284,9 +298,45 @@ struct rub_problem {
     const effect_parameters& fx = here.second;
     const integration_options opt = fit_shooting().integration;
     const double tolerance = fit_orbit_options{}.orbit_error();
+    const double difference_step = default_of("rub_fit", "difference_step");
     Eigen::MatrixXcd dX = Eigen::MatrixXcd::Zero(static_cast<Eigen::Index>(table.rows()), static_cast<Eigen::Index>(n)), dY = dX;
+    // Row i's 1X at coordinates g as orbits(g, &at) reads it, its previous row taken as `at` has it.
+    const auto reading_moved = [&](std::size_t i, const std::vector<double>& g) -> std::optional<std::pair<cplx, cplx>> {
+      const double w = table.rpm[i] * kRpmToRadS;
+      const auto [pg, fg] = rotor(g);
+      const auto [x, y] = linear_xy(g, w);
+      const bool previous_contact = i > 0 && at[i - 1].contact;
+      if (!at[i].state && !previous_contact && std::abs(y) <= pg.clearance) return std::pair{x, y};
+      const state6 guess = at[i].state ? *at[i].state : i > 0 && at[i - 1].state ? *at[i - 1].state : contact_free_state(x, y, w);
+      try {
+        const row_orbit o = shot_row(pg, fg, w, guess);
+        return std::pair{o.x1, o.y1};
+      } catch (const numerical_error&) {
+        return std::nullopt;
+      }
+    };
+    // Row i differenced in every coordinate: forward, backward where the forward point fails
+    // (forward_difference_jacobian's rule).
+    const auto difference_row = [&](std::size_t i) {
+      const auto r = static_cast<Eigen::Index>(i);
+      for (std::size_t k = 0; k < n; ++k) {
+        const double h = difference_step * std::max(1.0, std::abs(q[k]));
+        bool done = false;
+        for (const double signed_h : {h, -h}) {
+          std::vector<double> g = q;
+          g[k] += signed_h;
+          if (const auto xy = reading_moved(i, full(g, base))) {
+            dX(r, static_cast<Eigen::Index>(k)) = (xy->first - at[i].x1) / signed_h, dY(r, static_cast<Eigen::Index>(k)) = (xy->second - at[i].y1) / signed_h;
+            done = true;
+            break;
+          }
+        }
+        if (!done) return false;
+      }
+      return true;
+    };
     // Row by row on the machine's threads: each task writes its own row of dX and dY.
-    std::vector<char> lacking(rows.size(), 0);  // a row whose sensitivities cannot be had
+    std::vector<char> lacking(rows.size(), 0);  // a row whose derivative cannot be had
     parallel_for(rows.size(), 0, [&](std::size_t m) {
       const std::size_t i = rows[m];
       const double w = table.rpm[i] * kRpmToRadS;
@@ -299,36 +349,42 @@ struct rub_problem {
         }
         return;
       }
-      if (!at[i].state) return void(lacking[m] = 1);
-      const model sys(p, fx, w);
-      const double period = sys.period();
-      for (std::size_t first = 0; first < n; first += kColumns) {
-        const std::size_t count = std::min<std::size_t>(kColumns, n - first);
-        std::vector<model> ups, downs;
-        for (std::size_t c = 0; c < count; ++c) {
-          const auto [pu, fu] = rotor(up[first + c]);
-          const auto [pd, fd] = rotor(down[first + c]);
-          ups.emplace_back(pu, fu, w), downs.emplace_back(pd, fd, w);
-          if (ups.back().moving_states() != sys.moving_states() || downs.back().moving_states() != sys.moving_states()) return void(lacking[m] = 1);
-        }
-        try {
-          const columns_system aug(sys, std::move(ups), std::move(downs), std::vector<double>(count, 2.0 * kStep));
-          const auto oc = periodic_orbit_columns(aug, *at[i].state, 0.0, 1, opt,
-                                                 sample_grid(0.0, period / static_cast<double>(kReadSamples), kReadSamples), tolerance);
-          // The 1X as orbits() reads it: (2 / K) sum of the samples turned by e^{-i w t}.
-          for (std::size_t s = 0; s < kReadSamples; ++s) {
-            const double t = period * static_cast<double>(s) / static_cast<double>(kReadSamples);
-            const cplx e1 = std::polar(2.0 / kReadSamples, -w * t);
-            for (std::size_t c = 0; c < count; ++c) {
-              const auto col = static_cast<Eigen::Index>(first + c);
-              dX(r, col) += oc.at[s](idx::x, static_cast<Eigen::Index>(c)) * e1;
-              dY(r, col) += oc.at[s](idx::y, static_cast<Eigen::Index>(c)) * e1;
-            }
+      const auto exact_row = [&]() {
+        if (!at[i].state) return false;
+        const model sys(p, fx, w);
+        const double period = sys.period();
+        for (std::size_t first = 0; first < n; first += kColumns) {
+          const std::size_t count = std::min<std::size_t>(kColumns, n - first);
+          std::vector<model> ups, downs;
+          for (std::size_t c = 0; c < count; ++c) {
+            const auto [pu, fu] = rotor(up[first + c]);
+            const auto [pd, fd] = rotor(down[first + c]);
+            ups.emplace_back(pu, fu, w), downs.emplace_back(pd, fd, w);
+            if (ups.back().moving_states() != sys.moving_states() || downs.back().moving_states() != sys.moving_states()) return false;
           }
-        } catch (const numerical_error&) {
-          return void(lacking[m] = 1);
+          try {
+            const columns_system aug(sys, std::move(ups), std::move(downs), std::vector<double>(count, 2.0 * kStep));
+            const auto oc = periodic_orbit_columns(aug, *at[i].state, 0.0, 1, opt,
+                                                   sample_grid(0.0, period / static_cast<double>(kReadSamples), kReadSamples), tolerance);
+            // The 1X as orbits() reads it: (2 / K) sum of the samples turned by e^{-i w t}.
+            for (std::size_t s = 0; s < kReadSamples; ++s) {
+              const double t = period * static_cast<double>(s) / static_cast<double>(kReadSamples);
+              const cplx e1 = std::polar(2.0 / kReadSamples, -w * t);
+              for (std::size_t c = 0; c < count; ++c) {
+                const auto col = static_cast<Eigen::Index>(first + c);
+                dX(r, col) += oc.at[s](idx::x, static_cast<Eigen::Index>(c)) * e1;
+                dY(r, col) += oc.at[s](idx::y, static_cast<Eigen::Index>(c)) * e1;
+              }
+            }
+          } catch (const numerical_error&) {
+            return false;
+          }
         }
-      }
+        return true;
+      };
+      if (lacking_rows != rows_lacking::every_shot_row && exact_row()) return;
+      dX.row(r).setZero(), dY.row(r).setZero();
+      if (lacking_rows == rows_lacking::none || !difference_row(i)) lacking[m] = 1;
     });
     if (std::find(lacking.begin(), lacking.end(), 1) != lacking.end()) return std::nullopt;
     // Residual (data - reading - runout) / sigma: the reading's derivative, less its mean over the
@@ -356,9 +412,10 @@ struct rub_problem {
   }
 
   // The residuals' derivative at q (residuals r0 there, its rows' orbits `at`): exact
-  // (exact_jacobian) where it can be had, else forward differences with every row started from `at`.
+  // (exact_jacobian, a row without sensitivities differenced alone) where it can be had, else
+  // forward differences of whole evaluations, every row started from `at`.
   Eigen::MatrixXd jacobian(const std::vector<double>& q, const Eigen::VectorXd& r0, const std::vector<row_orbit>& at, const std::vector<cplx>* fixed) {
-    if (auto J = exact_jacobian(q, at, fixed)) return *J;
+    if (auto J = exact_jacobian(q, at, fixed, rows_lacking::differenced)) return *J;
     return differenced_jacobian(q, r0, at, fixed);
   }
   Eigen::MatrixXd differenced_jacobian(const std::vector<double>& q, const Eigen::VectorXd& r0, const std::vector<row_orbit>& at, const std::vector<cplx>* fixed) {
@@ -666,7 +723,8 @@ rub_fit_jacobians rub_fit_jacobians_at(const order_table& table, const response_
   std::vector<cplx> runout;
   if (!pr.residuals(q, nullptr, &at, runout, nullptr)) throw numerical_error(table.source + ": the rub fit's orbits cannot be computed at its end");
   rub_fit_jacobians out;
-  if (auto J = pr.exact_jacobian(q, at, nullptr)) out.exact = std::move(*J);
+  if (auto J = pr.exact_jacobian(q, at, nullptr, rub_problem::rows_lacking::none)) out.exact = std::move(*J);
+  if (auto J = pr.exact_jacobian(q, at, nullptr, rub_problem::rows_lacking::every_shot_row)) out.rows_differenced = std::move(*J);
   for (std::size_t k = 0; k < q.size(); ++k) {
     std::vector<double> a = q, b = q;
     a[k] += step, b[k] -= step;

@@ -74,11 +74,13 @@ struct rub_fit_options {
 // against the probes) or `linear` has no probes.
 rub_fit fit_rub(const order_table& table, const response_fit& linear, const rub_fit_options& options);
 
-// A rub fit's Jacobian at its end (its residuals in its free coordinates, the runouts solved), from
-// the orbits' exact sensitivities and by central differences of `step` from the same orbits: the
-// sensitivities' test. `exact` is empty where some row's orbit has none (a transient's).
+// A rub fit's Jacobian at its end (its residuals in its free coordinates, the runouts solved): from
+// the orbits' exact sensitivities; with every shot row differenced alone, as the fit differences
+// a row that has none (a transient's); and by central differences of `step` of whole evaluations
+// from the same orbits: the tests of both. `exact` and `rows_differenced` are empty where some
+// row's cannot be had.
 struct rub_fit_jacobians {
-  Eigen::MatrixXd exact, differenced;
+  Eigen::MatrixXd exact, rows_differenced, differenced;
 };
 rub_fit_jacobians rub_fit_jacobians_at(const order_table& table, const response_fit& linear, const rub_fit& fit, double step);
 
