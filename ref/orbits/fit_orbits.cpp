@@ -29,4 +29,11 @@ integration_options fit_sampling(int revolutions, const fit_orbit_options& o) {
   return opt;
 }
 
+integration_options fit_settling(int revolutions, const fit_orbit_options& o) {
+  integration_options opt = fit_sampling(revolutions, o);
+  opt.stepper.rtol *= kSettleLoosening;
+  opt.stepper.atol *= kSettleLoosening;
+  return opt;
+}
+
 }  // namespace rubref

@@ -34,6 +34,13 @@ shooting_settings fit_shooting(int periods = 1, const fit_orbit_options& o = {})
 // 0.3 mm orbit, below every difference a fit takes), the step budget as the shooting's per revolution.
 integration_options fit_sampling(int revolutions = 1, const fit_orbit_options& o = {});
 
+// The integration that settles a transient of `revolutions` whose end is not read as samples: the
+// state a shooting starts again from, or that one revolution is read from (by fit_sampling) where
+// no shooting converges. Newton's basin is far wider, and a table's noise (>= 1e-8 m) far above,
+// than this end's error: fit_sampling's tolerances times kSettleLoosening (rtol 1e-7, atol 1e-11 m).
+inline constexpr double kSettleLoosening = 1e3;
+integration_options fit_settling(int revolutions, const fit_orbit_options& o = {});
+
 // The model's periodic orbit of `periods` revolutions near `guess` at t0.
 template <class System>
 auto shoot_fit_orbit(const System& sys, const state_of<System>& guess, double t0, int periods = 1, const fit_orbit_options& o = {}) {

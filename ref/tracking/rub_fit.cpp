@@ -172,7 +172,7 @@ struct rub_problem {
     row_orbit o;
     const model sys(p, fx, w);
     // Shot, settled and read as every fit's orbit (ref/orbits/fit_orbits.hpp).
-    const integration_options settle = fit_sampling(kSettleRevs), read = fit_sampling();
+    const integration_options settle = fit_settling(kSettleRevs), read = fit_sampling();
     const double period = sys.period();
     const auto shoot = [&](const state6& g) -> std::optional<state6> {
       shots.add();
