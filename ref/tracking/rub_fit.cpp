@@ -126,6 +126,8 @@ struct rub_problem {
     return q;
   }
   std::vector<double> base;  // the full vector the free coordinates are laid into (fixed slots: 0)
+  // Shot, settled and read as every fit's orbit (ref/orbits/fit_orbits.hpp), once per problem.
+  integration_options settle = fit_settling(kSettleRevs), read = fit_sampling();
   std::vector<double> clamp(std::vector<double> q) const {
     std::vector<double> f = full(q, base);
     for (const std::size_t k : {ln_wx, ln_wy}) f[k] = std::clamp(f[k], std::log(w_lo), std::log(w_hi));
@@ -171,8 +173,6 @@ struct rub_problem {
   row_orbit shot_row(const parameters& p, const effect_parameters& fx, double w, const state6& guess) {
     row_orbit o;
     const model sys(p, fx, w);
-    // Shot, settled and read as every fit's orbit (ref/orbits/fit_orbits.hpp).
-    const integration_options settle = fit_settling(kSettleRevs), read = fit_sampling();
     const double period = sys.period();
     const auto shoot = [&](const state6& g) -> std::optional<state6> {
       shots.add();
