@@ -67,9 +67,23 @@ constexpr double kStiffnessHi = 1e4;
 struct row_orbit {
   cplx x1{}, y1{}, x2{}, y2{};
   bool contact = false, periodic = true;
+  bool circled = false;         // read from an unstable orbit the motion circles (circled_orbit)
   bool closed_form = false;     // the contact-free response in closed form (not shot)
-  std::optional<state6> state;  // the orbit's state at t = 0 (rows shot to a stable orbit): the next speed's start
+  std::optional<state6> state;  // the orbit's state at t = 0 (rows shot to an orbit, stable or circled): the next speed's start
 };
+
+// An unstable period-1 orbit the motion stays around: every multiplier outside the unit circle
+// lies in the left half-plane (a flip's, -1 crossed: a period-2 motion; or a complex pair turning
+// more than a quarter turn a revolution: a torus), so the motion circles the orbit and the 1X read
+// over a block of revolutions (the table's instrument) averages the circling out: the orbit is the
+// motion's 1X centre, to second order in the circling's size where it is born. A multiplier
+// beyond +1 (a fold's, or a slow torus) is not: the motion leaves for another branch.
+bool circled_orbit(const periodic_orbit<6>& o) {
+  if (!o.converged) return false;
+  for (const auto& mu : o.multipliers)
+    if (std::abs(mu) >= 1.0 && !(mu.real() < 0.0)) return false;
+  return true;
+}
 
 // A count that tasks on several threads add to (the problem's evaluations and shots): the total
 // is the same whatever the thread count; copied with its problem.
@@ -167,27 +181,30 @@ struct rub_problem {
   }
 
   // One row's steady orbit at speed w, shot from `guess`; where Newton finds no stable orbit,
-  // settled from there and shot again; where it still finds none, a transient's last revolution
-  // (periodic false). Its 1X and 2X read from one period at kReadSamples. A failed integration is
-  // a numerical_error.
+  // settled from there and shot again; where it still finds none, the unstable orbit the motion
+  // circles if a shot found one (circled_orbit; the settled shot's where both did), else a transient's last
+  // revolution (periodic false). Its 1X and 2X read from one period at kReadSamples. A failed
+  // integration is a numerical_error.
   row_orbit shot_row(const parameters& p, const effect_parameters& fx, double w, const state6& guess) {
     row_orbit o;
     const model sys(p, fx, w);
     const double period = sys.period();
-    const auto shoot = [&](const state6& g) -> std::optional<state6> {
+    std::optional<state6> on, circled;  // a stable orbit; an unstable one the motion circles
+    const auto shoot = [&](const state6& g) {
       shots.add();
       const auto orbit = shoot_fit_orbit(sys, g, 0.0);
-      if (orbit.stable()) return orbit.state;
-      return std::nullopt;
+      if (orbit.stable()) on = orbit.state;
+      else if (circled_orbit(orbit)) circled = orbit.state;
     };
-    std::optional<state6> on = shoot(guess);
+    shoot(guess);
     state6 start = guess;
     if (!on) {
       null_observer none;
       start = integrate_hybrid(sys, start_state(sys, guess, 0.0), kSettleRevs * period, settle, sample_grid{}, none).s;
-      on = shoot(start);
+      shoot(start);
     }
-    o.periodic = on.has_value();
+    if (!on && circled) on = circled, o.circled = true;
+    o.periodic = on.has_value() && !o.circled;
     std::vector<state6> samples;
     sample_recorder rec{&samples};
     integrate_hybrid(sys, start_state(sys, on ? *on : start, 0.0), period, read, sample_grid(0.0, period / static_cast<double>(kReadSamples), kReadSamples),
@@ -271,7 +288,8 @@ struct rub_problem {
 
   // The residuals' derivative at q, whose rows' orbits are `at`, from the orbits' exact
   // sensitivities (ref/integrate/parameter_columns.hpp; docs/loop.md, "Exact sensitivities"): a
-  // shot row's 1X from one flow of its orbit's sensitivities in every free coordinate, a
+  // shot row's 1X from one flow of its orbit's sensitivities in every free coordinate (a circled
+  // orbit's too: the implicit-function theorem asks only that no multiplier lie at 1), a
   // closed-form row's from central differences of the closed form; the sources are central
   // differences of the moved models at the same states. A row whose orbit is a transient's last
   // revolution, or whose sensitivities cannot be had, has none: with rows_lacking::differenced
@@ -689,7 +707,7 @@ rub_fit fit_rub(const order_table& table, const response_fit& linear, const rub_
       if (f.rows_in_contact == 0) f.contact_from_rpm = table.rpm[i];
       f.contact_to_rpm = table.rpm[i], ++f.rows_in_contact;
     }
-  for (const std::size_t i : pr.rows) f.rows_not_periodic += orbits[i].periodic ? 0 : 1;
+  for (const std::size_t i : pr.rows) f.rows_not_periodic += orbits[i].periodic ? 0 : 1, f.rows_circled += orbits[i].circled ? 1 : 0;
   const std::vector<double> best = pr.full(best_q, pr.base);
   linear_estimates_into(f, pr, best, cc, best_q);
   f.probes = linear.probes;

@@ -40,7 +40,8 @@ struct rub_fit {
 
   std::size_t rows_in_contact = 0;    // fitted rows whose orbit touches
   double contact_from_rpm = 0.0, contact_to_rpm = 0.0;  // the lowest and highest such row
-  std::size_t rows_not_periodic = 0;  // rows where no stable periodic orbit was found (a transient's last revolution read)
+  std::size_t rows_not_periodic = 0;  // rows where no stable periodic orbit was found
+  std::size_t rows_circled = 0;       // of those, rows read from an unstable orbit the motion circles (a flip's or a torus's); the rest a transient's last revolution
 
   double chi2 = 0.0;
   double chi2_uncertainty = 0.0;  // its numerical uncertainty (the solver's unfinished descent and the orbits' error)

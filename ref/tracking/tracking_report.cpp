@@ -84,6 +84,7 @@ json rub_json(const rub_result& t) {
   j["rows_in_contact"] = f.rows_in_contact;
   j["contact_speed_range_rpm"] = json::array({f.contact_from_rpm, f.contact_to_rpm});
   j["rows_not_periodic"] = f.rows_not_periodic;
+  j["rows_circled"] = f.rows_circled;
   j["chi2"] = f.chi2;
   j["dof"] = f.dof;
   j["chi2_per_dof"] = f.chi2 / static_cast<double>(f.dof);
