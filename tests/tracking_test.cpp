@@ -372,6 +372,35 @@ TEST(RubFit, ARowDifferencedAloneIsTheResidualsDerivative) {
   }
 }
 
+// A run-up through period doublings: the paper's rotor and unbalance under the piecewise-linear
+// law at a stator 150 µm above the centre (rubref continuation follows a period-1 orbit that is
+// flip-unstable, a multiplier beyond -1, over part of this range at the rub fit's end). Rows with
+// no stable orbit are read from the orbit the period-2 motion circles (the rig's 1X over its block
+// averages the circling out), with its exact sensitivities: none is differenced, none is a
+// transient's last revolution. The fit's landing itself is issue 65's (its clearance ~16 % off).
+TEST(RubFit, RowsPastAPeriodDoublingAreReadFromTheOrbitTheMotionCircles) {
+  rig_request req = rig_run_up();
+  req.variant = "piecewise-linear";
+  req.params.clearance = 150e-6;
+  for (double rpm = 1000.0; rpm <= 2000.0; rpm += 50.0) req.speeds_rpm.push_back(rpm);
+  req.carry_over = true;
+  const order_table table = track_orders(run_rig(req).measurement, "rig");
+  const response_fit linear = fit_response(table, with_anisotropy());
+  rub_fit_options o;
+  o.noise_m = linear.noise_m;
+  const rub_fit rub = fit_rub(table, linear, o);
+  ASSERT_GT(rub.rows_in_contact, 0u);
+  EXPECT_GT(rub.rows_circled, 0u) << "rows without a stable orbit: " << rub.rows_not_periodic;
+  EXPECT_EQ(rub.rows_circled, rub.rows_not_periodic) << "a row read as a transient's last revolution";
+  constexpr double kStep = 1e-4;  // as ItsExactSensitivitiesAreTheResidualsDerivative
+  const rub_fit_jacobians J = rub_fit_jacobians_at(table, linear, rub, kStep);
+  ASSERT_EQ(J.exact.cols(), J.differenced.cols()) << "a circled orbit's sensitivities must be had";
+  for (Eigen::Index k = 0; k < J.exact.cols(); ++k) {
+    constexpr double kAgreement = 1e-3;  // as there
+    EXPECT_LT((J.exact.col(k) - J.differenced.col(k)).norm(), kAgreement * J.differenced.col(k).norm()) << "coordinate " << k;
+  }
+}
+
 // The rub fit's starts, fits and Jacobian rows run on the machine's threads, each task into its own
 // slot: the fit is the same, bit for bit, on one thread and on two.
 TEST(RubFit, IsTheSameBitForBitOnOneAndTwoThreads) {
