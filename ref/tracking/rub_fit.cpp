@@ -57,6 +57,10 @@ constexpr double kDampingShares[] = {1.0, 0.5, 0.25};
 constexpr double kStiffnessRatios[] = {30.0, 300.0};
 constexpr double kFrictionStart = 0.1;
 constexpr std::size_t kFittedStarts = 2;
+// The starts are ranked from orbits at this many times the fit's tolerances (shot to 1e-9 m,
+// integrated at rtol 1e-7): the ranking needs their residuals to well below a table's noise
+// (>= 1e-8 m), not to the fit's 1e-12 m, and the grid was a quarter of a rub table's time.
+constexpr double kRankLoosening = 1e3;
 // Bounds (a box): the clearance within 5 % and twice that scale (beyond it nothing touches), the
 // stiffness per unit mass from the square of the table's lowest speed (at least as stiff as a
 // support whose critical speed is there) to 1e4 times the highest's (stiffer only costs steps and
@@ -95,7 +99,7 @@ struct shared_count {
     n = o.n.load();
     return *this;
   }
-  void add() { n.fetch_add(1, std::memory_order_relaxed); }
+  void add(long long k = 1) { n.fetch_add(k, std::memory_order_relaxed); }
   long long value() const { return n.load(); }
 };
 
@@ -140,8 +144,16 @@ struct rub_problem {
     return q;
   }
   std::vector<double> base;  // the full vector the free coordinates are laid into (fixed slots: 0)
-  // Shot, settled and read as every fit's orbit (ref/orbits/fit_orbits.hpp), once per problem.
+  // Shot, settled and read as every fit's orbit (ref/orbits/fit_orbits.hpp), once per problem;
+  // a problem that only ranks starts loosens them (loosened).
+  fit_orbit_options orbit_options = {};
   integration_options settle = fit_settling(kSettleRevs), read = fit_sampling();
+  rub_problem loosened(double scale) const {
+    rub_problem out = *this;
+    out.orbit_options.tolerance_scale *= scale;
+    out.settle = fit_settling(kSettleRevs, out.orbit_options), out.read = fit_sampling(1, out.orbit_options);
+    return out;
+  }
   std::vector<double> clamp(std::vector<double> q) const {
     std::vector<double> f = full(q, base);
     for (const std::size_t k : {ln_wx, ln_wy}) f[k] = std::clamp(f[k], std::log(w_lo), std::log(w_hi));
@@ -192,7 +204,7 @@ struct rub_problem {
     std::optional<state6> on, circled;  // a stable orbit; an unstable one the motion circles
     const auto shoot = [&](const state6& g) {
       shots.add();
-      const auto orbit = shoot_fit_orbit(sys, g, 0.0);
+      const auto orbit = shoot_fit_orbit(sys, g, 0.0, 1, orbit_options);
       if (orbit.stable()) on = orbit.state;
       else if (circled_orbit(orbit)) circled = orbit.state;
     };
@@ -542,11 +554,6 @@ std::vector<std::vector<double>> starts_of(rub_problem& pr, const rub_fit_option
   }
   pr.peak_m = std::max(linear_peak, data_peak);
   if (!(pr.peak_m > 0.0)) throw numerical_error(pr.table.source + ": the 1X fit it starts from has no vertical response");
-  const auto cost_of = [&](const std::vector<double>& q) {
-    std::vector<cplx> runout;
-    const auto r = pr.residuals(q, nullptr, nullptr, runout, nullptr);
-    return r && r->allFinite() ? r->squaredNorm() : std::numeric_limits<double>::infinity();
-  };
   std::vector<std::vector<double>> from;
   if (options.start) {
     pr.base = options.start->q;
@@ -574,8 +581,16 @@ std::vector<std::vector<double>> starts_of(rub_problem& pr, const rub_fit_option
     for (const std::size_t k : {re_a, im_a, re_b, im_b}) f[k] *= rescale;
     starts.emplace_back(0.0, pr.clamp(pr.reduce(f)));
   }
-  // Each start's cost on the machine's threads, into its own slot.
-  parallel_for(starts.size(), 0, [&](std::size_t i) { starts[i].first = cost_of(starts[i].second); });
+  // Each start's cost on the machine's threads, into its own slot, from orbits at kRankLoosening
+  // times the fit's tolerances (counted as the fit's evaluations and shots).
+  rub_problem ranking = pr.loosened(kRankLoosening);
+  const long long evaluations = ranking.evaluations.value(), shots = ranking.shots.value();
+  parallel_for(starts.size(), 0, [&](std::size_t i) {
+    std::vector<cplx> runout;
+    const auto r = ranking.residuals(starts[i].second, nullptr, nullptr, runout, nullptr);
+    starts[i].first = r && r->allFinite() ? r->squaredNorm() : std::numeric_limits<double>::infinity();
+  });
+  pr.evaluations.add(ranking.evaluations.value() - evaluations), pr.shots.add(ranking.shots.value() - shots);
   std::stable_sort(starts.begin(), starts.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
   for (std::size_t i = 0; i < std::min(kFittedStarts, starts.size()); ++i)
     if (std::isfinite(starts[i].first)) from.push_back(starts[i].second);
