@@ -39,9 +39,8 @@ void run_on_table(const loop_state& st, staged_directory& dir) {
   if (st.files.size() != 1) throw input_error("an order-tracked table is fitted alone: give one table, not " + std::to_string(st.files.size()) + " files");
   const loop_settings defaults;
   if (st.settings.mass != defaults.mass || st.settings.clearance != defaults.clearance || st.settings.max_effects != defaults.max_effects ||
-      st.settings.refit_candidates != defaults.refit_candidates || st.settings.orbits.tolerance_scale != defaults.orbits.tolerance_scale ||
-      st.settings.check_tolerance_scale != defaults.check_tolerance_scale)
-    throw input_error("--mass, --clearance, --max-effects, --refit, --orbit-tolerance-scale and --check-tolerance-scale are settings of the loop on time records; " + st.files.front() +
+      st.settings.refit_candidates != defaults.refit_candidates)
+    throw input_error("--mass, --clearance, --max-effects and --refit are settings of the loop on time records; " + st.files.front() +
                       " is an order-tracked table (docs/real-data.md)");
   order_conventions c = st.conventions;
   if (st.scale != 0.0) c.scale_mV_per_um = st.scale;
@@ -59,7 +58,9 @@ void run_on_table(const loop_state& st, staged_directory& dir) {
     c.probe_angles_deg.emplace_back(name, deg);
   }
   const order_table table = read_order_table(st.files.front(), c);
-  const tracking_result r = run_tracking_loop(table, [](const std::string& line) { std::cerr << line << std::endl; });
+  tracking_settings settings;  // the rub fits' orbits and the verdict's check, as on records
+  settings.orbits = st.settings.orbits, settings.check_tolerance_scale = st.settings.check_tolerance_scale;
+  const tracking_result r = run_tracking_loop(table, [](const std::string& line) { std::cerr << line << std::endl; }, settings);
   dir.write("report.json", to_json(r).dump(2) + "\n");
   dir.write("report.md", to_markdown(r));
   dir.write("plot_data.json", plot_data(r).dump() + "\n");

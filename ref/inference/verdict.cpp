@@ -13,6 +13,31 @@ std::string joined(const std::vector<std::string>& names) {
   return s;
 }
 
+std::pair<verdict_check, std::string> checked(const verdict& fit, const std::optional<verdict>& check, double tolerance_scale, double factor,
+                                              const std::string& failure) {
+  const auto sorted = [](std::vector<std::string> v) {
+    std::sort(v.begin(), v.end());
+    return v;
+  };
+  verdict_check c{tolerance_scale, check.value_or(verdict{}), check && sorted(fit.named) == sorted(check->named)};
+  if (c.agrees) return {c, ""};
+  const auto list = [](const std::vector<std::string>& v) { return v.empty() ? std::string("nothing") : joined(v); };
+  return {c, "the verdict's check (the loop again with orbit tolerances " + format_digits(factor) + " times the fit's) " +
+                 (check ? "names " + list(check->named) + " where the fit names " + list(fit.named) +
+                              ": the orbits' accuracy, not the data, chose between them, so both are tentative"
+                        : "failed (" + failure + "): the verdict is tentative")};
+}
+
+nlohmann::ordered_json to_json(const verdict_check& c) {
+  return {{"orbit_tolerance_scale", c.tolerance_scale}, {"agrees", c.agrees}, {"verdict", to_json(c.decision)}};
+}
+
+std::string to_markdown(const verdict_check& c) {
+  return "- the verdict's check (the loop again with orbit tolerances " + format_digits(c.tolerance_scale) + " times the defaults) names " +
+         (c.decision.named.empty() ? std::string("nothing") : joined(c.decision.named)) + " (claim: " + c.decision.claim + "): " +
+         (c.agrees ? "the same effects" : "other effects, so the verdict above is tentative") + "\n\n";
+}
+
 std::vector<std::string> verdict::chosen() const {
   std::vector<std::string> all = named;
   all.insert(all.end(), tentative.begin(), tentative.end());

@@ -5,6 +5,7 @@
 // Markdown writer; the command line prints it with one printer (ref/cli/verdict_printer.hpp).
 
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -35,6 +36,23 @@ struct evidence_rules;
 verdict decide(std::string subject, std::vector<std::string> chosen, const claim_inputs& in, const evidence_rules& rules,
                std::string rival = {}, std::vector<std::string> reasons = {});
 
+// The verdict's check (docs/loop.md, "The verdict's check"; both loops, records and tables): the
+// same loop run again with every orbit tolerance `tolerance_scale` times the defaults. A verdict
+// that changes with the orbits' accuracy was decided by it, not by the data.
+struct verdict_check {
+  double tolerance_scale = 0.0;  // the check's orbit tolerances, times the defaults
+  verdict decision;              // the check's own verdict
+  bool agrees = true;            // it names the effects the fit names
+};
+// The check of `fit` by `check` (nullopt: the check failed, `failure` says why), whose orbits were
+// `factor` times the fit's (tolerance_scale: the check's, times the defaults), and the reason the
+// fit's verdict is then tentative ("" when the two name the same effects): the one rule both loops
+// apply (each claims with it as a decision on the margin, the check's chosen effects tentative too).
+std::pair<verdict_check, std::string> checked(const verdict& fit, const std::optional<verdict>& check, double tolerance_scale, double factor,
+                                              const std::string& failure);
+// The check's JSON object ({"orbit_tolerance_scale", "agrees", "verdict"}) and its Markdown line.
+nlohmann::ordered_json to_json(const verdict_check& c);
+std::string to_markdown(const verdict_check& c);
 // Names as a list in prose: "a, b, c" ("" for none).
 std::string joined(const std::vector<std::string>& names);
 

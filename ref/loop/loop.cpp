@@ -287,22 +287,12 @@ loop_result fit_and_claim(loop_result out, const loop_settings& s) {
   return out;
 }
 
-bool same_names(std::vector<std::string> a, std::vector<std::string> b) {
-  std::sort(a.begin(), a.end());
-  std::sort(b.begin(), b.end());
-  return a == b;
-}
-
 }  // namespace
 
 void apply_check(loop_result& out, std::optional<verdict> check, const std::string& failure, const loop_settings& s) {
-  out.check = verdict_check{s.orbits.tolerance_scale * s.check_tolerance_scale, check.value_or(verdict{}), check && same_names(out.decision.named, check->named)};
+  std::string what;
+  std::tie(out.check, what) = checked(out.decision, check, s.orbits.tolerance_scale * s.check_tolerance_scale, s.check_tolerance_scale, failure);
   if (out.check->agrees) return;
-  const auto list = [](const std::vector<std::string>& v) { return v.empty() ? std::string("nothing") : joined(v); };
-  const std::string what = "the verdict's check (the loop again with orbit tolerances " + format_digits(s.check_tolerance_scale) + " times the fit's) " +
-                           (check ? "names " + list(check->named) + " where the fit names " + list(out.decision.named) +
-                                        ": the orbits' accuracy, not the data, chose between them, so both are tentative"
-                                  : "failed (" + failure + "): the verdict is tentative");
   claim(out, s, what, check ? &out.check->decision : nullptr);
   s.progress("warning: " + what);
 }

@@ -47,15 +47,6 @@ struct spectrum_by_order {
   std::vector<double> before, after;  // m, RMS over contact dwells of |c_k|
 };
 
-// The loop run again with tighter orbits (loop_settings::check_tolerance_scale): whether its
-// verdict names the same effects. A verdict that changes with the orbits' accuracy was decided by
-// it, not by the data.
-struct verdict_check {
-  double tolerance_scale = 0.0;  // the check's orbit tolerances, times the defaults
-  verdict decision;              // the check's own verdict
-  bool agrees = true;            // it names the effects the loop's fit names
-};
-
 struct loop_result {
   std::vector<loop_dwell> dwells;
   double noise = 0.0;

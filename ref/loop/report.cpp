@@ -92,7 +92,7 @@ json to_json(const loop_result& r) {
   j["verdict"] = to_json(r.decision);
   j["on_margin"] = r.on_margin;  // effects decided within their statistics' numerical uncertainty (docs/loop.md, "Margins")
   // The verdict's check (docs/loop.md, "The verdict's check"): the loop again with tighter orbits.
-  j["check"] = r.check ? json{{"orbit_tolerance_scale", r.check->tolerance_scale}, {"agrees", r.check->agrees}, {"verdict", to_json(r.check->decision)}}
+  j["check"] = r.check ? json(to_json(*r.check))
                        : json(nullptr);
   j["removed"] = json::array();
   for (const auto& e : r.removed)
@@ -150,12 +150,7 @@ std::string to_markdown(const loop_result& r) {
   o << "| residual consistent with noise (" << fmt(r.noise * 1e6) << " um) | " << noise_verdict(r.validity_before) << " | "
     << noise_verdict(r.validity_after) << " |\n\n";
   o << to_markdown(r.decision);
-  if (r.check) {
-    const verdict& c = r.check->decision;
-    o << "- the verdict's check (the loop again with orbit tolerances " << fmt(r.check->tolerance_scale) << " times the defaults) names "
-      << (c.named.empty() ? std::string("nothing") : joined(c.named)) << " (claim: " << c.claim << "): "
-      << (r.check->agrees ? "the same effects" : "other effects, so the verdict above is tentative") << "\n\n";
-  }
+  if (r.check) o << to_markdown(*r.check);
   o << "Effects the trace added, in order (" << (r.decision.named.empty() ? "not claimed" : "claimed: " + r.decision.claim) << "):";
   if (r.effects.empty()) o << " none.";
   o << "\n\n";

@@ -144,14 +144,20 @@ struct rub_problem {
     return q;
   }
   std::vector<double> base;  // the full vector the free coordinates are laid into (fixed slots: 0)
-  // Shot, settled and read as every fit's orbit (ref/orbits/fit_orbits.hpp), once per problem;
-  // a problem that only ranks starts loosens them (loosened).
+  // Shot, settled and read as every fit's orbit (ref/orbits/fit_orbits.hpp) at the options' orbit
+  // tolerances (the verdict's check tightens them), made once per problem; a problem that only
+  // ranks starts loosens them (loosened).
   fit_orbit_options orbit_options = {};
   integration_options settle = fit_settling(kSettleRevs), read = fit_sampling();
+  void use(const fit_orbit_options& o) {
+    orbit_options = o;
+    settle = fit_settling(kSettleRevs, o), read = fit_sampling(1, o);
+  }
   rub_problem loosened(double scale) const {
     rub_problem out = *this;
-    out.orbit_options.tolerance_scale *= scale;
-    out.settle = fit_settling(kSettleRevs, out.orbit_options), out.read = fit_sampling(1, out.orbit_options);
+    fit_orbit_options o = orbit_options;
+    o.tolerance_scale *= scale;
+    out.use(o);
     return out;
   }
   std::vector<double> clamp(std::vector<double> q) const {
@@ -326,8 +332,8 @@ struct rub_problem {
     const std::pair<parameters, effect_parameters> here = rotor(f);  // named: the row tasks below capture it
     const parameters& p = here.first;
     const effect_parameters& fx = here.second;
-    const integration_options opt = fit_shooting().integration;
-    const double tolerance = fit_orbit_options{}.orbit_error();
+    const integration_options opt = fit_shooting(1, orbit_options).integration;
+    const double tolerance = orbit_options.orbit_error();
     const double difference_step = default_of("rub_fit", "difference_step");
     Eigen::MatrixXcd dX = Eigen::MatrixXcd::Zero(static_cast<Eigen::Index>(table.rows()), static_cast<Eigen::Index>(n)), dY = dX;
     // Row i's 1X at coordinates g as orbits(g, &at) reads it, its previous row taken as `at` has it.
@@ -538,6 +544,7 @@ rub_problem set_up(const order_table& table, const response_fit& linear, const r
   f0[re_a] = linear.amplitudes[0].real() / pr.ref_m, f0[im_a] = linear.amplitudes[0].imag() / pr.ref_m;
   if (linear.parts.shaft_bow) f0[re_b] = linear.amplitudes.back().real() / pr.ref_m, f0[im_b] = linear.amplitudes.back().imag() / pr.ref_m;
   pr.base = f0;
+  pr.use(options.orbits);
   return pr;
 }
 
@@ -714,7 +721,7 @@ rub_fit fit_rub(const order_table& table, const response_fit& linear, const rub_
   f.chi2 = r.squaredNorm();
   // Its numerical uncertainty: the solver's unfinished descent, and the orbits' error per reading
   // over the smallest noise (the residuals are whitened).
-  f.chi2_uncertainty = cost_uncertainty(r, remaining, fit_orbit_options{}.orbit_error() / *std::min_element(pr.sigma.begin(), pr.sigma.end()));
+  f.chi2_uncertainty = cost_uncertainty(r, remaining, options.orbits.orbit_error() / *std::min_element(pr.sigma.begin(), pr.sigma.end()));
   f.parameters = n + 2 * probes;
   f.dof = cc.dof;
   for (const std::size_t i : pr.rows)

@@ -21,6 +21,7 @@
 #include <vector>
 
 #include "ref/format/order_table.hpp"
+#include "ref/orbits/fit_orbits.hpp"
 #include "ref/tracking/response_fit.hpp"
 
 namespace rubref {
@@ -69,6 +70,7 @@ struct rub_fit_options {
   // kept): starts ranked with the grid's.
   std::vector<const rub_fit*> also_from;
   bool grid = true;                   // the grid of starts from the contact-free fit (else also_from alone)
+  fit_orbit_options orbits = {};      // the orbits' tolerances (the verdict's check tightens them)
 };
 
 // input_error when a probe's angle was not declared (the stator's direction is then unknown

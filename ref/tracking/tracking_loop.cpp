@@ -5,7 +5,9 @@
 #include <cmath>
 #include <complex>
 #include <limits>
+#include <mutex>
 #include <optional>
+#include <tuple>
 
 #include <boost/math/distributions/chi_squared.hpp>
 
@@ -191,6 +193,7 @@ struct table_run {
   std::vector<std::optional<rub_fit>> rubs = std::vector<std::optional<rub_fit>>(16);
   std::vector<std::optional<std::vector<double>>> held = std::vector<std::optional<std::vector<double>>>(16);
   std::size_t observations = 0;
+  fit_orbit_options orbits = {};  // the rub fits' orbits (the verdict's check tightens them)
 
   response_fit_options options(const response_fit* start, std::vector<std::size_t> rows = {}, fit_starts how = fit_starts::grid) const {
     response_fit_options o;
@@ -202,6 +205,7 @@ struct table_run {
     rub_fit_options o;
     o.rows = std::move(rows), o.noise_m = noise.noise, o.start = start;
     o.noise_relative_error = noise.relative_error();
+    o.orbits = orbits;
     return o;
   }
   static response_parts parts_of(unsigned mask) {
@@ -566,7 +570,10 @@ std::vector<std::string> cannot_see(const tracking_result& r, bool declared) {
 }
 
 // The 1X's verdict on the chosen model (its index among the models, its combination's mask).
-void decide_1x(table_run& run, tracking_result& r, std::size_t chosen, unsigned chosen_mask) {
+// The 1X's verdict; where the verdict's check disagrees (`check_reason` says how, `check` its
+// verdict), a decision on the margin: nothing claimed, the check's chosen effects tentative too.
+void decide_1x(table_run& run, tracking_result& r, std::size_t chosen, unsigned chosen_mask, const std::string& check_reason = {},
+               const verdict* check = nullptr) {
   r.models[chosen].summary = "chosen: " + r.models[chosen].summary;
   r.after = run.fits[chosen_mask & 7u];
   if (run.rubs[chosen_mask | kRub]) r.rub = rub_result_of(run, r.models, chosen_mask, r.after);
@@ -579,7 +586,16 @@ void decide_1x(table_run& run, tracking_result& r, std::size_t chosen, unsigned 
   in.explained_share = explained_share(r.before.chi2 - static_cast<double>(r.before.dof), chi2_after - dof_after);
   in.on_margin = choice_on_margin(run, r.models, chosen);
   const std::string rival = rival_of(run, r.models, chosen);
-  r.decision = decide("effects", r.models[chosen].effects, in, run.rules, rival);
+  std::vector<std::string> reasons, left_out;
+  if (!check_reason.empty()) {
+    in.on_margin = true;
+    reasons.push_back(check_reason);
+    if (check != nullptr)
+      for (const auto& e : check->chosen())
+        if (std::find(r.models[chosen].effects.begin(), r.models[chosen].effects.end(), e) == r.models[chosen].effects.end()) left_out.push_back(e);
+  }
+  r.decision = decide("effects", r.models[chosen].effects, in, run.rules, rival, std::move(reasons));
+  r.decision.tentative.insert(r.decision.tentative.end(), left_out.begin(), left_out.end());
   r.bands = rub_named ? bands_of(run.table, r.rub->fit.residual, r.rub->fit.noise_m, r.rub->fit.probes, 1)
                       : bands_of(run.table, r.after.residual, r.after.noise_m, r.after.probes, 1);
 }
@@ -600,10 +616,17 @@ std::vector<std::string> tracking_result::tentative() const {
 
 bool tracking_result::unexplained() const { return decision.unexplained || (two_x && two_x->decision.unexplained); }
 
-tracking_result run_tracking_loop(const order_table& table, const std::function<void(const std::string&)>& progress) {
-  const std::function<void(const std::string&)> say = [&](const std::string& s) {
-    if (progress) progress(s);
+tracking_result run_tracking_loop(const order_table& table, const std::function<void(const std::string&)>& progress, const tracking_settings& settings) {
+  settings.orbits.validate();
+  check({"loop", "check_tolerance_scale"}, settings.check_tolerance_scale);
+  std::mutex lines;  // the fit's and its check's progress, a whole line at a time
+  const auto prefixed = [&](std::string prefix) {
+    return std::function<void(const std::string&)>([&lines, &progress, prefix = std::move(prefix)](const std::string& s) {
+      const std::lock_guard lock(lines);
+      if (progress) progress(prefix + s);
+    });
   };
+  const std::function<void(const std::string&)> say = prefixed(""), say_check = prefixed("[check] ");
   check_fittable(table);  // before the first progress line: a table it cannot fit writes nothing
   tracking_result r;
   r.table = table;
@@ -615,6 +638,7 @@ tracking_result run_tracking_loop(const order_table& table, const std::function<
     }
   say("base fit: one critical speed (isotropic), unbalance, runout, from " + std::to_string(table.rows()) + " rows ...");
   table_run run{table, say, evidence_rules{}, noise_estimate(row_scatter_noise(table), table.rows()), folds(table.rows())};
+  run.orbits = settings.orbits;
   r.noise_scatter_m = run.noise.noise;
   r.noise_residual_m = fit_contact_free(run);
   r.before = run.fits[0];
@@ -624,9 +648,49 @@ tracking_result run_tracking_loop(const order_table& table, const std::function<
   const bool declared = std::all_of(table.orders.begin(), table.orders.end(), [](const tracked_order& o) { return o.order != 1 || o.probe_angle.has_value(); });
   bool any_noise = false;
   for (const unsigned mask : run.masks) any_noise = any_noise || (undetermined_part(run.fits[mask], run.rules).empty() && run.fits[mask].consistent_with_noise);
-  if (declared && !any_noise) fit_rubs(run, r.notes);
+  // The rub's fits are the only ones with orbits (the contact-free fits are closed form): where
+  // they are tried, the verdict's check (docs/loop.md, "The verdict's check"; the records' loop's
+  // rule) runs them again beside the fit, with every orbit tolerance check_tolerance_scale times
+  // the fit's, and judges every model again; an effect the two do not both name is tentative.
+  const bool rub_tried = declared && !any_noise, checked_run = rub_tried && settings.check_tolerance_scale != 0.0;
+  std::optional<table_run> check_run;
+  if (checked_run) {
+    say("the verdict's check: the rub fits again with orbit tolerances " + format_digits(settings.check_tolerance_scale) +
+        " times these, beside them ([check] lines); an effect the two do not both name is tentative");
+    check_run.emplace(table_run{table, say_check, run.rules, run.noise, run.fold});
+    check_run->fits = run.fits, check_run->held = run.held, check_run->observations = run.observations;
+    check_run->orbits = settings.orbits;
+    check_run->orbits.tolerance_scale *= settings.check_tolerance_scale;
+  }
+  std::optional<tracking_result> check_result;
+  std::string check_failed;
+  if (rub_tried)
+    parallel_for(checked_run ? 2 : 1, 0, [&](std::size_t i) {
+      if (i == 0) return fit_rubs(run, r.notes);
+      try {
+        tracking_result c;
+        c.before = r.before;
+        fit_rubs(*check_run, c.notes);
+        const std::size_t chosen = judge_models(*check_run, c.models);
+        decide_1x(*check_run, c, chosen, check_run->masks[chosen]);
+        check_result = std::move(c);
+      } catch (const numerical_error& e) {
+        check_failed = e.what();
+      }
+    });
   const std::size_t chosen = judge_models(run, r.models);
+  const std::vector<tracked_model> judged = r.models;  // as judged, before the verdict marks the chosen one
   decide_1x(run, r, chosen, run.masks[chosen]);
+  if (checked_run) {
+    std::string what;
+    std::tie(r.check, what) = checked(r.decision, check_result ? std::optional<verdict>(check_result->decision) : std::nullopt,
+                                      settings.orbits.tolerance_scale * settings.check_tolerance_scale, settings.check_tolerance_scale, check_failed);
+    if (!r.check->agrees) {
+      r.models = judged, r.rub.reset();
+      decide_1x(run, r, chosen, run.masks[chosen], what, check_result ? &check_result->decision : nullptr);
+      say("warning: " + what);
+    }
+  }
   if (!two_x_columns(table, r.after).empty()) {
     const bool rub_named = r.rub && r.rub->named;
     const response_fit modes = rub_named ? linear_part(r.after, r.rub->fit) : r.after;

@@ -89,6 +89,7 @@ struct tracking_result {
   // eligible combination within min_criterion_rise of the chosen one's criterion: the rival), or
   // "none". The 2X's is two_x->decision: the columns are fitted apart.
   verdict decision;
+  std::optional<verdict_check> check;    // the verdict's check, when the rub was tried (and the check is on)
   std::optional<rub_result> rub;         // when tried
   std::optional<two_x_result> two_x;     // when the table has a 2X column for every probe
   std::vector<residual_band> bands;      // 1X and 2X
@@ -103,6 +104,15 @@ struct tracking_result {
   bool unexplained() const;
 };
 
-tracking_result run_tracking_loop(const order_table& table, const std::function<void(const std::string&)>& progress = {});
+// The loop's settings: the rub fits' orbits, and the verdict's check (docs/loop.md, "The verdict's
+// check"): where the rub is tried, its fits again with every orbit tolerance check_tolerance_scale
+// times these (0: no check), an effect the two do not both name tentative.
+struct tracking_settings {
+  fit_orbit_options orbits = {};
+  double check_tolerance_scale = default_of("loop", "check_tolerance_scale");
+};
+
+tracking_result run_tracking_loop(const order_table& table, const std::function<void(const std::string&)>& progress = {},
+                                  const tracking_settings& settings = {});
 
 }  // namespace rubref
