@@ -186,6 +186,7 @@ TEST(TrackingLoop, AnIsotropicRotorWithRunoutIsLeftAlone) {
   EXPECT_NEAR(r.after.noise_m[0], 0.2e-6, 0.2e-7);
   EXPECT_FALSE(r.unexplained());
   EXPECT_TRUE(r.after.consistent_with_noise);
+  EXPECT_FALSE(r.check.has_value()) << "no rub was tried: nothing of the verdict rests on an orbit, so nothing to check";
   ASSERT_EQ(r.after.modes.size(), 1u);
   expect_within(r.after.modes[0].critical_speed_rpm, critical_rpm(t.p.k_x, t.p.m), 1e-3, "critical speed");
 }
@@ -448,6 +449,11 @@ TEST(TrackingLoop, ARubRunUpIsNamedWithItsClearanceContactStiffnessAndFriction) 
   EXPECT_TRUE(r.rub->named) << trace(r);
   EXPECT_EQ(r.named(), (std::vector<std::string>{"anisotropy", "rub"})) << trace(r);
   EXPECT_EQ(r.decision.claim, "full") << trace(r);
+  // The verdict's check ran (the rub was tried) at the default 0.1 times the orbit tolerances, and
+  // names the same effects: a claim that stands.
+  ASSERT_TRUE(r.check.has_value());
+  EXPECT_TRUE(r.check->agrees) << to_markdown(*r.check);
+  EXPECT_DOUBLE_EQ(r.check->tolerance_scale, default_of("loop", "check_tolerance_scale"));
   const rub_fit& rub = r.rub->fit;
   // 0.5 %: as the contact-free run-up's (the rig's quantisation and the tracker's finite dwells);
   // the rub's own orbits are shot to 1e-12 m.
