@@ -28,6 +28,15 @@ std::pair<verdict_check, std::string> checked(const verdict& fit, const std::opt
                         : "failed (" + failure + "): the verdict is tentative")};
 }
 
+std::vector<std::string> chosen_by_check_only(const std::vector<std::string>& names, const verdict* check, const std::vector<std::string>& also_not) {
+  std::vector<std::string> out;
+  if (check == nullptr) return out;
+  const auto in = [](const std::vector<std::string>& v, const std::string& e) { return std::find(v.begin(), v.end(), e) != v.end(); };
+  for (const auto& e : check->chosen())
+    if (!in(names, e) && !in(also_not, e)) out.push_back(e);
+  return out;
+}
+
 nlohmann::ordered_json to_json(const verdict_check& c) {
   return {{"orbit_tolerance_scale", c.tolerance_scale}, {"agrees", c.agrees}, {"verdict", to_json(c.decision)}};
 }

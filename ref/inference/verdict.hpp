@@ -50,6 +50,9 @@ struct verdict_check {
 // apply (each claims with it as a decision on the margin, the check's chosen effects tentative too).
 std::pair<verdict_check, std::string> checked(const verdict& fit, const std::optional<verdict>& check, double tolerance_scale, double factor,
                                               const std::string& failure);
+// The effects the check chose that `names` lacks (and `also_not` too): tentative beside the fit's
+// where the check disagrees (none when `check` is null, a failed check).
+std::vector<std::string> chosen_by_check_only(const std::vector<std::string>& names, const verdict* check, const std::vector<std::string>& also_not = {});
 // The check's JSON object ({"orbit_tolerance_scale", "agrees", "verdict"}) and its Markdown line.
 nlohmann::ordered_json to_json(const verdict_check& c);
 std::string to_markdown(const verdict_check& c);

@@ -176,10 +176,8 @@ void claim(loop_result& out, const loop_settings& s, const std::string& check_re
   if (!check_reason.empty()) {
     in.on_margin = true;
     reasons.push_back(check_reason);
-    if (check != nullptr)
-      for (const auto& e : check->chosen())
-        if (std::find(names.begin(), names.end(), e) == names.end() && std::find(left_out.begin(), left_out.end(), e) == left_out.end())
-          left_out.push_back(e);
+    const std::vector<std::string> more = chosen_by_check_only(names, check, left_out);
+    left_out.insert(left_out.end(), more.begin(), more.end());
   }
   if (!left_out.empty()) reasons.push_back("left out on the margin (tentative): " + joined(left_out));
   if (names.empty() && in.on_margin) names = std::move(left_out), left_out.clear();  // nothing chosen: the margin's effects are the tentative ones

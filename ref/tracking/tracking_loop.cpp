@@ -143,8 +143,12 @@ std::string estimates_of(const std::string& name, const response_fit& f) {
 std::string rub_estimates(const rub_fit& f) {
   return "rub: clearance " + interval_text(f.clearance_m, 1e6, " µm") + ", k1/m " + interval_text(f.contact_stiffness_over_m, 1.0, " 1/s^2") + ", mu " +
          interval_text(f.friction, 1.0, "") + ", " + std::to_string(f.rows_in_contact) + " rows touch" +
-         (f.rows_in_contact ? " (" + format_fixed(f.contact_from_rpm, 0) + "–" + format_fixed(f.contact_to_rpm, 0) + " rpm)" : "") + ", " +
-         std::to_string(f.shots) + " orbits shot";
+         (f.rows_in_contact ? " (" + format_fixed(f.contact_from_rpm, 0) + "–" + format_fixed(f.contact_to_rpm, 0) + " rpm)" : "") +
+         // Rows the model has no stable periodic orbit at are read as an approximation: said, never silent.
+         (f.rows_not_periodic ? ", " + std::to_string(f.rows_not_periodic) + " rows without a stable orbit (" + std::to_string(f.rows_circled) +
+                                    " read from the unstable orbit the motion circles, the rest a transient's last revolution)"
+                              : "") +
+         ", " + std::to_string(f.shots) + " orbits shot";
 }
 
 // The two folds: alternate rows in speed order, as the waveform loop alternates dwells (a row is
@@ -590,9 +594,7 @@ void decide_1x(table_run& run, tracking_result& r, std::size_t chosen, unsigned 
   if (!check_reason.empty()) {
     in.on_margin = true;
     reasons.push_back(check_reason);
-    if (check != nullptr)
-      for (const auto& e : check->chosen())
-        if (std::find(r.models[chosen].effects.begin(), r.models[chosen].effects.end(), e) == r.models[chosen].effects.end()) left_out.push_back(e);
+    left_out = chosen_by_check_only(r.models[chosen].effects, check);
   }
   r.decision = decide("effects", r.models[chosen].effects, in, run.rules, rival, std::move(reasons));
   r.decision.tentative.insert(r.decision.tentative.end(), left_out.begin(), left_out.end());

@@ -115,7 +115,7 @@ json two_x_fit_json(const two_x_fit& f) {
 }
 
 std::string um(double m, int digits = 3) { return format_digits(m * 1e6, digits) + " µm"; }
-std::string interval_text(const estimate& e, double scale = 1.0, int digits = 3) {
+std::string with_interval(const estimate& e, double scale = 1.0, int digits = 3) {
   return format_digits(e.value * scale, digits) + " [" + format_digits(e.lo * scale, digits) + ", " + format_digits(e.hi * scale, digits) + "]";
 }
 std::string yes_no(bool b) { return b ? "yes" : "no"; }
@@ -192,18 +192,18 @@ std::string to_markdown(const tracking_result& r) {
   s += "\n## Modes" + std::string(rub_named ? " (of the rub fit)" : "") +
        "\n\n| mode | critical speed (rpm) [95 %] | damping ratio [95 %] | determined |\n|---|---|---|---|\n";
   for (const auto& m : rub_named ? r.rub->fit.modes : f.modes)
-    s += "| " + m.axis + " | " + interval_text(m.critical_speed_rpm, 1.0, 4) + " | " + interval_text(m.damping_ratio) + " | " +
+    s += "| " + m.axis + " | " + with_interval(m.critical_speed_rpm, 1.0, 4) + " | " + with_interval(m.damping_ratio) + " | " +
          yes_no(m.critical_speed_rpm.determined && m.damping_ratio.determined) + (m.at_edge ? " (at the edge of the table's speeds)" : "") + " |\n";
   s += "\n## Unbalance, probes, runout" + std::string(rub_named ? " (of the contact-free fit; the rub fit's are below)" : "") + "\n\n";
-  s += "- unbalance e: " + interval_text(f.unbalance_m, 1e6) + " µm at " + interval_text(f.unbalance_phase_deg) + "° from the keyphasor\n";
+  s += "- unbalance e: " + with_interval(f.unbalance_m, 1e6) + " µm at " + with_interval(f.unbalance_phase_deg) + "° from the keyphasor\n";
   for (std::size_t p = 0; p < f.probes.size(); ++p) {
     const std::string name = f.probes[p].empty() ? "the probe" : "probe " + f.probes[p];
-    s += "- " + name + ": angle " + interval_text(f.probe_angle_deg[p]) + "° " + (f.probe_angle_fitted[p] ? "(fitted, from mode a's axis)" : "(declared)") +
-         "; runout " + interval_text(f.runout_m[p], 1e6) + " µm at " + interval_text(f.runout_phase_deg[p]) + "°; noise " + um(f.noise_m[p]) + "\n";
+    s += "- " + name + ": angle " + with_interval(f.probe_angle_deg[p]) + "° " + (f.probe_angle_fitted[p] ? "(fitted, from mode a's axis)" : "(declared)") +
+         "; runout " + with_interval(f.runout_m[p], 1e6) + " µm at " + with_interval(f.runout_phase_deg[p]) + "°; noise " + um(f.noise_m[p]) + "\n";
   }
-  if (f.parts.shaft_bow) s += "- shaft bow: " + interval_text(f.bow_m, 1e6) + " µm at " + interval_text(f.bow_phase_deg) + "°\n";
+  if (f.parts.shaft_bow) s += "- shaft bow: " + with_interval(f.bow_m, 1e6) + " µm at " + with_interval(f.bow_phase_deg) + "°\n";
   if (f.parts.cross_coupling)
-    s += "- cross-coupling k_xy/m " + interval_text(f.k_xy_over_m) + " 1/s², k_yx/m " + interval_text(f.k_yx_over_m) + " 1/s²\n";
+    s += "- cross-coupling k_xy/m " + with_interval(f.k_xy_over_m) + " 1/s², k_yx/m " + with_interval(f.k_yx_over_m) + " 1/s²\n";
   for (std::size_t p = 0; p < r.noise_scatter_m.size(); ++p)
     s += "- noise" + (f.probes[p].empty() ? std::string() : " of " + f.probes[p]) + ": " + um(r.noise_scatter_m[p]) + " from the rows' scatter, " +
          um(r.noise_residual_m[p]) + " from the base fit's residual; used " + um(f.noise_m[p]) +
@@ -219,8 +219,8 @@ std::string to_markdown(const tracking_result& r) {
     if (r.rub->named) {
       s += "  - its modes: ";
       for (std::size_t m = 0; m < g.modes.size(); ++m)
-        s += (m ? "; " : "") + g.modes[m].axis + " " + interval_text(g.modes[m].critical_speed_rpm, 1.0, 4) + " rpm, damping ratio " + interval_text(g.modes[m].damping_ratio);
-      s += "; unbalance " + interval_text(g.unbalance_m, 1e6) + " µm at " + interval_text(g.unbalance_phase_deg) + "°\n";
+        s += (m ? "; " : "") + g.modes[m].axis + " " + with_interval(g.modes[m].critical_speed_rpm, 1.0, 4) + " rpm, damping ratio " + with_interval(g.modes[m].damping_ratio);
+      s += "; unbalance " + with_interval(g.unbalance_m, 1e6) + " µm at " + with_interval(g.unbalance_phase_deg) + "°\n";
     }
   }
   if (r.two_x) {
@@ -228,10 +228,10 @@ std::string to_markdown(const tracking_result& r) {
     s += "- 2X: error before (runout alone): " + um(t.before.rms_residual_m) + " RMS; after: " + um(t.after().rms_residual_m) + "; " + t.summary +
          "; " + summary_line(t.decision) + "\n";
     if (t.with.misalignment)
-      s += "- misalignment fit: F2/m " + interval_text(t.with.force_over_m) + " m/s² at " + interval_text(t.with.force_phase_deg) + "° (through the chosen modes at 2X)\n";
+      s += "- misalignment fit: F2/m " + with_interval(t.with.force_over_m) + " m/s² at " + with_interval(t.with.force_phase_deg) + "° (through the chosen modes at 2X)\n";
     for (std::size_t p = 0; p < t.after().probes.size(); ++p)
-      s += "- 2X runout" + (t.after().probes[p].empty() ? std::string() : " of " + t.after().probes[p]) + ": " + interval_text(t.after().runout_m[p], 1e6) +
-           " µm at " + interval_text(t.after().runout_phase_deg[p]) + "°; 2X noise " + um(t.after().noise_m[p]) + "\n";
+      s += "- 2X runout" + (t.after().probes[p].empty() ? std::string() : " of " + t.after().probes[p]) + ": " + with_interval(t.after().runout_m[p], 1e6) +
+           " µm at " + with_interval(t.after().runout_phase_deg[p]) + "°; 2X noise " + um(t.after().noise_m[p]) + "\n";
   }
   s += "\nEvery combination of the effects, fitted (the chosen one has the lowest BIC of those whose every part is determined and every effect "
        "needed):\n\n| effects | their parameters [95 %] | verdict |\n|---|---|---|\n";
