@@ -1,0 +1,325 @@
+#include "ref/tracking/swept_response.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numbers>
+#include <string>
+
+#include "ref/base/errors.hpp"
+#include "ref/base/faddeeva.hpp"
+#include "ref/base/number_text.hpp"
+
+namespace rubref {
+
+namespace {
+
+using cplx = std::complex<double>;
+constexpr cplx kJ(0.0, 1.0);
+constexpr double kPi = std::numbers::pi;
+const double kSqrtPi = std::sqrt(kPi);
+
+// A mode basis worse conditioned than this (a mode at critical damping, where two eigenvectors
+// merge) loses more digits than a table's noise allows: refused, not used.
+constexpr double kMaxModalCondition = 1e8;
+
+// Gauss-Legendre rules on [-1, 1] (Golub-Welsch), made once. A block's integrand turns by up to
+// its phase span Phi (rad) over the block; n nodes integrate e^{j phi} to round-off once n exceeds
+// about e Phi / 8 (the rule's error falls super-exponentially beyond), so n >= Phi / 2 + 12.
+struct gauss_rule {
+  std::vector<double> node, weight;
+};
+gauss_rule make_rule(int n) {
+  Eigen::MatrixXd jacobi = Eigen::MatrixXd::Zero(n, n);
+  for (int k = 1; k < n; ++k) {
+    const double b = k / std::sqrt(4.0 * k * k - 1.0);
+    jacobi(k, k - 1) = jacobi(k - 1, k) = b;
+  }
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(jacobi);
+  gauss_rule r;
+  for (int i = 0; i < n; ++i) {
+    r.node.push_back(es.eigenvalues()(i));
+    r.weight.push_back(2.0 * es.eigenvectors()(0, i) * es.eigenvectors()(0, i));
+  }
+  return r;
+}
+constexpr int kRuleSizes[] = {16, 24, 32, 48, 64};
+const gauss_rule& rule_for(double phase_span) {
+  static const std::vector<gauss_rule> rules = [] {
+    std::vector<gauss_rule> out;
+    for (const int n : kRuleSizes) out.push_back(make_rule(n));
+    return out;
+  }();
+  const double need = 0.5 * phase_span + 12.0;
+  for (std::size_t i = 0; i < std::size(kRuleSizes); ++i)
+    if (kRuleSizes[i] >= need) return rules[i];
+  return rules.back();  // callers split longer spans into panels of at most kMaxPanelPhase
+}
+constexpr double kMaxPanelPhase = 100.0;  // 0.5 * 100 + 12 = 62 <= 64 nodes
+
+// The fastest phase rate of a block's integrands: S against e^{-2j theta} (2 Omega), a ringing
+// mode against e^{-j theta} (Omega + |Im lambda|).
+double phase_rate(const swept_response& s, double omega_hi) {
+  double w = 0.0;
+  for (const auto& m : s.modes()) w = std::max(w, std::abs(m.lambda.imag()));
+  return std::max(2.0 * omega_hi, omega_hi + w);
+}
+
+}  // namespace
+
+swept_response::swept_response(const linear_rotor& r, double omega_start, double alpha) : omega_start_(omega_start), alpha_(alpha) {
+  if (!(alpha != 0.0) || !std::isfinite(alpha)) throw input_error("swept_response: the angular acceleration must be finite and not 0");
+  Eigen::Matrix4d a = Eigen::Matrix4d::Zero();
+  a(0, 2) = a(1, 3) = 1.0;
+  a(2, 0) = -r.wx * r.wx, a(2, 1) = -r.kxy, a(2, 2) = -2.0 * r.zx * r.wx;
+  a(3, 0) = -r.kyx, a(3, 1) = -r.wy * r.wy, a(3, 3) = -2.0 * r.zy * r.wy;
+  const Eigen::EigenSolver<Eigen::Matrix4d> es(a);
+  if (es.info() != Eigen::Success) throw numerical_error("swept_response: the rotor's modes could not be computed");
+  const Eigen::Matrix4cd v = es.eigenvectors();
+  const Eigen::Matrix4cd vinv = v.inverse();
+  const double condition = v.norm() * vinv.norm();
+  if (!std::isfinite(condition) || condition > kMaxModalCondition)
+    throw numerical_error("swept_response: the rotor's modes are ill-conditioned (condition " + format_digits(condition) +
+                          "; a mode at critical damping?)");
+  c_ = std::sqrt(cplx(0.0, -0.5 * alpha));
+  const Eigen::Vector4cd d_unbalance(0.0, 0.0, 1.0, -kJ), d_bow(0.0, 0.0, r.wx * r.wx, -kJ * (r.wy * r.wy));
+  const Eigen::Vector4cd p_u = vinv * d_unbalance, p_b = vinv * d_bow;
+  for (int k = 0; k < 4; ++k) {
+    mode m;
+    m.lambda = es.eigenvalues()(k);
+    m.p_unbalance = p_u(k), m.p_bow = p_b(k);
+    m.x0 = -(kJ * omega_start - m.lambda) / (2.0 * c_);
+    m.displacement = v.block<2, 1>(0, k);
+    // Re x_k grows with t (Re c > 0 for either sign of alpha): one crossing at most.
+    m.crossing = -m.x0.real() / c_.real();
+    if (m.crossing > 0.0) {
+      const cplx x = m.x0 + c_ * m.crossing;
+      const cplx ring = kSqrtPi / c_ * std::exp(kJ * angle(m.crossing) + x * x);
+      m.ring_unbalance = -m.lambda * m.lambda * m.p_unbalance * ring;
+      m.ring_bow = m.p_bow * ring;
+    }
+    modes_.push_back(m);
+  }
+}
+
+cplx swept_response::adiabatic(std::size_t k, double t, swept_forcing f) const {
+  const mode& m = modes_[k];
+  const cplx x = m.x0 + c_ * t;
+  // The bounded branch: w(jx) in the upper half-plane (Re x >= 0), else -w(-jx) (the difference,
+  // 2 e^{x^2} e^{j theta}, a free mode, is the ringing's).
+  const cplx w = x.real() >= 0.0 ? faddeeva(kJ * x) : -faddeeva(-kJ * x);
+  const cplx g = kSqrtPi / (2.0 * c_) * w;
+  if (f == swept_forcing::bow) return -m.p_bow * g;
+  return m.p_unbalance * (-kJ * speed(t) - m.lambda + m.lambda * m.lambda * g);
+}
+
+cplx swept_response::ringing(std::size_t k, double t, swept_forcing f) const {
+  const mode& m = modes_[k];
+  if (!(m.crossing > 0.0) || t <= m.crossing) return 0.0;
+  return (f == swept_forcing::bow ? m.ring_bow : m.ring_unbalance) * std::exp(m.lambda * (t - m.crossing));
+}
+
+Eigen::Vector4cd swept_response::state(double t, swept_forcing f) const {
+  // z = V eta: a mode's velocity rows are lambda_k times its displacement rows.
+  Eigen::Vector4cd z = Eigen::Vector4cd::Zero();
+  const cplx turn = std::polar(1.0, angle(t));
+  for (std::size_t k = 0; k < modes_.size(); ++k) {
+    const cplx eta = turn * adiabatic(k, t, f) + ringing(k, t, f);
+    z.head<2>() += modes_[k].displacement * eta;
+    z.tail<2>() += modes_[k].lambda * modes_[k].displacement * eta;
+  }
+  return z;
+}
+
+namespace {
+
+// One probe's block integrals A = integral rho e^{-j theta} Omega dt and B = integral conj(rho)
+// e^{-j theta} Omega dt over [ta, tb], rho = sum_k gamma_k eta_k, with the adiabatic sum
+// sum_k gamma_k S_k(t) given by `adiabatic_sum` (exact or interpolated); the columns per unit
+// Re and Im of the amplitude: (A + B, j (A - B)) / (2 pi N).
+template <class AdiabaticSum>
+std::array<cplx, 2> block_read(const swept_response& s, double ta, double tb, double revolutions, const std::vector<cplx>& gamma, swept_forcing f,
+                               const AdiabaticSum& adiabatic_sum) {
+  const double omega_hi = std::max(std::abs(s.speed(ta)), std::abs(s.speed(tb)));
+  const double span = phase_rate(s, omega_hi) * (tb - ta);
+  const int panels = std::max(1, static_cast<int>(std::ceil(span / kMaxPanelPhase)));
+  const gauss_rule& rule = rule_for(span / panels);
+  const double h = (tb - ta) / panels;
+  cplx a = 0.0, b = 0.0;
+  for (int p = 0; p < panels; ++p) {
+    const double mid = ta + (p + 0.5) * h;
+    for (std::size_t i = 0; i < rule.node.size(); ++i) {
+      const double t = mid + 0.5 * h * rule.node[i], wt = 0.5 * h * rule.weight[i] * s.speed(t);
+      const cplx back = std::polar(1.0, -s.angle(t));
+      const cplx sum_s = adiabatic_sum(t);
+      cplx sum_r = 0.0;
+      for (std::size_t k = 0; k < gamma.size(); ++k) sum_r += gamma[k] * s.ringing(k, t, f);
+      a += wt * (sum_s + back * sum_r);
+      b += wt * back * std::conj(std::conj(back) * sum_s + sum_r);
+    }
+  }
+  const double scale = 1.0 / (2.0 * kPi * revolutions);
+  return {scale * (a + b), scale * kJ * (a - b)};
+}
+
+std::vector<cplx> probe_weights(const swept_response& s, double beta) {
+  std::vector<cplx> g;
+  for (const auto& m : s.modes()) g.push_back(std::cos(beta) * m.displacement(0) + std::sin(beta) * m.displacement(1));
+  return g;
+}
+
+}  // namespace
+
+std::array<cplx, 2> swept_response::read(double ta, double tb, double revolutions, double beta, swept_forcing f) const {
+  const std::vector<cplx> gamma = probe_weights(*this, beta);
+  return block_read(*this, ta, tb, revolutions, gamma, f, [&](double t) {
+    cplx sum = 0.0;
+    for (std::size_t k = 0; k < modes_.size(); ++k) sum += gamma[k] * adiabatic(k, t, f);
+    return sum;
+  });
+}
+
+swept_rows swept_row_times(const std::vector<double>& speeds, double alpha, double revolutions) {
+  if (speeds.empty()) throw input_error("swept_row_times: no rows");
+  if (!(revolutions >= 1.0)) throw input_error("swept_row_times: a row's block needs at least one revolution");
+  const auto [lo, hi] = std::minmax_element(speeds.begin(), speeds.end());
+  const double first = alpha > 0.0 ? *lo : *hi;
+  swept_rows out;
+  // Time 0 at the first row's block start: half its block (pi N / Omega) before it.
+  out.omega_start = first - alpha * kPi * revolutions / first;
+  for (const double w : speeds) {
+    const double half = kPi * revolutions / w, t = (w - out.omega_start) / alpha;
+    // Every block's speeds stay positive: the speed changes less within a block than it is.
+    if (!(w > 0.0) || !(w - std::abs(alpha) * half > 0.0))
+      throw input_error("a sweep of " + format_digits(alpha * 60.0 / (2.0 * kPi)) + " rpm/s with blocks of " + format_digits(revolutions) +
+                        " revolutions is too fast for a row at " + format_digits(w * 60.0 / (2.0 * kPi)) + " rpm (its block would reach zero speed)");
+    out.time.push_back(t), out.block_start.push_back(t - half), out.block_end.push_back(t + half);
+  }
+  return out;
+}
+
+namespace {
+
+// Chebyshev interpolants of every probe's adiabatic sum sum_k gamma_k S_k(t), on spans over which
+// each is smooth: 16 points, accepted when the last two coefficients are below 1e-13 of the
+// coefficients' sum (else the span is halved). A span never crosses a mode's crossing (S_k
+// changes branch there). One Faddeeva evaluation per mode and point, shared by the probes.
+class adiabatic_spans {
+ public:
+  adiabatic_spans(const swept_response& s, const std::vector<std::vector<cplx>>& gammas, swept_forcing f, double t_end, double first_length)
+      : s_(s), gammas_(gammas), f_(f), t_end_(t_end), length_(first_length) {
+    for (const auto& m : s.modes())
+      if (m.crossing > 0.0) breaks_.push_back(m.crossing);
+    std::sort(breaks_.begin(), breaks_.end());
+  }
+
+  cplx at(std::size_t probe, double t) {
+    const span& sp = span_at(t);
+    const double u = (2.0 * t - sp.lo - sp.hi) / (sp.hi - sp.lo);
+    // Clenshaw.
+    const std::vector<cplx>& a = sp.coefficients[probe];
+    cplx b1 = 0.0, b2 = 0.0;
+    for (std::size_t m = a.size(); m-- > 1;) {
+      const cplx b0 = a[m] + 2.0 * u * b1 - b2;
+      b2 = b1, b1 = b0;
+    }
+    return a[0] + u * b1 - b2;
+  }
+
+ private:
+  static constexpr int kPoints = 16;
+  static constexpr double kTail = 1e-13;
+  struct span {
+    double lo, hi;
+    std::vector<std::vector<cplx>> coefficients;  // per probe
+  };
+
+  const span& span_at(double t) {
+    auto it = std::upper_bound(spans_.begin(), spans_.end(), t, [](double x, const span& sp) { return x < sp.lo; });
+    if (it != spans_.begin() && t <= std::prev(it)->hi) return *std::prev(it);
+    // A new span from t, up to the next span, the next crossing and the sweep's end.
+    double hi = t_end_ > t ? std::min(t + length_, t_end_) : t + length_;
+    if (it != spans_.end()) hi = std::min(hi, it->lo);
+    for (const double b : breaks_)
+      if (b > t) {
+        hi = std::min(hi, b);
+        break;
+      }
+    for (int attempt = 0;; ++attempt) {
+      span sp{t, hi, {}};
+      if (fit(sp)) {
+        length_ = std::max(length_, 1.5 * (hi - t));
+        return *spans_.insert(it, std::move(sp));
+      }
+      if (attempt > 60) throw numerical_error("swept_response: the adiabatic response could not be interpolated near t = " + format_digits(t) + " s");
+      hi = t + 0.5 * (hi - t);
+      length_ = hi - t;
+    }
+  }
+
+  bool fit(span& sp) const {
+    const double mid = 0.5 * (sp.lo + sp.hi), half = 0.5 * (sp.hi - sp.lo);
+    std::vector<std::vector<cplx>> values(gammas_.size(), std::vector<cplx>(kPoints));
+    for (int j = 0; j < kPoints; ++j) {
+      const double t = mid + half * std::cos(kPi * (j + 0.5) / kPoints);
+      std::vector<cplx> sk;
+      for (std::size_t k = 0; k < s_.modes().size(); ++k) sk.push_back(s_.adiabatic(k, t, f_));
+      for (std::size_t p = 0; p < gammas_.size(); ++p) {
+        cplx sum = 0.0;
+        for (std::size_t k = 0; k < sk.size(); ++k) sum += gammas_[p][k] * sk[k];
+        values[p][static_cast<std::size_t>(j)] = sum;
+      }
+    }
+    for (const auto& v : values) {
+      std::vector<cplx> a(kPoints, 0.0);
+      double size = 0.0;
+      for (int m = 0; m < kPoints; ++m) {
+        for (int j = 0; j < kPoints; ++j) a[static_cast<std::size_t>(m)] += v[static_cast<std::size_t>(j)] * std::cos(kPi * m * (j + 0.5) / kPoints);
+        a[static_cast<std::size_t>(m)] *= (m == 0 ? 1.0 : 2.0) / kPoints;
+        size += std::abs(a[static_cast<std::size_t>(m)]);
+      }
+      if (!std::isfinite(size)) throw numerical_error("swept_response: the adiabatic response is not finite");
+      if (std::abs(a[kPoints - 1]) + std::abs(a[kPoints - 2]) > kTail * size) return false;
+      sp.coefficients.push_back(std::move(a));
+    }
+    return true;
+  }
+
+  const swept_response& s_;
+  const std::vector<std::vector<cplx>>& gammas_;
+  swept_forcing f_;
+  double t_end_;
+  double length_;
+  std::vector<double> breaks_;
+  std::vector<span> spans_;
+};
+
+}  // namespace
+
+swept_table_columns swept_1x(const linear_rotor& rotor, const std::vector<double>& speeds, double alpha, double revolutions,
+                             const std::vector<double>& probe_angles, bool with_bow) {
+  const swept_rows rows = swept_row_times(speeds, alpha, revolutions);
+  const swept_response s(rotor, rows.omega_start, alpha);
+  const double t_end = *std::max_element(rows.block_end.begin(), rows.block_end.end());
+  std::vector<std::vector<cplx>> gammas;
+  for (const double beta : probe_angles) gammas.push_back(probe_weights(s, beta));
+  std::vector<std::size_t> order(speeds.size());
+  for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
+  std::stable_sort(order.begin(), order.end(), [&](std::size_t x, std::size_t y) { return rows.time[x] < rows.time[y]; });
+
+  swept_table_columns out;
+  out.columns.assign(probe_angles.size(), std::vector<std::array<cplx, 4>>(speeds.size(), {0.0, 0.0, 0.0, 0.0}));
+  for (const swept_forcing f : {swept_forcing::unbalance, swept_forcing::bow}) {
+    if (f == swept_forcing::bow && !with_bow) continue;
+    adiabatic_spans spans(s, gammas, f, t_end, rows.block_end[order.front()] - rows.block_start[order.front()]);
+    const std::size_t col = f == swept_forcing::bow ? 2 : 0;
+    for (const std::size_t i : order)
+      for (std::size_t p = 0; p < probe_angles.size(); ++p) {
+        const auto read = block_read(s, rows.block_start[i], rows.block_end[i], revolutions, gammas[p], f, [&](double t) { return spans.at(p, t); });
+        out.columns[p][i][col] = read[0], out.columns[p][i][col + 1] = read[1];
+      }
+  }
+  return out;
+}
+
+}  // namespace rubref
