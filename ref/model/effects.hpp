@@ -122,10 +122,12 @@ struct effect_info {
 inline constexpr double power_reference_penetration = 1e-5;  // m
 
 // The parts of the paper's own model (Eq. 1-2) that a table's base fit leaves out and its loop
-// adds as it adds effects (docs/real-data.md): support stiffnesses that differ along x and y, and
-// the rub itself. With the library's names, the names a verdict on a table uses.
+// adds as it adds effects (docs/real-data.md): support stiffnesses that differ along x and y, the
+// rub itself, and the run-up's own transient (the rotor swept through its speeds, not steady at
+// each). With the library's names, the names a verdict on a table uses.
 inline constexpr std::string_view anisotropy_part = "anisotropy";
 inline constexpr std::string_view rub_part = "rub";
+inline constexpr std::string_view sweep_transient_part = "sweep_transient";
 
 // The library, in a fixed order (docs/loop.md).
 const std::vector<effect_info>& effect_library();

@@ -42,7 +42,7 @@ order_table track_orders(const record& r, const std::string& source) {
     const Eigen::VectorXd cx = qr.solve(Eigen::Map<const Eigen::VectorXd>(d.x.data(), static_cast<Eigen::Index>(d.size())));
     const Eigen::VectorXd cy = qr.solve(Eigen::Map<const Eigen::VectorXd>(d.y.data(), static_cast<Eigen::Index>(d.size())));
     t.rpm.push_back(d.rpm);
-    t.line.push_back(0);
+    t.line.push_back(t.rpm.size());  // the dwell's place in time, as a file's line is the row's place in it
     std::size_t o = 0;
     for (const Eigen::VectorXd* c : {&cx, &cy})
       for (int k = 1; k <= kOrders; ++k) t.orders[o++].vector.emplace_back((*c)(2 * k - 1), -(*c)(2 * k));
@@ -53,7 +53,7 @@ order_table track_orders(const record& r, const std::string& source) {
   std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return t.rpm[a] < t.rpm[b]; });
   order_table sorted = t;
   for (std::size_t i = 0; i < order.size(); ++i) {
-    sorted.rpm[i] = t.rpm[order[i]];
+    sorted.rpm[i] = t.rpm[order[i]], sorted.line[i] = t.line[order[i]];
     for (std::size_t o = 0; o < t.orders.size(); ++o) sorted.orders[o].vector[i] = t.orders[o].vector[order[i]];
   }
   return sorted;

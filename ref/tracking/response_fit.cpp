@@ -12,6 +12,7 @@
 #include "ref/base/number_text.hpp"
 #include "ref/inference/evidence.hpp"
 #include "ref/inference/least_squares.hpp"
+#include "ref/tracking/swept_response.hpp"
 
 namespace rubref {
 
@@ -46,6 +47,16 @@ constexpr std::size_t kGridStarts = 4;
 // And the isotropic fit's mode split symmetrically (ratios of the two): two critical speeds a few
 // per cent apart, between which the isotropic fit sits.
 constexpr double kSplits[] = {1.02, 1.05, 1.1, 1.2};
+// A sweep's rate alpha = exp(u) w_lo^2 (w_lo the table's lowest speed): from far slower than any
+// table could tell from steady (eta = alpha / w^2 = 1e-12: the ringing is e^{-zeta^2 / eta} small)
+// to the fastest at which a block of N revolutions keeps its speed positive (alpha < w_lo^2 /
+// (pi N)), halved. The sweep's starts: eta / zeta^2 of the lightest damped mode over the range
+// where a sweep moves a table's response (from 0.01, a per cent near the peak, to 100, a passage
+// far too fast to build the peak), 15 % apart: the beats above the critical speed fall at
+// (Omega - w)^2 = 4 pi alpha k, so a rate 15 % off puts the first few beats within a quarter
+// period of where they are, inside the solver's basin.
+constexpr double kSweepSlowest = 1e-12;
+constexpr double kSweepStartLo = 0.01, kSweepStartHi = 100.0, kSweepStartStep = 1.15;
 
 // The standard deviation of Gaussian values from their absolute values, robust to a minority of
 // outliers: 1.4826 times the median, then three times again over the values within 3 of those
@@ -125,12 +136,19 @@ struct problem {
   std::vector<std::size_t> free;    // the slot of each coordinate
   double w_lo = 1.0, w_hi = 1.0;  // rad/s
   int evaluations = 0;
+  // sweep only: every row's speed (rad/s; the sweep runs through all of them, fitted or not), the
+  // sweep's reference speed (the table's lowest), direction and block.
+  std::vector<double> speeds = {};
+  double sweep_ref = 1.0, revolutions = 1.0, rate_start = 0.0;
+  int direction = 1;
 
   void lay_out() {
     free = parts.anisotropy ? std::vector<std::size_t>{ln_wx, ln_wy, ln_zx, ln_zy} : std::vector<std::size_t>{ln_wx, ln_zx};
     if (beta_fitted) free.push_back(probe_beta);
     if (parts.cross_coupling) free.push_back(k_xy), free.push_back(k_yx);
+    if (parts.sweep) free.push_back(ln_sweep);
   }
+  double sweep_fastest() const { return std::log(0.5 / (kPi * revolutions)); }
   std::vector<double> full(const std::vector<double>& q) const {
     std::vector<double> f(kSlots, 0.0);
     for (std::size_t k = 0; k < free.size(); ++k) f[free[k]] = q[k];
@@ -159,6 +177,7 @@ struct problem {
   Eigen::VectorXd residuals(const std::vector<double>& q, std::vector<cplx>& amp, const std::vector<cplx>* fixed = nullptr) {
     ++evaluations;
     const std::vector<double> f = full(q);
+    if (parts.sweep) return swept_residuals(f, amp, fixed);
     const std::size_t m = rows.size() * orders.size(), l = amplitudes();
     Eigen::MatrixXcd a(m, l);
     Eigen::VectorXcd data(m);
@@ -185,6 +204,79 @@ struct problem {
     return out;
   }
 
+  // The sweep's columns: per probe and row (every row of the table), the 1X per unit Re and Im of
+  // the unbalance and of the bow (swept_response.hpp; not complex-linear once the sweep rings).
+  // Empty where the rotor's modes cannot be had (a failed evaluation for the solver).
+  swept_table_columns swept_columns(const std::vector<double>& f) const {
+    const double wx = std::exp(f[ln_wx]), wy = std::exp(f[ln_wy]);
+    const linear_rotor rotor{wx, wy, std::exp(f[ln_zx]), std::exp(f[ln_zy]), f[k_xy] * wx * wy, f[k_yx] * wx * wy};
+    std::vector<double> angles;
+    for (std::size_t p = 0; p < orders.size(); ++p) angles.push_back(beta[p] ? *beta[p] : f[probe_beta]);
+    try {
+      return swept_1x(rotor, speeds, direction * std::exp(f[ln_sweep]) * sweep_ref * sweep_ref, revolutions, angles, parts.shaft_bow);
+    } catch (const numerical_error&) {
+      return {};
+    }
+  }
+  // The real-linear columns of amplitude c (Re, Im) for probe p at table row `row`.
+  std::pair<cplx, cplx> swept_column(const swept_table_columns& cols, std::size_t p, std::size_t row, std::size_t c) const {
+    if (c == 0) return {cols.columns[p][row][0], cols.columns[p][row][1]};
+    if (c <= orders.size()) return c - 1 == p ? std::pair<cplx, cplx>{1.0, cplx(0.0, 1.0)} : std::pair<cplx, cplx>{0.0, 0.0};
+    return {cols.columns[p][row][2], cols.columns[p][row][3]};
+  }
+  Eigen::VectorXd swept_residuals(const std::vector<double>& f, std::vector<cplx>& amp, const std::vector<cplx>* fixed) const {
+    const std::size_t m = rows.size() * orders.size(), l = amplitudes();
+    const swept_table_columns cols = swept_columns(f);
+    if (cols.columns.empty()) return Eigen::VectorXd::Constant(static_cast<Eigen::Index>(2 * m), std::numeric_limits<double>::quiet_NaN());
+    Eigen::MatrixXd a(2 * m, 2 * l);
+    Eigen::VectorXd data(2 * m);
+    for (std::size_t p = 0; p < orders.size(); ++p)
+      for (std::size_t i = 0; i < rows.size(); ++i) {
+        const Eigen::Index r = static_cast<Eigen::Index>(2 * (p * rows.size() + i));
+        for (std::size_t c = 0; c < l; ++c) {
+          const auto [re, im] = swept_column(cols, p, rows[i], c);
+          a(r, static_cast<Eigen::Index>(2 * c)) = re.real() / sigma[p], a(r + 1, static_cast<Eigen::Index>(2 * c)) = re.imag() / sigma[p];
+          a(r, static_cast<Eigen::Index>(2 * c + 1)) = im.real() / sigma[p], a(r + 1, static_cast<Eigen::Index>(2 * c + 1)) = im.imag() / sigma[p];
+        }
+        const cplx d = table.orders[orders[p]].vector[rows[i]] / sigma[p];
+        data(r) = d.real(), data(r + 1) = d.imag();
+      }
+    Eigen::VectorXd x(2 * l);
+    if (fixed) {
+      for (std::size_t c = 0; c < l; ++c) x(static_cast<Eigen::Index>(2 * c)) = (*fixed)[c].real(), x(static_cast<Eigen::Index>(2 * c + 1)) = (*fixed)[c].imag();
+    } else {
+      x = a.colPivHouseholderQr().solve(data);
+      amp.resize(l);
+      for (std::size_t c = 0; c < l; ++c) amp[c] = cplx(x(static_cast<Eigen::Index>(2 * c)), x(static_cast<Eigen::Index>(2 * c + 1)));
+    }
+    return data - a * x;
+  }
+
+  // The model's 1X at every row of the table and the size of each of its parts there (for the
+  // report's model, residual and cancellation): per probe and row.
+  std::vector<std::vector<std::vector<cplx>>> parts_at_rows(const std::vector<double>& f, const std::vector<cplx>& amp) const {
+    const std::size_t l = amplitudes();
+    std::vector<std::vector<std::vector<cplx>>> out(orders.size(), std::vector<std::vector<cplx>>(table.rows(), std::vector<cplx>(l)));
+    const swept_table_columns cols = parts.sweep ? swept_columns(f) : swept_table_columns{};
+    if (parts.sweep && cols.columns.empty()) throw numerical_error(table.source + ": the swept response's modes cannot be computed at the fit");
+    std::vector<cplx> col(l);
+    for (std::size_t p = 0; p < orders.size(); ++p) {
+      const probe_point at = point(f, p);
+      for (std::size_t i = 0; i < table.rows(); ++i) {
+        if (!parts.sweep) columns(at, p, table.rpm[i] * kRpmToRadS, col.data());
+        for (std::size_t c = 0; c < l; ++c) {
+          if (!parts.sweep) {
+            out[p][i][c] = amp[c] * col[c];
+            continue;
+          }
+          const auto [re, im] = swept_column(cols, p, i, c);
+          out[p][i][c] = amp[c].real() * re + amp[c].imag() * im;
+        }
+      }
+    }
+    return out;
+  }
+
   double cost(const std::vector<double>& q) {
     std::vector<cplx> amp;
     const Eigen::VectorXd r = residuals(q, amp);
@@ -197,6 +289,7 @@ struct problem {
     for (const std::size_t k : {ln_wx, ln_wy}) f[k] = std::clamp(f[k], std::log(w_lo), std::log(w_hi));
     for (const std::size_t k : {ln_zx, ln_zy}) f[k] = std::clamp(f[k], std::log(kZetaLo), std::log(kZetaHi));
     for (const std::size_t k : {k_xy, k_yx}) f[k] = std::clamp(f[k], -kCrossBound, kCrossBound);
+    f[ln_sweep] = std::clamp(f[ln_sweep], std::log(kSweepSlowest), sweep_fastest());
     return reduce(f);
   }
 };
@@ -214,6 +307,7 @@ least_squares_problem solver_problem(problem& pr, const std::vector<cplx>* fixed
   for (const std::size_t k : {ln_wx, ln_wy}) lo[k] = std::log(pr.w_lo), hi[k] = std::log(pr.w_hi);
   for (const std::size_t k : {ln_zx, ln_zy}) lo[k] = std::log(kZetaLo), hi[k] = std::log(kZetaHi);
   for (const std::size_t k : {k_xy, k_yx}) lo[k] = -kCrossBound, hi[k] = kCrossBound;
+  lo[ln_sweep] = std::log(kSweepSlowest), hi[ln_sweep] = pr.sweep_fastest();
   const std::vector<double> l = pr.reduce(lo), h = pr.reduce(hi);
   lsq.lower = Eigen::Map<const Eigen::VectorXd>(l.data(), static_cast<Eigen::Index>(l.size()));
   lsq.upper = Eigen::Map<const Eigen::VectorXd>(h.data(), static_cast<Eigen::Index>(h.size()));
@@ -341,8 +435,47 @@ problem set_up(const order_table& table, const response_parts& parts, const resp
   for (const std::size_t i : pr.rows) lo = std::min(lo, table.rpm[i]), hi = std::max(hi, table.rpm[i]);
   pr.w_lo = lo * kRpmToRadS, pr.w_hi = hi * kRpmToRadS;
   check_fittable(table);
+  if (parts.sweep) {
+    for (const double rpm : table.rpm) pr.speeds.push_back(rpm * kRpmToRadS);
+    pr.sweep_ref = table.rpm.front() * kRpmToRadS;  // the table's lowest speed (rows in rising speed)
+    pr.rate_start = options.sweep_rate_start;
+  }
   pr.lay_out();
   return pr;
+}
+
+// A steady fit's point swept at rate alpha (rad/s^2): each mode moved back by the lag the sweep
+// puts on its peak (a steady fit of a swept table puts the peak where the sweep left it): the
+// resonance's group delay 1 / (zeta w) times alpha while that is small, at most the fast
+// passage's sqrt(2 pi alpha) (the peak forms about a beat period after the critical speed).
+std::vector<double> swept_start(const problem& pr, std::vector<double> f, double alpha) {
+  f[ln_sweep] = std::log(alpha / (pr.sweep_ref * pr.sweep_ref));
+  for (const auto& [ws, zs] : {std::pair{ln_wx, ln_zx}, std::pair{ln_wy, ln_zy}}) {
+    const double wm = std::exp(f[ws]), lag = std::min(alpha / (std::exp(f[zs]) * wm), std::sqrt(2.0 * kPi * alpha));
+    f[ws] = std::log(std::max(wm - pr.direction * lag, 0.5 * wm));
+  }
+  return f;
+}
+
+// The rate at which the table's rows are blocks of N revolutions end to end, as an order tracker
+// that reports every block writes them: between two rows the shaft turns 2 pi N, so under a
+// constant alpha Omega_2^2 - Omega_1^2 = 4 pi N alpha. The median over consecutive rows (in the
+// file's order, the sweep's direction) with speeds from half the lowest to twice the highest
+// critical speed of `f` (where the sweep rings); 0 where no such pair moves the sweep's way.
+double contiguous_rate(const problem& pr, const std::vector<double>& f) {
+  const double lo = 0.5 * std::min(std::exp(f[ln_wx]), std::exp(f[ln_wy])), hi = 2.0 * std::max(std::exp(f[ln_wx]), std::exp(f[ln_wy]));
+  std::vector<std::size_t> by_line(pr.speeds.size());
+  for (std::size_t i = 0; i < by_line.size(); ++i) by_line[i] = i;
+  std::stable_sort(by_line.begin(), by_line.end(), [&](std::size_t a, std::size_t b) { return pr.table.line[a] < pr.table.line[b]; });
+  std::vector<double> rates;
+  for (std::size_t k = 1; k < by_line.size(); ++k) {
+    const double w1 = pr.speeds[by_line[k - 1]], w2 = pr.speeds[by_line[k]];
+    const double rate = pr.direction * (w2 * w2 - w1 * w1) / (4.0 * kPi * pr.revolutions);
+    if (w1 >= lo && w1 <= hi && rate > 0.0) rates.push_back(rate);
+  }
+  if (rates.empty()) return 0.0;
+  std::nth_element(rates.begin(), rates.begin() + static_cast<std::ptrdiff_t>(rates.size() / 2), rates.end());
+  return rates[rates.size() / 2];
 }
 
 // The starts of the fits, best first within each family. Each family of starts (a scan, the
@@ -365,6 +498,21 @@ std::vector<std::vector<double>> starts_of(problem& pr, const response_fit* star
     const std::vector<double> q = pr.clamp(pr.reduce(f));
     starts.emplace_back(pr.cost(q), q);
   };
+  // A steady fit swept: its point with the sweep's rate at each eta / zeta^2 of the grid for its
+  // lightest damped mode (eta = alpha / w^2 of that mode), and at the rate that makes the rows
+  // blocks of N revolutions end to end (contiguous_rate). Only these: the steady families were
+  // the steady fit's to search, and each costs a sweep's response per start.
+  if (parts.sweep && grid && start && !start->theta.empty() && !start->parts.sweep) {
+    const bool x_lighter = start->theta[ln_zx] <= start->theta[ln_zy] || !parts.anisotropy;
+    const double w = std::exp(start->theta[x_lighter ? ln_wx : ln_wy]), z = std::exp(start->theta[x_lighter ? ln_zx : ln_zy]);
+    if (pr.rate_start > 0.0) add(swept_start(pr, start->theta, pr.rate_start));
+    else
+      for (double ratio = kSweepStartLo; ratio < kSweepStartHi * kSweepStartStep; ratio *= kSweepStartStep) add(swept_start(pr, start->theta, ratio * z * z * w * w));
+    rank_family();
+    if (const double alpha = contiguous_rate(pr, start->theta); alpha > 0.0) add(swept_start(pr, start->theta, alpha));
+    rank_family();
+    return from;
+  }
   const double ln_lo = std::log(pr.w_lo), ln_hi = std::log(pr.w_hi);
   std::vector<double> scan;  // ln w, 1 % apart, over the table's speeds
   for (double u = ln_lo; u < ln_hi + 0.5 * kScanStep; u += kScanStep) scan.push_back(u);
@@ -375,7 +523,9 @@ std::vector<std::vector<double>> starts_of(problem& pr, const response_fit* star
         f[ln_wx] = f[ln_wy] = u, f[ln_zx] = f[ln_zy] = std::log(z);
         add(f);
       }
-  } else if (grid && start && !start->theta.empty() && !start->parts.anisotropy) {
+  } else if (grid && start && !start->theta.empty() && !start->parts.anisotropy && !parts.sweep) {
+    // (A swept fit that adds anisotropy to a swept one starts from it as it is: the steady fit of
+    // its parts, swept, brings the two modes the steady scan found.)
     // Keep the isotropic fit's mode on one axis, scan the other's (either axis when the probes'
     // angles are declared; with beta fitted the axes are interchangeable).
     for (int keep = 0; keep < (pr.beta_fitted ? 1 : 2); ++keep)
@@ -396,7 +546,7 @@ std::vector<std::vector<double>> starts_of(problem& pr, const response_fit* star
           f[probe_beta] = kPi * g / angles;
           add(f);
         }
-  } else if (grid) {
+  } else if (grid && !parts.sweep) {  // (a swept fit with both modes starts from a fit that has them)
     std::vector<double> speeds;
     for (int i = 0; i < kGridSpeeds; ++i) speeds.push_back(ln_lo + (ln_hi - ln_lo) * i / (kGridSpeeds - 1));
     for (int a = 0; a < kGridSpeeds; ++a)
@@ -423,9 +573,10 @@ std::vector<std::vector<double>> starts_of(problem& pr, const response_fit* star
         add(f);
       }
   rank_family();
+  rank_family();
   // A previous fit's point as it is (a part it lacks starts from off: equal modes, no
   // cross-coupling), with each grid angle when beta is new.
-  if (start && !start->theta.empty())
+  if (start && !start->theta.empty() && !(parts.sweep && !start->parts.sweep))
     for (int g = 0; g < (start->parts.anisotropy || !pr.beta_fitted ? 1 : kGridAngles); ++g) {
       std::vector<double> f = start->theta;
       if (!start->parts.anisotropy && pr.beta_fitted) f[probe_beta] = kPi * g / kGridAngles;
@@ -539,16 +690,24 @@ void estimates_into(response_fit& f, const problem& pr, const std::vector<double
   // How much the model's parts (the unbalance's response, the bow's, each runout) cancel: the
   // RMS over the fitted rows of the sum of their sizes over the RMS of their sum.
   double parts_sq = 0.0, sum_sq = 0.0;
-  std::vector<cplx> col(l);
+  const auto at_rows = pr.parts_at_rows(best, amp);
   for (std::size_t p = 0; p < pr.orders.size(); ++p)
     for (const std::size_t i : pr.rows) {
-      pr.columns(pr.point(best, p), p, pr.table.rpm[i] * kRpmToRadS, col.data());
       double size = 0.0;
       cplx sum = 0.0;
-      for (std::size_t c = 0; c < l; ++c) size += std::abs(amp[c] * col[c]), sum += amp[c] * col[c];
+      for (std::size_t c = 0; c < l; ++c) size += std::abs(at_rows[p][i][c]), sum += at_rows[p][i][c];
       parts_sq += size * size, sum_sq += std::norm(sum);
     }
   f.cancellation = sum_sq > 0.0 ? std::sqrt(parts_sq / sum_sq) : std::numeric_limits<double>::infinity();
+  if (pr.parts.sweep) {
+    // The rate in rpm/s, from its chart ln(|alpha| / w_lo^2); determined as a critical speed is, and
+    // not at either end of its range (at the slow end the table is quasi-steady).
+    f.sweep_rpm_per_s = log_estimate(best[ln_sweep] + 2.0 * std::log(pr.sweep_ref), sd_of(ln_sweep), kRpmToRadS, rules.max_interval_ratio);
+    f.sweep_at_slow_bound = best[ln_sweep] <= std::log(kSweepSlowest) + 1e-9;
+    if (f.sweep_at_slow_bound || best[ln_sweep] >= pr.sweep_fastest() - 1e-9) f.sweep_rpm_per_s.determined = false;
+    f.sweep_direction = pr.direction;
+    f.sweep_revolutions = pr.revolutions;
+  }
   if (pr.parts.cross_coupling) {
     const double w2 = std::exp(best[ln_wx] + best[ln_wy]);
     for (const std::size_t slot : {k_xy, k_yx}) {
@@ -571,9 +730,14 @@ void quality_into(response_fit& f, const problem& pr, double noise_relative_erro
   double sum2 = 0.0;
   std::size_t count = 0;
   f.model.assign(pr.orders.size(), {}), f.residual.assign(pr.orders.size(), {});
+  const auto at_rows = pr.parts.sweep ? pr.parts_at_rows(f.theta, f.amplitudes) : std::vector<std::vector<std::vector<cplx>>>{};
   for (std::size_t p = 0; p < pr.orders.size(); ++p)
     for (std::size_t i = 0; i < pr.table.rows(); ++i) {
-      const cplx mdl = response_at(f, p, pr.table.rpm[i]);
+      cplx mdl = 0.0;
+      if (pr.parts.sweep)
+        for (const cplx& part : at_rows[p][i]) mdl += part;
+      else
+        mdl = response_at(f, p, pr.table.rpm[i]);
       f.model[p].push_back(mdl);
       f.residual[p].push_back(pr.table.orders[pr.orders[p]].vector[i] - mdl);
     }
@@ -583,6 +747,82 @@ void quality_into(response_fit& f, const problem& pr, double noise_relative_erro
 }
 
 }  // namespace
+
+namespace {
+
+// The best of a fit's starts, each taken by the solver: its coordinates, chi^2 and how much lower
+// its minimum may lie.
+struct fitted_point {
+  std::vector<double> q;
+  double cost = std::numeric_limits<double>::infinity(), remaining = 0.0;
+};
+fitted_point best_from(problem& pr, const std::vector<std::vector<double>>& starts) {
+  fitted_point best;
+  for (const auto& q0 : starts) {
+    const auto [q, remaining] = fit_from(pr, q0);
+    const double c = pr.cost(q);
+    if (c < best.cost) best = {q, c, remaining};
+  }
+  return best;
+}
+
+// The fit at its best point: the amplitudes, the canonical frame, the covariance, the estimates
+// and the quality.
+response_fit finish(problem& pr, const fitted_point& at, const response_fit_options& options) {
+  std::vector<cplx> amp;
+  pr.residuals(at.q, amp);
+  std::vector<double> best = pr.full(at.q);
+  canonical_frame(pr, best, amp);
+  const std::vector<double> best_q = pr.reduce(best);
+  const Eigen::VectorXd r = pr.residuals(best_q, amp, &amp);
+  const fit_covariance cc = covariance_at(pr, best_q, amp, r);
+  response_fit f;
+  f.parts = pr.parts;
+  f.chi2 = r.squaredNorm();
+  f.chi2_uncertainty = at.remaining;
+  f.parameters = best_q.size() + 2 * pr.amplitudes();
+  f.dof = cc.dof;
+  estimates_into(f, pr, best, amp, cc);
+  f.theta = best;
+  f.amplitudes = amp;
+  f.rows = pr.rows;
+  f.evaluations = pr.evaluations;
+  quality_into(f, pr, options.noise_relative_error);
+  return f;
+}
+
+// A sweep's direction and block as given (options), as the fit it starts from had them, or every
+// candidate: both directions where the table's row order says neither, every block of
+// kSweepRevolutions where none is declared.
+std::pair<std::vector<int>, std::vector<double>> sweep_candidates(const order_table& table, const response_fit* start, const response_fit_options& o) {
+  const bool swept_start = start && start->parts.sweep && !start->theta.empty();
+  std::vector<int> directions;
+  if (o.sweep_direction != 0) directions = {o.sweep_direction};
+  else if (swept_start) directions = {start->sweep_direction};
+  else if (const int d = sweep_direction_of(table); d != 0) directions = {d};
+  else directions = {1, -1};
+  std::vector<double> blocks;
+  if (o.revolutions_per_row > 0.0) blocks = {o.revolutions_per_row};
+  else if (swept_start) blocks = {start->sweep_revolutions};
+  else blocks.assign(std::begin(kSweepRevolutions), std::end(kSweepRevolutions));
+  return {directions, blocks};
+}
+
+}  // namespace
+
+int sweep_direction_of(const order_table& table) {
+  // The rows' file lines in rising speed: a run-up's rise with the speed, a coast-down's fall. A
+  // sweep's speed column jitters a little (a few reversals); shuffled rows reverse half the time,
+  // so a direction needs three times as many steps one way as the other.
+  std::size_t rises = 0, falls = 0;
+  for (std::size_t i = 1; i < table.line.size(); ++i) {
+    if (table.line[i] > table.line[i - 1]) ++rises;
+    if (table.line[i] < table.line[i - 1]) ++falls;
+  }
+  if (rises > 3 * falls) return 1;
+  if (falls > 3 * rises) return -1;
+  return 0;
+}
 
 response_fit fit_response(const order_table& table, const response_parts& parts, const response_fit_options& options) {
   // An anisotropic fit without a start splits the isotropic fit's mode (two close critical
@@ -595,35 +835,51 @@ response_fit fit_response(const order_table& table, const response_parts& parts,
     isotropic = fit_response(table, iso, options);
     start = &isotropic;
   }
-  problem pr = set_up(table, parts, options);
-  std::vector<double> best_q;
-  double best_cost = std::numeric_limits<double>::infinity(), best_remaining = 0.0;
-  for (const auto& q0 : starts_of(pr, start, options.starts)) {
-    const auto [q, remaining] = fit_from(pr, q0);
-    const double c = pr.cost(q);
-    if (c < best_cost) best_cost = c, best_q = q, best_remaining = remaining;
+  response_fit steady;
+  if (parts.sweep && (!start || start->theta.empty())) {  // a swept fit starts from the steady fit of its parts
+    response_parts still = parts;
+    still.sweep = false;
+    response_fit_options o = options;
+    o.start = start;
+    steady = fit_response(table, still, o);
+    start = &steady;
   }
-  if (!std::isfinite(best_cost)) throw numerical_error(table.source + ": the 1X response fit found no finite residual from any start");
-
-  std::vector<cplx> amp;
-  pr.residuals(best_q, amp);
-  std::vector<double> best = pr.full(best_q);
-  canonical_frame(pr, best, amp);
-  best_q = pr.reduce(best);
-  const Eigen::VectorXd r = pr.residuals(best_q, amp, &amp);
-  const fit_covariance cc = covariance_at(pr, best_q, amp, r);
-  response_fit f;
-  f.parts = parts;
-  f.chi2 = r.squaredNorm();
-  f.chi2_uncertainty = best_remaining;
-  f.parameters = best_q.size() + 2 * pr.amplitudes();
-  f.dof = cc.dof;
-  estimates_into(f, pr, best, amp, cc);
-  f.theta = best;
-  f.amplitudes = amp;
-  f.rows = pr.rows;
-  f.evaluations = pr.evaluations;
-  quality_into(f, pr, options.noise_relative_error);
+  if (!parts.sweep) {
+    problem pr = set_up(table, parts, options);
+    const fitted_point best = best_from(pr, starts_of(pr, start, options.starts));
+    if (!std::isfinite(best.cost)) throw numerical_error(table.source + ": the 1X response fit found no finite residual from any start");
+    return finish(pr, best, options);
+  }
+  // A sweep: per direction, the first block from the starts, every other block from the best
+  // point so far (the block changes how the ringing reads, little where the sweep goes) and from
+  // the rate that makes its rows blocks end to end; the fit with the lowest chi^2 kept.
+  const auto [directions, blocks] = sweep_candidates(table, start, options);
+  std::optional<problem> kept;
+  fitted_point best;
+  int evaluations = 0;
+  for (const int direction : directions) {
+    std::optional<fitted_point> previous;
+    for (const double revolutions : blocks) {
+      problem pr = set_up(table, parts, options);
+      pr.direction = direction, pr.revolutions = revolutions;
+      std::vector<std::vector<double>> from;
+      if (!previous) {
+        from = starts_of(pr, start, options.starts);
+      } else {
+        from.push_back(pr.clamp(previous->q));
+        if (start && !start->parts.sweep && !start->theta.empty())
+          if (const double alpha = contiguous_rate(pr, start->theta); alpha > 0.0) from.push_back(pr.clamp(pr.reduce(swept_start(pr, start->theta, alpha))));
+      }
+      const fitted_point here = best_from(pr, from);
+      evaluations += pr.evaluations;
+      if (here.cost < best.cost) best = here, kept.emplace(std::move(pr));
+      if (!previous || here.cost < previous->cost) previous = here;
+    }
+  }
+  if (!kept) throw numerical_error(table.source + ": the swept 1X response fit found no finite residual from any start");
+  response_fit f = finish(*kept, best, options);
+  f.evaluations = evaluations;
+  f.sweep_revolutions_fitted = blocks.size() > 1 || (start && start->parts.sweep && start->sweep_revolutions_fitted && options.revolutions_per_row <= 0.0);
   return f;
 }
 

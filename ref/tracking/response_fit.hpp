@@ -25,9 +25,10 @@
 namespace rubref {
 
 // The layout of response_fit::theta, every fit's full set: ln w_x, ln w_y (rad/s), ln z_x, ln z_y,
-// the probe angle beta (rad), k_xy/m and k_yx/m in units of w_x w_y.
+// the probe angle beta (rad), k_xy/m and k_yx/m in units of w_x w_y, and a sweep's rate as
+// ln(|alpha| / w_lo^2) (alpha the angular acceleration, w_lo the table's lowest speed in rad/s).
 namespace response_slots {
-enum : std::size_t { ln_wx, ln_wy, ln_zx, ln_zy, probe_beta, k_xy, k_yx, kSlots };
+enum : std::size_t { ln_wx, ln_wy, ln_zx, ln_zy, probe_beta, k_xy, k_yx, ln_sweep, kSlots };
 }
 
 // Which parts beyond the base (an isotropic rotor: one critical speed and damping ratio; the
@@ -36,6 +37,10 @@ struct response_parts {
   bool anisotropy = false;  // two critical speeds and damping ratios, along x and y (and, for one probe without a declared angle, its angle)
   bool shaft_bow = false;
   bool cross_coupling = false;
+  // The run-up's own transient (`sweep_transient`): the rotor swept through the table's speeds at
+  // a constant angular acceleration, each row read over a block of N revolutions
+  // (ref/tracking/swept_response.hpp), in place of the steady response at each speed.
+  bool sweep = false;
 };
 
 // A fitted quantity with its 95 % interval (from the fit's covariance, scaled by the residual's
@@ -69,6 +74,15 @@ struct response_fit {
   double cancellation = 1.0;
   estimate k_xy_over_m, k_yx_over_m;                  // 1/s^2, cross_coupling only
   bool cross_coupling_at_bound = false;               // a term reached +-w_x w_y / 2, the library's range
+  // sweep only: the sweep rate |d rpm / dt| (determined when its interval spans less than 4x and it
+  // is not at the bounds of its range), its direction (+1 rising speed, -1 falling), the block's
+  // revolutions N (declared, or fitted among kSweepRevolutions), and whether the rate sits at its
+  // slow bound (the table is then quasi-steady).
+  estimate sweep_rpm_per_s;
+  int sweep_direction = 0;
+  double sweep_revolutions = 0.0;
+  bool sweep_revolutions_fitted = false;
+  bool sweep_at_slow_bound = false;
 
   // The fit's quality.
   std::vector<double> noise_m;       // per probe: the row-to-row scatter of its 1X vector (robust)
@@ -97,11 +111,25 @@ enum class fit_starts { grid, given_only };
 
 struct response_fit_options {
   std::vector<std::size_t> rows;      // the rows fitted (empty: all)
+  // A sweep's block (revolutions per row; 0: fitted) and direction (+1 a run-up, -1 a coast-down;
+  // 0: from the table's row order, sweep_direction_of).
   const response_fit* start = nullptr;  // a previous fit to start from (an isotropic one also by splitting its mode)
   fit_starts starts = fit_starts::grid;
   std::vector<double> noise_m;        // per probe (empty: row_scatter of each)
   double noise_relative_error = 0.0;  // the noise estimate's relative standard error (widens the chi^2 test)
+  double revolutions_per_row = 0.0;
+  int sweep_direction = 0;
+  // A swept fit from a steady one: start at this rate (rad/s^2, another fit's) in place of the
+  // grid of rates (0: the grid).
+  double sweep_rate_start = 0.0;
 };
+
+// The block sizes (revolutions per row) a sweep fit tries when the table does not declare one.
+inline constexpr double kSweepRevolutions[] = {1.0, 2.0, 3.0, 4.0, 6.0, 8.0};
+
+// The direction the table's speed ran in, from its rows' order in the file: +1 rising (a
+// run-up), -1 falling (a coast-down), 0 when the file's order says neither (shuffled rows).
+int sweep_direction_of(const order_table& table);
 
 // input_error unless the table can be fitted: a 1X column, at least 8 rows, more than one speed.
 void check_fittable(const order_table& table);

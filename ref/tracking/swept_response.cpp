@@ -25,7 +25,8 @@ constexpr double kMaxModalCondition = 1e8;
 
 // Gauss-Legendre rules on [-1, 1] (Golub-Welsch), made once. A block's integrand turns by up to
 // its phase span Phi (rad) over the block; n nodes integrate e^{j phi} to round-off once n exceeds
-// about e Phi / 8 (the rule's error falls super-exponentially beyond), so n >= Phi / 2 + 12.
+// about e Phi / 8 (the rule's error, (Phi / 4)^{2n} / (2n)!, falls super-exponentially beyond:
+// 1e-20 at Phi = 4 pi, one revolution's e^{-2j theta}, with 16 nodes), so n >= 0.35 Phi + 8.
 struct gauss_rule {
   std::vector<double> node, weight;
 };
@@ -50,12 +51,12 @@ const gauss_rule& rule_for(double phase_span) {
     for (const int n : kRuleSizes) out.push_back(make_rule(n));
     return out;
   }();
-  const double need = 0.5 * phase_span + 12.0;
+  const double need = 0.35 * phase_span + 8.0;
   for (std::size_t i = 0; i < std::size(kRuleSizes); ++i)
     if (kRuleSizes[i] >= need) return rules[i];
   return rules.back();  // callers split longer spans into panels of at most kMaxPanelPhase
 }
-constexpr double kMaxPanelPhase = 100.0;  // 0.5 * 100 + 12 = 62 <= 64 nodes
+constexpr double kMaxPanelPhase = 150.0;  // 0.35 * 150 + 8 = 60.5 <= 64 nodes
 
 // The fastest phase rate of a block's integrands: S against e^{-2j theta} (2 Omega), a ringing
 // mode against e^{-j theta} (Omega + |Im lambda|).
@@ -102,16 +103,17 @@ swept_response::swept_response(const linear_rotor& r, double omega_start, double
   }
 }
 
-cplx swept_response::adiabatic(std::size_t k, double t, swept_forcing f) const {
+std::array<cplx, 2> swept_response::adiabatic_both(std::size_t k, double t) const {
   const mode& m = modes_[k];
   const cplx x = m.x0 + c_ * t;
   // The bounded branch: w(jx) in the upper half-plane (Re x >= 0), else -w(-jx) (the difference,
   // 2 e^{x^2} e^{j theta}, a free mode, is the ringing's).
   const cplx w = x.real() >= 0.0 ? faddeeva(kJ * x) : -faddeeva(-kJ * x);
   const cplx g = kSqrtPi / (2.0 * c_) * w;
-  if (f == swept_forcing::bow) return -m.p_bow * g;
-  return m.p_unbalance * (-kJ * speed(t) - m.lambda + m.lambda * m.lambda * g);
+  return {m.p_unbalance * (-kJ * speed(t) - m.lambda + m.lambda * m.lambda * g), -m.p_bow * g};
 }
+
+cplx swept_response::adiabatic(std::size_t k, double t, swept_forcing f) const { return adiabatic_both(k, t)[f == swept_forcing::bow ? 1 : 0]; }
 
 cplx swept_response::ringing(std::size_t k, double t, swept_forcing f) const {
   const mode& m = modes_[k];
@@ -133,33 +135,61 @@ Eigen::Vector4cd swept_response::state(double t, swept_forcing f) const {
 
 namespace {
 
-// One probe's block integrals A = integral rho e^{-j theta} Omega dt and B = integral conj(rho)
-// e^{-j theta} Omega dt over [ta, tb], rho = sum_k gamma_k eta_k, with the adiabatic sum
-// sum_k gamma_k S_k(t) given by `adiabatic_sum` (exact or interpolated); the columns per unit
-// Re and Im of the amplitude: (A + B, j (A - B)) / (2 pi N).
-template <class AdiabaticSum>
-std::array<cplx, 2> block_read(const swept_response& s, double ta, double tb, double revolutions, const std::vector<cplx>& gamma, swept_forcing f,
-                               const AdiabaticSum& adiabatic_sum) {
+// A probe's reading of one forcing: its weights gamma_k on the modes' displacements.
+struct channel {
+  std::vector<cplx> gamma;
+  swept_forcing forcing;
+};
+
+// Each channel's block integrals A = integral rho e^{-j theta} Omega dt and B = integral conj(rho)
+// e^{-j theta} Omega dt over [ta, tb], rho = sum_k gamma_k eta_k, with the channels' adiabatic sums
+// sum_k gamma_k S_k(t) given by `adiabatic_sums(t, out)` (exact or interpolated); per channel the
+// columns per unit Re and Im of the amplitude: (A + B, j (A - B)) / (2 pi N). The channels share
+// the nodes (one angle, one look-up of the sums per node).
+template <class AdiabaticSums>
+std::vector<std::array<cplx, 2>> block_read(const swept_response& s, double ta, double tb, double revolutions, const std::vector<channel>& channels,
+                                            AdiabaticSums& adiabatic_sums) {
   const double omega_hi = std::max(std::abs(s.speed(ta)), std::abs(s.speed(tb)));
   const double span = phase_rate(s, omega_hi) * (tb - ta);
   const int panels = std::max(1, static_cast<int>(std::ceil(span / kMaxPanelPhase)));
   const gauss_rule& rule = rule_for(span / panels);
   const double h = (tb - ta) / panels;
-  cplx a = 0.0, b = 0.0;
+  const std::size_t n = channels.size();
+  std::vector<cplx> sums(n);
+  // The modes still ringing over the block, per channel: a mode's ringing decays from its
+  // crossing on, and one below 1e-17 of the adiabatic response at the block's start adds nothing a
+  // double can hold.
+  adiabatic_sums(ta, sums);
+  std::vector<std::vector<std::pair<std::size_t, cplx>>> ringing(n);  // (mode, gamma_k ring_k)
+  for (std::size_t c = 0; c < n; ++c)
+    for (std::size_t k = 0; k < s.modes().size(); ++k) {
+      const auto& m = s.modes()[k];
+      if (!(m.crossing > 0.0) || tb <= m.crossing) continue;
+      const cplx ring = channels[c].gamma[k] * (channels[c].forcing == swept_forcing::bow ? m.ring_bow : m.ring_unbalance);
+      if (std::abs(ring) * std::exp(m.lambda.real() * (std::max(ta, m.crossing) - m.crossing)) > 1e-17 * std::abs(sums[c])) ringing[c].emplace_back(k, ring);
+    }
+  std::vector<cplx> a(n, 0.0), b(n, 0.0);
   for (int p = 0; p < panels; ++p) {
     const double mid = ta + (p + 0.5) * h;
     for (std::size_t i = 0; i < rule.node.size(); ++i) {
       const double t = mid + 0.5 * h * rule.node[i], wt = 0.5 * h * rule.weight[i] * s.speed(t);
       const cplx back = std::polar(1.0, -s.angle(t));
-      const cplx sum_s = adiabatic_sum(t);
-      cplx sum_r = 0.0;
-      for (std::size_t k = 0; k < gamma.size(); ++k) sum_r += gamma[k] * s.ringing(k, t, f);
-      a += wt * (sum_s + back * sum_r);
-      b += wt * back * std::conj(std::conj(back) * sum_s + sum_r);
+      adiabatic_sums(t, sums);
+      for (std::size_t c = 0; c < n; ++c) {
+        cplx sum_r = 0.0;
+        for (const auto& [k, ring] : ringing[c]) {
+          const auto& m = s.modes()[k];
+          if (t > m.crossing) sum_r += ring * std::exp(m.lambda * (t - m.crossing));  // (0 before it: a block may hold the crossing)
+        }
+        a[c] += wt * (sums[c] + back * sum_r);
+        b[c] += wt * back * std::conj(std::conj(back) * sums[c] + sum_r);
+      }
     }
   }
   const double scale = 1.0 / (2.0 * kPi * revolutions);
-  return {scale * (a + b), scale * kJ * (a - b)};
+  std::vector<std::array<cplx, 2>> out(n);
+  for (std::size_t c = 0; c < n; ++c) out[c] = {scale * (a[c] + b[c]), scale * kJ * (a[c] - b[c])};
+  return out;
 }
 
 std::vector<cplx> probe_weights(const swept_response& s, double beta) {
@@ -171,12 +201,12 @@ std::vector<cplx> probe_weights(const swept_response& s, double beta) {
 }  // namespace
 
 std::array<cplx, 2> swept_response::read(double ta, double tb, double revolutions, double beta, swept_forcing f) const {
-  const std::vector<cplx> gamma = probe_weights(*this, beta);
-  return block_read(*this, ta, tb, revolutions, gamma, f, [&](double t) {
-    cplx sum = 0.0;
-    for (std::size_t k = 0; k < modes_.size(); ++k) sum += gamma[k] * adiabatic(k, t, f);
-    return sum;
-  });
+  const std::vector<channel> channels{{probe_weights(*this, beta), f}};
+  auto exact = [&](double t, std::vector<cplx>& out) {
+    out[0] = 0.0;
+    for (std::size_t k = 0; k < modes_.size(); ++k) out[0] += channels[0].gamma[k] * adiabatic(k, t, f);
+  };
+  return block_read(*this, ta, tb, revolutions, channels, exact)[0];
 }
 
 swept_rows swept_row_times(const std::vector<double>& speeds, double alpha, double revolutions) {
@@ -200,30 +230,33 @@ swept_rows swept_row_times(const std::vector<double>& speeds, double alpha, doub
 
 namespace {
 
-// Chebyshev interpolants of every probe's adiabatic sum sum_k gamma_k S_k(t), on spans over which
-// each is smooth: 16 points, accepted when the last two coefficients are below 1e-13 of the
+// Chebyshev interpolants of every channel's adiabatic sum sum_k gamma_k S_k(t), on spans over
+// which each is smooth: 16 points, accepted when the last two coefficients are below 1e-13 of the
 // coefficients' sum (else the span is halved). A span never crosses a mode's crossing (S_k
-// changes branch there). One Faddeeva evaluation per mode and point, shared by the probes.
+// changes branch there). One Faddeeva evaluation per mode and point, shared by the channels.
 class adiabatic_spans {
  public:
-  adiabatic_spans(const swept_response& s, const std::vector<std::vector<cplx>>& gammas, swept_forcing f, double t_end, double first_length)
-      : s_(s), gammas_(gammas), f_(f), t_end_(t_end), length_(first_length) {
+  adiabatic_spans(const swept_response& s, const std::vector<channel>& channels, double t_end, double first_length)
+      : s_(s), channels_(channels), t_end_(t_end), length_(first_length) {
     for (const auto& m : s.modes())
       if (m.crossing > 0.0) breaks_.push_back(m.crossing);
     std::sort(breaks_.begin(), breaks_.end());
   }
 
-  cplx at(std::size_t probe, double t) {
-    const span& sp = span_at(t);
+  // Every channel's sum at t.
+  void operator()(double t, std::vector<cplx>& out) {
+    if (last_ >= spans_.size() || t < spans_[last_].lo || t > spans_[last_].hi) last_ = span_at(t);
+    const span& sp = spans_[last_];
     const double u = (2.0 * t - sp.lo - sp.hi) / (sp.hi - sp.lo);
-    // Clenshaw.
-    const std::vector<cplx>& a = sp.coefficients[probe];
-    cplx b1 = 0.0, b2 = 0.0;
-    for (std::size_t m = a.size(); m-- > 1;) {
-      const cplx b0 = a[m] + 2.0 * u * b1 - b2;
-      b2 = b1, b1 = b0;
+    for (std::size_t c = 0; c < channels_.size(); ++c) {  // Clenshaw
+      const std::vector<cplx>& a = sp.coefficients[c];
+      cplx b1 = 0.0, b2 = 0.0;
+      for (std::size_t m = a.size(); m-- > 1;) {
+        const cplx b0 = a[m] + 2.0 * u * b1 - b2;
+        b2 = b1, b1 = b0;
+      }
+      out[c] = a[0] + u * b1 - b2;
     }
-    return a[0] + u * b1 - b2;
   }
 
  private:
@@ -231,12 +264,12 @@ class adiabatic_spans {
   static constexpr double kTail = 1e-13;
   struct span {
     double lo, hi;
-    std::vector<std::vector<cplx>> coefficients;  // per probe
+    std::vector<std::vector<cplx>> coefficients;  // per channel
   };
 
-  const span& span_at(double t) {
+  std::size_t span_at(double t) {
     auto it = std::upper_bound(spans_.begin(), spans_.end(), t, [](double x, const span& sp) { return x < sp.lo; });
-    if (it != spans_.begin() && t <= std::prev(it)->hi) return *std::prev(it);
+    if (it != spans_.begin() && t <= std::prev(it)->hi) return static_cast<std::size_t>(std::prev(it) - spans_.begin());
     // A new span from t, up to the next span, the next crossing and the sweep's end.
     double hi = t_end_ > t ? std::min(t + length_, t_end_) : t + length_;
     if (it != spans_.end()) hi = std::min(hi, it->lo);
@@ -249,7 +282,8 @@ class adiabatic_spans {
       span sp{t, hi, {}};
       if (fit(sp)) {
         length_ = std::max(length_, 1.5 * (hi - t));
-        return *spans_.insert(it, std::move(sp));
+        const auto at = spans_.insert(it, std::move(sp));  // (before begin(): the insertion may move the spans)
+        return static_cast<std::size_t>(at - spans_.begin());
       }
       if (attempt > 60) throw numerical_error("swept_response: the adiabatic response could not be interpolated near t = " + format_digits(t) + " s");
       hi = t + 0.5 * (hi - t);
@@ -259,15 +293,13 @@ class adiabatic_spans {
 
   bool fit(span& sp) const {
     const double mid = 0.5 * (sp.lo + sp.hi), half = 0.5 * (sp.hi - sp.lo);
-    std::vector<std::vector<cplx>> values(gammas_.size(), std::vector<cplx>(kPoints));
+    std::vector<std::vector<cplx>> values(channels_.size(), std::vector<cplx>(kPoints, 0.0));
     for (int j = 0; j < kPoints; ++j) {
       const double t = mid + half * std::cos(kPi * (j + 0.5) / kPoints);
-      std::vector<cplx> sk;
-      for (std::size_t k = 0; k < s_.modes().size(); ++k) sk.push_back(s_.adiabatic(k, t, f_));
-      for (std::size_t p = 0; p < gammas_.size(); ++p) {
-        cplx sum = 0.0;
-        for (std::size_t k = 0; k < sk.size(); ++k) sum += gammas_[p][k] * sk[k];
-        values[p][static_cast<std::size_t>(j)] = sum;
+      for (std::size_t k = 0; k < s_.modes().size(); ++k) {
+        const std::array<cplx, 2> both = s_.adiabatic_both(k, t);
+        for (std::size_t c = 0; c < channels_.size(); ++c)
+          values[c][static_cast<std::size_t>(j)] += channels_[c].gamma[k] * both[channels_[c].forcing == swept_forcing::bow ? 1 : 0];
       }
     }
     for (const auto& v : values) {
@@ -286,12 +318,12 @@ class adiabatic_spans {
   }
 
   const swept_response& s_;
-  const std::vector<std::vector<cplx>>& gammas_;
-  swept_forcing f_;
+  const std::vector<channel>& channels_;
   double t_end_;
   double length_;
   std::vector<double> breaks_;
   std::vector<span> spans_;
+  std::size_t last_ = 0;
 };
 
 }  // namespace
@@ -307,17 +339,21 @@ swept_table_columns swept_1x(const linear_rotor& rotor, const std::vector<double
   for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
   std::stable_sort(order.begin(), order.end(), [&](std::size_t x, std::size_t y) { return rows.time[x] < rows.time[y]; });
 
+  // Every probe's reading of each forcing, as one set of channels sharing the nodes.
+  std::vector<channel> channels;
+  for (const auto& g : gammas) {
+    channels.push_back({g, swept_forcing::unbalance});
+    if (with_bow) channels.push_back({g, swept_forcing::bow});
+  }
+  adiabatic_spans spans(s, channels, t_end, rows.block_end[order.front()] - rows.block_start[order.front()]);
   swept_table_columns out;
   out.columns.assign(probe_angles.size(), std::vector<std::array<cplx, 4>>(speeds.size(), {0.0, 0.0, 0.0, 0.0}));
-  for (const swept_forcing f : {swept_forcing::unbalance, swept_forcing::bow}) {
-    if (f == swept_forcing::bow && !with_bow) continue;
-    adiabatic_spans spans(s, gammas, f, t_end, rows.block_end[order.front()] - rows.block_start[order.front()]);
-    const std::size_t col = f == swept_forcing::bow ? 2 : 0;
-    for (const std::size_t i : order)
-      for (std::size_t p = 0; p < probe_angles.size(); ++p) {
-        const auto read = block_read(s, rows.block_start[i], rows.block_end[i], revolutions, gammas[p], f, [&](double t) { return spans.at(p, t); });
-        out.columns[p][i][col] = read[0], out.columns[p][i][col + 1] = read[1];
-      }
+  for (const std::size_t i : order) {
+    const auto reads = block_read(s, rows.block_start[i], rows.block_end[i], revolutions, channels, spans);
+    for (std::size_t p = 0, c = 0; p < probe_angles.size(); ++p) {
+      out.columns[p][i][0] = reads[c][0], out.columns[p][i][1] = reads[c][1], ++c;
+      if (with_bow) out.columns[p][i][2] = reads[c][0], out.columns[p][i][3] = reads[c][1], ++c;
+    }
   }
   return out;
 }

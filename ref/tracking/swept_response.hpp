@@ -79,8 +79,10 @@ class swept_response {
     Eigen::Vector2cd displacement;                   // V's (x, y) rows of the mode's vector
   };
   const std::vector<mode>& modes() const { return modes_; }
-  // Mode k's S_k(t) for forcing f (on its bounded branch at t).
+  // Mode k's S_k(t) for forcing f (on its bounded branch at t); for both forcings at once (one
+  // Faddeeva evaluation): {unbalance, bow}.
   std::complex<double> adiabatic(std::size_t k, double t, swept_forcing f) const;
+  std::array<std::complex<double>, 2> adiabatic_both(std::size_t k, double t) const;
   // Mode k's ringing R_k(t) for forcing f (0 before its crossing).
   std::complex<double> ringing(std::size_t k, double t, swept_forcing f) const;
 

@@ -6,6 +6,7 @@
 #include <complex>
 #include <limits>
 #include <mutex>
+#include <numbers>
 #include <optional>
 #include <tuple>
 
@@ -32,14 +33,16 @@ constexpr int kBandCount = default_count_of("tracking", "residual_bands");
 constexpr std::size_t kMinFoldRows = 8;
 
 // The parts a table's loop decides on, bit k of a combination: the paper's own anisotropy and
-// rub (ref/model/effects.hpp), and the effect library's shaft_bow and cross_coupling, by the
-// library's names.
-const std::array<std::string, 4>& part_names() {
-  static const std::array<std::string, 4> names{std::string(anisotropy_part), std::string(find_effect("shaft_bow").name),
-                                                std::string(find_effect("cross_coupling").name), std::string(rub_part)};
+// rub and the run-up's transient (ref/model/effects.hpp), and the effect library's shaft_bow and
+// cross_coupling, by the library's names.
+const std::array<std::string, 5>& part_names() {
+  static const std::array<std::string, 5> names{std::string(anisotropy_part), std::string(find_effect("shaft_bow").name),
+                                                std::string(find_effect("cross_coupling").name), std::string(rub_part),
+                                                std::string(sweep_transient_part)};
   return names;
 }
-constexpr unsigned kRub = 8u;  // the rub's bit
+constexpr unsigned kRub = 8u;     // the rub's bit
+constexpr unsigned kSweep = 16u;  // the sweep's bit (never with the rub's: a rub fit's orbits are steady)
 const std::string& misalignment_name() {
   static const std::string name(find_effect("misalignment_2x").name);
   return name;
@@ -111,6 +114,14 @@ std::string undetermined_part(const response_fit& f, const evidence_rules& rules
                                 : ""});
 }
 
+// A swept fit's plausibility: a contact-free fit's, and its sweep rate determined (its 95 % interval
+// within max_interval_ratio, not at the slow end of its range, where the table is quasi-steady).
+std::string undetermined_sweep(const response_fit& f, const evidence_rules& rules) {
+  return first_implausible({undetermined_part(f, rules),
+                            f.sweep_at_slow_bound ? "the sweep rate sits at the slow end of its range: the table is quasi-steady" : "",
+                            !f.sweep_rpm_per_s.determined ? "the sweep rate's 95 % interval spans more than 4x (the table is quasi-steady at its noise)" : ""});
+}
+
 // A rub fit's plausibility, as a contact-free fit's: its clearance determined (some speed's orbit
 // touches, its 95 % interval within max_interval_ratio), its modes determined, a bow's interval
 // away from 0, a cross-coupling term away from 0.
@@ -137,6 +148,14 @@ std::string estimates_of(const std::string& name, const response_fit& f) {
     return s;
   }
   if (name == part_names()[1]) return "bow " + interval_text(f.bow_m, 1e6, " µm") + " at " + interval_text(f.bow_phase_deg, 1.0, " deg");
+  if (name == sweep_transient_part) {
+    std::string s = std::string(f.sweep_direction > 0 ? "run-up" : "coast-down") + " at " + interval_text(f.sweep_rpm_per_s, 1.0, " rpm/s") + ", " +
+                    format_digits(f.sweep_revolutions) + " revolutions per row (" + (f.sweep_revolutions_fitted ? "fitted" : "declared") + ")";
+    if (!f.parts.anisotropy)  // the modes it moves, when no anisotropy names them itself
+      for (const auto& m : f.modes)
+        s += "; mode " + m.axis + " " + interval_text(m.critical_speed_rpm, 1.0, " rpm") + ", damping ratio " + interval_text(m.damping_ratio, 1.0, "");
+    return s;
+  }
   return "k_xy/m " + interval_text(f.k_xy_over_m, 1.0, " 1/s^2") + ", k_yx/m " + interval_text(f.k_yx_over_m, 1.0, " 1/s^2");
 }
 
@@ -195,7 +214,8 @@ struct table_run {
   std::vector<unsigned> masks{0u, 1u, 2u, 4u, 3u, 5u, 6u, 7u};  // the combinations fitted, fewer effects first
   std::vector<response_fit> fits = std::vector<response_fit>(8);
   std::vector<std::optional<rub_fit>> rubs = std::vector<std::optional<rub_fit>>(16);
-  std::vector<std::optional<std::vector<double>>> held = std::vector<std::optional<std::vector<double>>>(16);
+  std::vector<std::optional<response_fit>> swept = std::vector<std::optional<response_fit>>(8);  // by contact-free mask
+  std::vector<std::optional<std::vector<double>>> held = std::vector<std::optional<std::vector<double>>>(32);
   std::size_t observations = 0;
   fit_orbit_options orbits = {};  // the rub fits' orbits (the verdict's check tightens them)
 
@@ -214,15 +234,17 @@ struct table_run {
   }
   static response_parts parts_of(unsigned mask) {
     response_parts p;
-    p.anisotropy = mask & 1u, p.shaft_bow = mask & 2u, p.cross_coupling = mask & 4u;
+    p.anisotropy = mask & 1u, p.shaft_bow = mask & 2u, p.cross_coupling = mask & 4u, p.sweep = mask & kSweep;
     return p;
   }
-  bool has(unsigned mask) const { return !(mask & kRub) || rubs[mask].has_value(); }
-  double chi2(unsigned mask) const { return mask & kRub ? rubs[mask]->chi2 : fits[mask].chi2; }
-  double chi2_uncertainty(unsigned mask) const { return mask & kRub ? rubs[mask]->chi2_uncertainty : fits[mask].chi2_uncertainty; }
-  std::size_t dof(unsigned mask) const { return mask & kRub ? rubs[mask]->dof : fits[mask].dof; }
-  std::size_t parameters(unsigned mask) const { return mask & kRub ? rubs[mask]->parameters : fits[mask].parameters; }
-  bool at_noise(unsigned mask) const { return mask & kRub ? rubs[mask]->consistent_with_noise : fits[mask].consistent_with_noise; }
+  // A combination without contact: its steady fit or, with the sweep's bit, its swept one.
+  const response_fit& response(unsigned mask) const { return mask & kSweep ? *swept[mask & 7u] : fits[mask & 7u]; }
+  bool has(unsigned mask) const { return mask & kRub ? rubs[mask].has_value() : mask & kSweep ? swept[mask & 7u].has_value() : true; }
+  double chi2(unsigned mask) const { return mask & kRub ? rubs[mask]->chi2 : response(mask).chi2; }
+  double chi2_uncertainty(unsigned mask) const { return mask & kRub ? rubs[mask]->chi2_uncertainty : response(mask).chi2_uncertainty; }
+  std::size_t dof(unsigned mask) const { return mask & kRub ? rubs[mask]->dof : response(mask).dof; }
+  std::size_t parameters(unsigned mask) const { return mask & kRub ? rubs[mask]->parameters : response(mask).parameters; }
+  bool at_noise(unsigned mask) const { return mask & kRub ? rubs[mask]->consistent_with_noise : response(mask).consistent_with_noise; }
   double criterion(unsigned mask) const { return information_criterion(chi2(mask), static_cast<double>(observations), parameters(mask)); }
 
   // chi^2 of each fold's held-out rows, the combination refitted on the other fold from its fit on
@@ -236,7 +258,7 @@ struct table_run {
           const rub_fit part = fit_rub(table, fits[mask & 7u], rub_options(fold.rows[k], &*rubs[mask]));
           out.push_back(chi2_of(part.residual, part.noise_m, fold.rows[1 - k]));
         } else {
-          const response_fit part = fit_response(table, parts_of(mask), options(&fits[mask], fold.rows[k], fit_starts::given_only));
+          const response_fit part = fit_response(table, parts_of(mask), options(&response(mask), fold.rows[k], fit_starts::given_only));
           out.push_back(chi2_of(part.residual, part.noise_m, fold.rows[1 - k]));
         }
       }
@@ -253,6 +275,55 @@ std::string part_list(unsigned mask) {
   for (unsigned k = 0; k < 3; ++k)
     if (mask & (1u << k)) parts += (parts.empty() ? "" : ", ") + part_names()[k];
   return parts.empty() ? std::string("the base") : parts;
+}
+
+// The sweep (bit 4), where no plausible contact-free combination leaves a residual within the
+// noise: every combination again, the rotor swept through the table's speeds at a constant
+// acceleration (ref/tracking/swept_response.hpp), each from its steady fit (the grid of sweep
+// rates) and from the swept fits of one effect fewer (as they are); the better kept. A level's
+// combinations are fitted on the machine's threads, each into its own slot, kept in the order one
+// thread meets them. A combination whose swept response cannot be computed from any start is left
+// out, and said so.
+void fit_sweeps(table_run& run, std::vector<std::string>& notes) {
+  run.say(std::string(sweep_transient_part) + ": every combination swept through the table's speeds at a constant acceleration ...");
+  for (const std::vector<unsigned>& level : {std::vector<unsigned>{0u}, {1u, 2u, 4u}, {3u, 5u, 6u}, {7u}}) {
+    std::vector<std::optional<response_fit>> fitted(level.size());
+    std::vector<std::string> failed(level.size());
+    parallel_for(level.size(), 0, [&](std::size_t i) {
+      const unsigned mask = level[i];
+      std::vector<const response_fit*> from{&run.fits[mask]};
+      for (unsigned k = 0; k < 3; ++k)
+        if ((mask & (1u << k)) && run.swept[mask & ~(1u << k)]) from.push_back(&*run.swept[mask & ~(1u << k)]);
+      for (const response_fit* start : from) try {
+          response_fit_options o = run.options(start);
+          // The block and the direction are the instrument's and the run's, not the rotor's: found
+          // once, by the swept base fit, and kept for its steady starts (a swept start keeps its
+          // own), which start at its rate (the rate is set by the beats' spacing, which the
+          // effects move little).
+          if (mask != 0u && run.swept[0] && !start->parts.sweep) {
+            const response_fit& base = *run.swept[0];
+            o.revolutions_per_row = base.sweep_revolutions, o.sweep_direction = base.sweep_direction;
+            o.sweep_rate_start = base.sweep_rpm_per_s.value * 2.0 * std::numbers::pi / 60.0;
+          }
+          response_fit f = fit_response(run.table, table_run::parts_of(mask | kSweep), o);
+          if (mask != 0u && run.swept[0] && !start->parts.sweep) f.sweep_revolutions_fitted = run.swept[0]->sweep_revolutions_fitted;
+          if (!fitted[i] || f.chi2 < fitted[i]->chi2) fitted[i] = std::move(f);
+        } catch (const numerical_error& e) {
+          failed[i] = e.what();
+        }
+    });
+    for (std::size_t i = 0; i < level.size(); ++i) {
+      const unsigned mask = level[i];
+      if (!fitted[i]) {
+        notes.push_back("the swept fit with " + part_list(mask) + " found no point whose response could be computed: " + failed[i]);
+        continue;
+      }
+      run.say("  swept with " + part_list(mask) + ": chi^2/dof " + format_digits(fitted[i]->chi2 / static_cast<double>(std::max<std::size_t>(fitted[i]->dof, 1))) +
+              ", " + format_digits(fitted[i]->sweep_rpm_per_s.value, 3) + " rpm/s, " + std::to_string(fitted[i]->evaluations) + " evaluations");
+      run.swept[mask] = std::move(fitted[i]);
+      run.masks.push_back(mask | kSweep);
+    }
+  }
 }
 
 // Every combination of the contact-free effects, fewer effects first, each from the grid and from
@@ -402,18 +473,18 @@ std::size_t judge_models(table_run& run, std::vector<tracked_model>& models) {
   std::size_t chosen = 0;
   for (const unsigned mask : run.masks) {
     tracked_model m;
-    for (unsigned k = 0; k < 4; ++k)
+    for (unsigned k = 0; k < 5; ++k)
       if (mask & (1u << k)) m.effects.push_back(part_names()[k]);
     m.chi2 = run.chi2(mask), m.bic = run.criterion(mask), m.chi2_uncertainty = run.chi2_uncertainty(mask);
     if (mask & kRub) {
       m.undetermined = undetermined_rub(*run.rubs[mask]);
       m.estimates = rub_estimates(*run.rubs[mask]);
     } else {
-      m.undetermined = undetermined_part(run.fits[mask], run.rules);
-      for (const auto& e : m.effects) m.estimates += (m.estimates.empty() ? "" : "; ") + estimates_of(e, run.fits[mask]);
+      m.undetermined = mask & kSweep ? undetermined_sweep(run.response(mask), run.rules) : undetermined_part(run.response(mask), run.rules);
+      for (const auto& e : m.effects) m.estimates += (m.estimates.empty() ? "" : "; ") + estimates_of(e, run.response(mask));
     }
     bool all_needed = true;
-    for (unsigned k = 0; k < 4; ++k)
+    for (unsigned k = 0; k < 5; ++k)
       if (mask & (1u << k)) {
         m.needs.push_back(need_of(run, mask, k, m.undetermined.empty()));
         all_needed = all_needed && m.needs.back().needed;
@@ -562,8 +633,9 @@ std::vector<std::string> cannot_see(const tracking_result& r, bool declared) {
       "runout is not",
       "a seal's follower cross-coupling (k_xy = -k_yx) on a rotor whose supports are alike: its unbalance response is a forward whirl, on which the "
       "cross-coupling acts as less damping, which the damping ratio takes (on an anisotropic rotor it shows)",
-      "a run-up's transients: the model is the steady response at each speed; a sweep through a lightly damped critical speed leaves ringing just above it, "
-      "which shows in the residual bands",
+      "a run-up's transient beyond one constant acceleration: sweep_transient sweeps the rotor through the table's speeds at one rate (a profile that "
+      "changes its rate, or a tracking filter in place of blocks of whole revolutions, shows as a residual it leaves); it is tried where no steady "
+      "combination fits to the noise",
   };
   if (!declared)
     out.push_back("a rub, with a probe whose angle is not declared: the stator's direction against the probe is unknown, so the rub fit is not tried");
@@ -579,8 +651,8 @@ std::vector<std::string> cannot_see(const tracking_result& r, bool declared) {
 void decide_1x(table_run& run, tracking_result& r, std::size_t chosen, unsigned chosen_mask, const std::string& check_reason = {},
                const verdict* check = nullptr) {
   r.models[chosen].summary = "chosen: " + r.models[chosen].summary;
-  r.after = run.fits[chosen_mask & 7u];
-  if (run.rubs[chosen_mask | kRub]) r.rub = rub_result_of(run, r.models, chosen_mask, r.after);
+  r.after = run.response(chosen_mask & ~kRub);
+  if (!(chosen_mask & kSweep) && run.rubs[chosen_mask | kRub]) r.rub = rub_result_of(run, r.models, chosen_mask, r.after);
   const bool rub_named = r.rub && r.rub->named;
   const double chi2_after = rub_named ? r.rub->fit.chi2 : r.after.chi2;
   const double dof_after = static_cast<double>(rub_named ? r.rub->fit.dof : r.after.dof);
@@ -654,13 +726,20 @@ tracking_result run_tracking_loop(const order_table& table, const std::function<
   // they are tried, the verdict's check (docs/loop.md, "The verdict's check"; the records' loop's
   // rule) runs them again beside the fit, with every orbit tolerance check_tolerance_scale times
   // the fit's, and judges every model again; an effect the two do not both name is tentative.
+  // The run-up's own transient, where no steady combination fits to the noise (closed form, so the
+  // verdict's check, which re-runs the orbits' fits, reuses these); the rub, where no plausible
+  // combination, steady or swept, does.
+  if (!any_noise) fit_sweeps(run, r.notes);
+  for (unsigned mask = 0; mask < 8; ++mask)
+    any_noise = any_noise || (run.swept[mask] && undetermined_sweep(*run.swept[mask], run.rules).empty() && run.swept[mask]->consistent_with_noise);
   const bool rub_tried = declared && !any_noise, checked_run = rub_tried && settings.check_tolerance_scale != 0.0;
   std::optional<table_run> check_run;
   if (checked_run) {
     say("the verdict's check: the rub fits again with orbit tolerances " + format_digits(settings.check_tolerance_scale) +
         " times these, beside them ([check] lines); an effect the two do not both name is tentative");
     check_run.emplace(table_run{table, say_check, run.rules, run.noise, run.fold});
-    check_run->fits = run.fits, check_run->held = run.held, check_run->observations = run.observations;
+    check_run->fits = run.fits, check_run->swept = run.swept, check_run->masks = run.masks, check_run->held = run.held;
+    check_run->observations = run.observations;
     check_run->orbits = settings.orbits;
     check_run->orbits.tolerance_scale *= settings.check_tolerance_scale;
   }

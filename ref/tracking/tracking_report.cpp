@@ -56,6 +56,12 @@ json fit_json(const response_fit& f) {
                            {"noise_m", f.noise_m[p]}});
   if (f.parts.shaft_bow) j["shaft_bow"] = {{"bow_m", quantity(f.bow_m)}, {"phase_deg", quantity(f.bow_phase_deg)}};
   if (f.parts.cross_coupling) j["cross_coupling"] = {{"k_xy_over_m_1_s2", quantity(f.k_xy_over_m)}, {"k_yx_over_m_1_s2", quantity(f.k_yx_over_m)}};
+  if (f.parts.sweep)
+    j["sweep_transient"] = {{"rate_rpm_per_s", quantity(f.sweep_rpm_per_s)},
+                            {"direction", f.sweep_direction > 0 ? "run-up" : "coast-down"},
+                            {"revolutions_per_row", f.sweep_revolutions},
+                            {"revolutions_per_row_fitted", f.sweep_revolutions_fitted},
+                            {"quasi_steady", f.sweep_at_slow_bound}};
   j["cancellation"] = f.cancellation;
   j["chi2"] = f.chi2;
   j["dof"] = f.dof;
@@ -204,6 +210,12 @@ std::string to_markdown(const tracking_result& r) {
   if (f.parts.shaft_bow) s += "- shaft bow: " + with_interval(f.bow_m, 1e6) + " µm at " + with_interval(f.bow_phase_deg) + "°\n";
   if (f.parts.cross_coupling)
     s += "- cross-coupling k_xy/m " + with_interval(f.k_xy_over_m) + " 1/s², k_yx/m " + with_interval(f.k_yx_over_m) + " 1/s²\n";
+  if (f.parts.sweep)
+    s += "- the run-up's transient: swept " + std::string(f.sweep_direction > 0 ? "up" : "down") + " at " + with_interval(f.sweep_rpm_per_s) +
+         " rpm/s (constant acceleration), each row read over " + format_digits(f.sweep_revolutions) + " revolutions (" +
+         (f.sweep_revolutions_fitted ? "fitted" : "declared") + "); the steady base fit put the critical speed at " +
+         with_interval(r.before.modes.front().critical_speed_rpm, 1.0, 4) + " rpm, damping ratio " + with_interval(r.before.modes.front().damping_ratio) +
+         " (a steady fit's bias on a swept table)\n";
   for (std::size_t p = 0; p < r.noise_scatter_m.size(); ++p)
     s += "- noise" + (f.probes[p].empty() ? std::string() : " of " + f.probes[p]) + ": " + um(r.noise_scatter_m[p]) + " from the rows' scatter, " +
          um(r.noise_residual_m[p]) + " from the base fit's residual; used " + um(f.noise_m[p]) +
