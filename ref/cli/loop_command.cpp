@@ -26,6 +26,7 @@ struct loop_state {
   order_conventions conventions;        // order-tracked tables only
   std::vector<std::string> probe_angles;  // "DEG" or "NAME=DEG"
   double scale = 0.0;
+  double revolutions_per_row = 0.0;
 };
 
 // The one line a run ends with: the errors, then the verdict (ref/inference/verdict.hpp), records
@@ -60,6 +61,7 @@ void run_on_table(const loop_state& st, staged_directory& dir) {
   const order_table table = read_order_table(st.files.front(), c);
   tracking_settings settings;  // the rub fits' orbits and the verdict's check, as on records
   settings.orbits = st.settings.orbits, settings.check_tolerance_scale = st.settings.check_tolerance_scale;
+  settings.revolutions_per_row = st.revolutions_per_row;
   const tracking_result r = run_tracking_loop(table, [](const std::string& line) { std::cerr << line << std::endl; }, settings);
   dir.write("report.json", to_json(r).dump(2) + "\n");
   dir.write("report.md", to_markdown(r));
@@ -95,13 +97,16 @@ void add_loop(CLI::App& app) {
   table->add_option("--phase-unit", st->conventions.phase_unit, "unit of phase columns without a unit suffix: deg, rad");
   table->add_option("--scale", st->scale, "probe sensitivity for volt amplitudes [mV/um]")->check(CLI::PositiveNumber);
   table->add_option("--probe-angle", st->probe_angles, "a probe's angle from +x towards +y [deg]: DEG (one probe) or NAME=DEG; repeatable");
+  table->add_option("--revolutions-per-row", st->revolutions_per_row,
+                    "revolutions each row's orders were read over (the run-up transient's block); default: fitted among 1, 2, 3, 4, 6, 8")
+      ->check(CLI::Range(1.0, 1e6));
   add_threads_option(*sub);
   sub->callback([st] {
     staged_directory dir(st->out);  // the output folder is checked before the work, not after it
     if (is_order_table_header(header_of(st->files.front()))) return run_on_table(*st, dir);
     if (!st->conventions.amplitude.empty() || !st->conventions.amplitude_unit.empty() || !st->conventions.phase.empty() ||
-        !st->conventions.phase_unit.empty() || st->scale != 0.0 || !st->probe_angles.empty())
-      throw input_error("--amplitude, --amplitude-unit, --phase, --phase-unit, --scale and --probe-angle describe an order-tracked table; " +
+        !st->conventions.phase_unit.empty() || st->scale != 0.0 || !st->probe_angles.empty() || st->revolutions_per_row != 0.0)
+      throw input_error("--amplitude, --amplitude-unit, --phase, --phase-unit, --scale, --probe-angle and --revolutions-per-row describe an order-tracked table; " +
                         st->files.front() + " is a time record");
     std::vector<std::pair<record, std::string>> records;
     for (const auto& f : st->files) records.emplace_back(read_record(f), f);

@@ -9,6 +9,7 @@
 #include "ref/base/errors.hpp"
 #include "ref/base/faddeeva.hpp"
 #include "ref/base/number_text.hpp"
+#include "ref/base/parallel.hpp"
 
 namespace rubref {
 
@@ -82,6 +83,10 @@ swept_response::swept_response(const linear_rotor& r, double omega_start, double
   if (!std::isfinite(condition) || condition > kMaxModalCondition)
     throw numerical_error("swept_response: the rotor's modes are ill-conditioned (condition " + format_digits(condition) +
                           "; a mode at critical damping?)");
+  // An unstable rotor (a cross-coupling past its onset) has no response a sweep could carry: its
+  // free modes grow without bound.
+  for (int k = 0; k < 4; ++k)
+    if (!(es.eigenvalues()(k).real() < 0.0)) throw numerical_error("swept_response: the rotor is unstable (a mode with growth rate " + format_digits(es.eigenvalues()(k).real()) + " 1/s)");
   c_ = std::sqrt(cplx(0.0, -0.5 * alpha));
   const Eigen::Vector4cd d_unbalance(0.0, 0.0, 1.0, -kJ), d_bow(0.0, 0.0, r.wx * r.wx, -kJ * (r.wy * r.wy));
   const Eigen::Vector4cd p_u = vinv * d_unbalance, p_b = vinv * d_bow;
@@ -94,10 +99,13 @@ swept_response::swept_response(const linear_rotor& r, double omega_start, double
     // Re x_k grows with t (Re c > 0 for either sign of alpha): one crossing at most.
     m.crossing = -m.x0.real() / c_.real();
     if (m.crossing > 0.0) {
+      // Relative to the shaft's angle there, e^{j theta(t*)}: a phase a read takes from its own
+      // block (the absolute angle of a slow sweep runs to 1e12 rad, whose last digits are noise).
       const cplx x = m.x0 + c_ * m.crossing;
-      const cplx ring = kSqrtPi / c_ * std::exp(kJ * angle(m.crossing) + x * x);
+      const cplx ring = kSqrtPi / c_ * std::exp(x * x);
       m.ring_unbalance = -m.lambda * m.lambda * m.p_unbalance * ring;
       m.ring_bow = m.p_bow * ring;
+      m.crossing_speed = speed(m.crossing), m.crossing_angle = angle(m.crossing);
     }
     modes_.push_back(m);
   }
@@ -118,7 +126,7 @@ cplx swept_response::adiabatic(std::size_t k, double t, swept_forcing f) const {
 cplx swept_response::ringing(std::size_t k, double t, swept_forcing f) const {
   const mode& m = modes_[k];
   if (!(m.crossing > 0.0) || t <= m.crossing) return 0.0;
-  return (f == swept_forcing::bow ? m.ring_bow : m.ring_unbalance) * std::exp(m.lambda * (t - m.crossing));
+  return (f == swept_forcing::bow ? m.ring_bow : m.ring_unbalance) * std::exp(kJ * m.crossing_angle + m.lambda * (t - m.crossing));
 }
 
 Eigen::Vector4cd swept_response::state(double t, swept_forcing f) const {
@@ -142,47 +150,64 @@ struct channel {
 };
 
 // Each channel's block integrals A = integral rho e^{-j theta} Omega dt and B = integral conj(rho)
-// e^{-j theta} Omega dt over [ta, tb], rho = sum_k gamma_k eta_k, with the channels' adiabatic sums
-// sum_k gamma_k S_k(t) given by `adiabatic_sums(t, out)` (exact or interpolated); per channel the
-// columns per unit Re and Im of the amplitude: (A + B, j (A - B)) / (2 pi N). The channels share
-// the nodes (one angle, one look-up of the sums per node).
+// e^{-j theta} Omega dt over the block t_mid +- half (speed omega_mid at its middle), rho =
+// sum_k gamma_k eta_k, with the channels' adiabatic sums sum_k gamma_k S_k(t) given by
+// `adiabatic_sums(t, out)` (exact or interpolated); per channel the columns per unit Re and Im of
+// the amplitude: (A + B, j (A - B)) / (2 pi N). The channels share the nodes (one angle, one
+// look-up of the sums per node). The shaft's angle is taken from the block's first keyphasor
+// pulse, as the instrument takes it (a block is whole revolutions from a pulse), and a ringing
+// mode's phase from its crossing by speeds: never an absolute angle (a slow sweep's runs to
+// 1e12 rad, and its last digits would make the read jitter with the rate).
 template <class AdiabaticSums>
-std::vector<std::array<cplx, 2>> block_read(const swept_response& s, double ta, double tb, double revolutions, const std::vector<channel>& channels,
-                                            AdiabaticSums& adiabatic_sums) {
-  const double omega_hi = std::max(std::abs(s.speed(ta)), std::abs(s.speed(tb)));
-  const double span = phase_rate(s, omega_hi) * (tb - ta);
+std::vector<std::array<cplx, 2>> block_read(const swept_response& s, double t_mid, double half, double omega_mid, double revolutions,
+                                            const std::vector<channel>& channels, AdiabaticSums& adiabatic_sums) {
+  const double alpha = s.alpha();
+  const double span = phase_rate(s, omega_mid + std::abs(alpha) * half) * 2.0 * half;
   const int panels = std::max(1, static_cast<int>(std::ceil(span / kMaxPanelPhase)));
   const gauss_rule& rule = rule_for(span / panels);
-  const double h = (tb - ta) / panels;
+  const double h = 2.0 * half / panels;
   const std::size_t n = channels.size();
   std::vector<cplx> sums(n);
   // The modes still ringing over the block, per channel: a mode's ringing decays from its
   // crossing on, and one below 1e-17 of the adiabatic response at the block's start adds nothing a
-  // double can hold.
-  adiabatic_sums(ta, sums);
-  std::vector<std::vector<std::pair<std::size_t, cplx>>> ringing(n);  // (mode, gamma_k ring_k)
+  // double can hold. Its time since the crossing from the speeds: (omega_mid - Omega(t*)) / alpha.
+  adiabatic_sums(t_mid - half, sums);
+  struct ring_term {
+    std::size_t channel;
+    cplx lambda, ring;
+    double since_mid, crossing_speed;
+  };
+  std::vector<ring_term> ringing;
   for (std::size_t c = 0; c < n; ++c)
-    for (std::size_t k = 0; k < s.modes().size(); ++k) {
-      const auto& m = s.modes()[k];
-      if (!(m.crossing > 0.0) || tb <= m.crossing) continue;
-      const cplx ring = channels[c].gamma[k] * (channels[c].forcing == swept_forcing::bow ? m.ring_bow : m.ring_unbalance);
-      if (std::abs(ring) * std::exp(m.lambda.real() * (std::max(ta, m.crossing) - m.crossing)) > 1e-17 * std::abs(sums[c])) ringing[c].emplace_back(k, ring);
+    for (const auto& m : s.modes()) {
+      if (!(m.crossing > 0.0)) continue;
+      const double since_mid = (omega_mid - m.crossing_speed) / alpha;
+      if (since_mid + half <= 0.0) continue;
+      const cplx ring = channels[c].gamma[&m - s.modes().data()] * (channels[c].forcing == swept_forcing::bow ? m.ring_bow : m.ring_unbalance);
+      if (std::abs(ring) * std::exp(m.lambda.real() * std::max(0.0, since_mid - half)) > 1e-17 * std::abs(sums[c]))
+        ringing.push_back({c, m.lambda, ring, since_mid, m.crossing_speed});
     }
-  std::vector<cplx> a(n, 0.0), b(n, 0.0);
+  std::vector<cplx> a(n, 0.0), b(n, 0.0), ring_a(n), ring_b(n);
   for (int p = 0; p < panels; ++p) {
-    const double mid = ta + (p + 0.5) * h;
+    const double mid = -half + (p + 0.5) * h;
     for (std::size_t i = 0; i < rule.node.size(); ++i) {
-      const double t = mid + 0.5 * h * rule.node[i], wt = 0.5 * h * rule.weight[i] * s.speed(t);
-      const cplx back = std::polar(1.0, -s.angle(t));
-      adiabatic_sums(t, sums);
+      const double tau = mid + 0.5 * h * rule.node[i], omega = omega_mid + alpha * tau;
+      const double wt = 0.5 * h * rule.weight[i] * omega;
+      // e^{-j theta(t)}, theta from the block's first keyphasor pulse (a block is whole revolutions
+      // from one pulse: theta = 0 at its start, 2 pi N at its end).
+      const cplx back = std::polar(1.0, -(omega_mid * (tau + half) + 0.5 * alpha * (tau * tau - half * half)));
+      adiabatic_sums(t_mid + tau, sums);
+      std::fill(ring_a.begin(), ring_a.end(), cplx(0.0)), std::fill(ring_b.begin(), ring_b.end(), cplx(0.0));
+      for (const ring_term& r : ringing) {
+        const double dt = r.since_mid + tau;  // since the crossing (0 before it: a block may hold the crossing)
+        if (!(dt > 0.0)) continue;
+        const double turned = (r.crossing_speed + 0.5 * alpha * dt) * dt;  // theta(t) - theta(t*)
+        ring_a[r.channel] += r.ring * std::exp(r.lambda * dt - kJ * turned);                                // e^{-j theta} R
+        ring_b[r.channel] += back * back * std::conj(r.ring) * std::exp(std::conj(r.lambda) * dt + kJ * turned);  // e^{-j theta} conj(R)
+      }
       for (std::size_t c = 0; c < n; ++c) {
-        cplx sum_r = 0.0;
-        for (const auto& [k, ring] : ringing[c]) {
-          const auto& m = s.modes()[k];
-          if (t > m.crossing) sum_r += ring * std::exp(m.lambda * (t - m.crossing));  // (0 before it: a block may hold the crossing)
-        }
-        a[c] += wt * (sums[c] + back * sum_r);
-        b[c] += wt * back * std::conj(std::conj(back) * sums[c] + sum_r);
+        a[c] += wt * (sums[c] + ring_a[c]);
+        b[c] += wt * (back * back * std::conj(sums[c]) + ring_b[c]);
       }
     }
   }
@@ -206,7 +231,8 @@ std::array<cplx, 2> swept_response::read(double ta, double tb, double revolution
     out[0] = 0.0;
     for (std::size_t k = 0; k < modes_.size(); ++k) out[0] += channels[0].gamma[k] * adiabatic(k, t, f);
   };
-  return block_read(*this, ta, tb, revolutions, channels, exact)[0];
+  const double t_mid = 0.5 * (ta + tb);
+  return block_read(*this, t_mid, 0.5 * (tb - ta), speed(t_mid), revolutions, channels, exact)[0];
 }
 
 swept_rows swept_row_times(const std::vector<double>& speeds, double alpha, double revolutions) {
@@ -236,17 +262,40 @@ namespace {
 // changes branch there). One Faddeeva evaluation per mode and point, shared by the channels.
 class adiabatic_spans {
  public:
-  adiabatic_spans(const swept_response& s, const std::vector<channel>& channels, double t_end, double first_length)
-      : s_(s), channels_(channels), t_end_(t_end), length_(first_length) {
+  // At most max_spans spans: a response that needs more is not smooth where it should be (a
+  // failed evaluation, never a silent blow-up).
+  adiabatic_spans(const swept_response& s, const std::vector<channel>& channels, double t_end, double first_length, std::size_t max_spans)
+      : s_(s), channels_(channels), t_end_(t_end), length_(first_length), max_spans_(max_spans) {
     for (const auto& m : s.modes())
       if (m.crossing > 0.0) breaks_.push_back(m.crossing);
     std::sort(breaks_.begin(), breaks_.end());
   }
 
-  // Every channel's sum at t.
-  void operator()(double t, std::vector<cplx>& out) {
-    if (last_ >= spans_.size() || t < spans_[last_].lo || t > spans_[last_].hi) last_ = span_at(t);
-    const span& sp = spans_[last_];
+  // Spans over [a, b] (made in time order before any read, so that reads on several threads only
+  // look them up).
+  void cover(double a, double b) {
+    for (double t = a;;) {
+      const span& sp = spans_[span_at(t)];
+      if (sp.hi >= b) return;
+      t = std::nextafter(sp.hi, std::numeric_limits<double>::infinity());
+    }
+  }
+
+  // A reader of every channel's sum at t in the covered spans; `last` is its own place.
+  struct reader {
+    const adiabatic_spans& spans;
+    std::size_t last = 0;
+    void operator()(double t, std::vector<cplx>& out) { spans.read(t, out, last); }
+  };
+
+ private:
+  void read(double t, std::vector<cplx>& out, std::size_t& last) const {
+    if (last >= spans_.size() || t < spans_[last].lo || t > spans_[last].hi) {
+      const auto it = std::upper_bound(spans_.begin(), spans_.end(), t, [](double x, const span& sp) { return x < sp.lo; });
+      if (it == spans_.begin() || t > std::prev(it)->hi) throw numerical_error("swept_response: a read outside the interpolated spans");
+      last = static_cast<std::size_t>(std::prev(it) - spans_.begin());
+    }
+    const span& sp = spans_[last];
     const double u = (2.0 * t - sp.lo - sp.hi) / (sp.hi - sp.lo);
     for (std::size_t c = 0; c < channels_.size(); ++c) {  // Clenshaw
       const std::vector<cplx>& a = sp.coefficients[c];
@@ -259,7 +308,6 @@ class adiabatic_spans {
     }
   }
 
- private:
   static constexpr int kPoints = 16;
   static constexpr double kTail = 1e-13;
   struct span {
@@ -278,6 +326,9 @@ class adiabatic_spans {
         hi = std::min(hi, b);
         break;
       }
+    if (spans_.size() >= max_spans_)
+      throw numerical_error("swept_response: the adiabatic response needs more than " + std::to_string(max_spans_) + " interpolation spans (at t = " +
+                            format_digits(t) + " s, span " + format_digits(hi - t) + " s)");
     for (int attempt = 0;; ++attempt) {
       span sp{t, hi, {}};
       if (fit(sp)) {
@@ -321,9 +372,9 @@ class adiabatic_spans {
   const std::vector<channel>& channels_;
   double t_end_;
   double length_;
+  std::size_t max_spans_;
   std::vector<double> breaks_;
   std::vector<span> spans_;
-  std::size_t last_ = 0;
 };
 
 }  // namespace
@@ -345,16 +396,24 @@ swept_table_columns swept_1x(const linear_rotor& rotor, const std::vector<double
     channels.push_back({g, swept_forcing::unbalance});
     if (with_bow) channels.push_back({g, swept_forcing::bow});
   }
-  adiabatic_spans spans(s, channels, t_end, rows.block_end[order.front()] - rows.block_start[order.front()]);
+  // (A span per row at most, and as many again: a smooth response needs far fewer.)
+  adiabatic_spans spans(s, channels, t_end, rows.block_end[order.front()] - rows.block_start[order.front()], 2 * speeds.size() + 64);
   swept_table_columns out;
   out.columns.assign(probe_angles.size(), std::vector<std::array<cplx, 4>>(speeds.size(), {0.0, 0.0, 0.0, 0.0}));
-  for (const std::size_t i : order) {
-    const auto reads = block_read(s, rows.block_start[i], rows.block_end[i], revolutions, channels, spans);
-    for (std::size_t p = 0, c = 0; p < probe_angles.size(); ++p) {
-      out.columns[p][i][0] = reads[c][0], out.columns[p][i][1] = reads[c][1], ++c;
-      if (with_bow) out.columns[p][i][2] = reads[c][0], out.columns[p][i][3] = reads[c][1], ++c;
+  for (const std::size_t i : order) spans.cover(rows.block_start[i], rows.block_end[i]);
+  // The rows' reads on the machine's threads, in chunks (each writes its own rows).
+  constexpr std::size_t kChunk = 64;
+  parallel_for((order.size() + kChunk - 1) / kChunk, 0, [&](std::size_t chunk) {
+    adiabatic_spans::reader read{spans};
+    for (std::size_t k = chunk * kChunk; k < std::min(order.size(), (chunk + 1) * kChunk); ++k) {
+      const std::size_t i = order[k];
+      const auto reads = block_read(s, rows.time[i], kPi * revolutions / speeds[i], speeds[i], revolutions, channels, read);
+      for (std::size_t p = 0, c = 0; p < probe_angles.size(); ++p) {
+        out.columns[p][i][0] = reads[c][0], out.columns[p][i][1] = reads[c][1], ++c;
+        if (with_bow) out.columns[p][i][2] = reads[c][0], out.columns[p][i][3] = reads[c][1], ++c;
+      }
     }
-  }
+  });
   return out;
 }
 

@@ -23,8 +23,9 @@
 // first row as it runs after it; to first order in alpha that is the steady response there).
 //
 // The table's instrument reads each row's 1X over a block of N revolutions centred on the row
-// (computed order tracking in the shaft-angle domain): v = 1/(pi N) integral r(theta) e^{-j theta}
-// d theta, and the row's speed is the block's mean speed. r is linear in (Re U, Im U) and
+// (computed order tracking in the shaft-angle domain), from a keyphasor pulse: v = 1/(pi N)
+// integral r(theta) e^{-j theta} d theta with theta = 0 at the block's start, and the row's speed
+// is the block's mean speed. r is linear in (Re U, Im U) and
 // (Re B, Im B) but not complex-linear in U once the sweep rings (the backward parts of the
 // modes read as a conjugate), so each real coordinate has its own column.
 //
@@ -52,7 +53,7 @@ enum class swept_forcing { unbalance, bow };
 
 // A constant-acceleration sweep of `rotor`: time 0 at speed omega_start (rad/s), alpha (rad/s^2;
 // > 0 a run-up, < 0 a coast-down). numerical_error where the state matrix has no well-conditioned
-// modes (a mode exactly critically damped).
+// modes (a mode exactly critically damped) or a mode grows (an unstable rotor).
 class swept_response {
  public:
   swept_response(const linear_rotor& rotor, double omega_start, double alpha);
@@ -65,7 +66,8 @@ class swept_response {
   // answers the real forcing Re(.)), straight from the closed form.
   Eigen::Vector4cd state(double t, swept_forcing f) const;
 
-  // One probe's 1X read over [ta, tb] (N revolutions of the shaft), per unit Re and Im of the
+  // One probe's 1X read over [ta, tb] (N revolutions of the shaft from a keyphasor pulse: the
+  // angle is taken as 0 at ta, as an order tracker takes it), per unit Re and Im of the
   // forcing's amplitude (steady, the second is j times the first), straight from the closed form
   // at every node (the reference for the interpolated read of swept_1x).
   std::array<std::complex<double>, 2> read(double ta, double tb, double revolutions, double beta, swept_forcing f) const;
@@ -75,7 +77,10 @@ class swept_response {
     std::complex<double> p_unbalance, p_bow;  // (V^-1 d)_k
     std::complex<double> x0;                   // x_k(0)
     double crossing = 0.0;                     // t where Re x_k = 0 (<= 0: never, in t > 0)
-    std::complex<double> ring_unbalance, ring_bow;  // R_k(t) = ring e^{lambda (t - crossing)} for t > crossing
+    // R_k(t) = ring e^{j theta(t*)} e^{lambda (t - t*)} for t > t* = crossing (ring relative to the
+    // shaft's angle there); the speed and angle at t*.
+    std::complex<double> ring_unbalance, ring_bow;
+    double crossing_speed = 0.0, crossing_angle = 0.0;
     Eigen::Vector2cd displacement;                   // V's (x, y) rows of the mode's vector
   };
   const std::vector<mode>& modes() const { return modes_; }

@@ -218,11 +218,13 @@ struct table_run {
   std::vector<std::optional<std::vector<double>>> held = std::vector<std::optional<std::vector<double>>>(32);
   std::size_t observations = 0;
   fit_orbit_options orbits = {};  // the rub fits' orbits (the verdict's check tightens them)
+  double revolutions_per_row = 0.0;  // declared (0: a swept fit's block is fitted)
 
   response_fit_options options(const response_fit* start, std::vector<std::size_t> rows = {}, fit_starts how = fit_starts::grid) const {
     response_fit_options o;
     o.rows = std::move(rows), o.start = start, o.starts = how, o.noise_m = noise.noise;
     o.noise_relative_error = noise.relative_error();
+    o.revolutions_per_row = revolutions_per_row;
     return o;
   }
   rub_fit_options rub_options(std::vector<std::size_t> rows = {}, const rub_fit* start = nullptr) const {
@@ -693,6 +695,8 @@ bool tracking_result::unexplained() const { return decision.unexplained || (two_
 tracking_result run_tracking_loop(const order_table& table, const std::function<void(const std::string&)>& progress, const tracking_settings& settings) {
   settings.orbits.validate();
   check({"loop", "check_tolerance_scale"}, settings.check_tolerance_scale);
+  if (!(settings.revolutions_per_row == 0.0 || (settings.revolutions_per_row >= 1.0 && std::isfinite(settings.revolutions_per_row))))
+    throw input_error(setting("revolutions_per_row") + " must be at least 1 (revolutions per row), or 0 to fit it; got " + format_digits(settings.revolutions_per_row));
   std::mutex lines;  // the fit's and its check's progress, a whole line at a time
   const auto prefixed = [&](std::string prefix) {
     return std::function<void(const std::string&)>([&lines, &progress, prefix = std::move(prefix)](const std::string& s) {
@@ -713,6 +717,7 @@ tracking_result run_tracking_loop(const order_table& table, const std::function<
   say("base fit: one critical speed (isotropic), unbalance, runout, from " + std::to_string(table.rows()) + " rows ...");
   table_run run{table, say, evidence_rules{}, noise_estimate(row_scatter_noise(table), table.rows()), folds(table.rows())};
   run.orbits = settings.orbits;
+  run.revolutions_per_row = settings.revolutions_per_row;
   r.noise_scatter_m = run.noise.noise;
   r.noise_residual_m = fit_contact_free(run);
   r.before = run.fits[0];

@@ -110,6 +110,9 @@ struct tracking_result {
 struct tracking_settings {
   fit_orbit_options orbits = {};
   double check_tolerance_scale = default_of("loop", "check_tolerance_scale");
+  // The revolutions each row's 1X was read over (the sweep_transient's block), where the table's
+  // maker says; 0: fitted among kSweepRevolutions.
+  double revolutions_per_row = 0.0;
 };
 
 tracking_result run_tracking_loop(const order_table& table, const std::function<void(const std::string&)>& progress = {},
