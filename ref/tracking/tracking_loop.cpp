@@ -281,8 +281,9 @@ std::string part_list(unsigned mask) {
 
 // The sweep (bit 4), where no plausible contact-free combination leaves a residual within the
 // noise: every combination again, the rotor swept through the table's speeds at a constant
-// acceleration (ref/tracking/swept_response.hpp), each from its steady fit (the grid of sweep
-// rates) and from the swept fits of one effect fewer (as they are); the better kept. A level's
+// acceleration (ref/tracking/swept_response.hpp), each from its steady fit (the base at the grid of
+// sweep rates, the others at the swept base's rate, block and direction) and from the swept fits
+// of one effect fewer (as they are); the better kept. A level's
 // combinations are fitted on the machine's threads, each into its own slot, kept in the order one
 // thread meets them. A combination whose swept response cannot be computed from any start is left
 // out, and said so.
