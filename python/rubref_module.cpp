@@ -569,10 +569,12 @@ void bind_loop(py::module_& m) {
   });
   m.def("_loop_table", [conventions_of](const std::string& path, const std::string& amplitude, const std::string& amplitude_unit,
                                         const std::string& phase, const std::string& phase_unit, std::optional<double> scale,
-                                        const std::map<std::string, double>& probe_angles, const py::object& progress) {
+                                        const std::map<std::string, double>& probe_angles, double revolutions_per_row, const py::object& progress) {
     const order_table t = read_order_table(path, conventions_of(amplitude, amplitude_unit, phase, phase_unit, scale, probe_angles));
+    tracking_settings settings;
+    settings.revolutions_per_row = revolutions_per_row;
     const tracking_result r = interruptible(progress, [&](const auto& report) {
-      return run_tracking_loop(t, [&report](const std::string& line) { report(line); });
+      return run_tracking_loop(t, [&report](const std::string& line) { report(line); }, settings);
     });
     return to_python(to_json(r));
   });

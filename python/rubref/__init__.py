@@ -406,10 +406,12 @@ def read_order_table(path, amplitude=None, amplitude_unit=None, phase=None, phas
 
 @_front_door({"paths": _Arg("paths", "record files, or one order-tracked table"), "clearance": _RECORDS_CLEARANCE,
               "mass": _Arg("number", "rotor mass (None: the records' m_kg, else the paper's)", unit="kg", optional=True),
-              "max_effects": _Arg("count", row=("trace", "max_effects")), **_TABLE_ARGS, "progress": _PROGRESS},
+              "max_effects": _Arg("count", row=("trace", "max_effects")), **_TABLE_ARGS,
+              "revolutions_per_row": _Arg("number", "an order table's block: the revolutions each row was read over (None: fitted)", optional=True),
+              "progress": _PROGRESS},
              returns="dict: report.json's (error_before, error_after (the orbit's NRMSE), verdict {claim, named, tentative, explained_share, unexplained, rival, ...}, effects [{name, params, ...}], errors, notes, warnings, ...)")
 def loop(paths, clearance=None, mass=None, max_effects=_default("trace", "max_effects"), amplitude=None, amplitude_unit=None, phase=None,
-         phase_unit=None, scale=None, probe_angle=None, progress=None):
+         phase_unit=None, scale=None, probe_angle=None, revolutions_per_row=None, progress=None):
     """The loop (docs/loop.md): fit the paper's model to the records, trace the residual to the
     effects it lacks, refit; errors before and after. On one order-tracked table
     (docs/real-data.md) the table's conventions apply instead of clearance, mass and max_effects.
@@ -421,8 +423,9 @@ def loop(paths, clearance=None, mass=None, max_effects=_default("trace", "max_ef
         for name, value in (("clearance", clearance), ("mass", mass)):
             if value is not None:
                 raise InputError(f"loop: '{name}' is for record files; an order-tracked table takes amplitude, phase, scale, probe_angle")
-        return _rubref._loop_table(paths[0], *_conventions("loop", amplitude, amplitude_unit, phase, phase_unit, scale, probe_angle), sink)
-    for name in _TABLE_ARGS:
+        return _rubref._loop_table(paths[0], *_conventions("loop", amplitude, amplitude_unit, phase, phase_unit, scale, probe_angle),
+                                   revolutions_per_row or 0.0, sink)
+    for name in (*_TABLE_ARGS, "revolutions_per_row"):
         if locals()[name] is not None:
             raise InputError(f"loop: '{name}' is an order-tracked table's convention; these are record files")
     return _rubref._loop(paths, clearance, mass, max_effects, sink)
