@@ -9,6 +9,8 @@
 
 #include <gtest/gtest.h>
 
+#include "tests/estimate_checks.hpp"
+
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -318,12 +320,7 @@ swept_truth ringing_run_up() {
   return t;
 }
 
-// An estimate's 95 % interval holds the truth, widened by `slack` of it (the interval is the
-// linearised one).
-void expect_within(const estimate& e, double truth, double slack, const char* what) {
-  EXPECT_LE(e.lo - slack * std::abs(truth), truth) << what << " " << e.value << " [" << e.lo << ", " << e.hi << "]";
-  EXPECT_GE(e.hi + slack * std::abs(truth), truth) << what << " " << e.value << " [" << e.lo << ", " << e.hi << "]";
-}
+using testing::expect_within;
 
 void expect_recovered(const swept_truth& t, const response_fit& swept, const response_fit& steady_fit) {
   const double rpm = 60.0 / (2.0 * kPi);

@@ -4,6 +4,8 @@
 
 #include <gtest/gtest.h>
 
+#include "tests/estimate_checks.hpp"
+
 #include "tests/sanitized.hpp"
 
 #include <cmath>
@@ -63,12 +65,7 @@ order_table closed_form_table(const truth& t, double noise, std::optional<double
   return table;
 }
 
-// An estimate's 95 % interval holds the truth, widened by `slack` of the truth (the interval is
-// the linearised one; the truth sits in it 95 % of the time, the slack covers the nonlinearity).
-void expect_within(const estimate& e, double truth_value, double slack, const char* what) {
-  EXPECT_LE(e.lo - slack * std::abs(truth_value), truth_value) << what << " " << e.value << " [" << e.lo << ", " << e.hi << "]";
-  EXPECT_GE(e.hi + slack * std::abs(truth_value), truth_value) << what << " " << e.value << " [" << e.lo << ", " << e.hi << "]";
-}
+using testing::expect_within;
 
 // What the loop tried, for a failure's message.
 std::string trace(const tracking_result& r) {

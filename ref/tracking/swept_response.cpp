@@ -158,26 +158,34 @@ struct channel {
 // pulse, as the instrument takes it (a block is whole revolutions from a pulse), and a ringing
 // mode's phase from its crossing by speeds: never an absolute angle (a slow sweep's runs to
 // 1e12 rad, and its last digits would make the read jitter with the rate).
+// The read's scratch space, made once per run of rows (not per row: a table has thousands).
+struct block_workspace {
+  struct ring_term {
+    std::size_t channel;
+    cplx lambda, ring;
+    double since_mid, crossing_speed;
+  };
+  std::vector<cplx> sums, a, b, ring_a, ring_b;
+  std::vector<ring_term> ringing;
+};
+
 template <class AdiabaticSums>
 std::vector<std::array<cplx, 2>> block_read(const swept_response& s, double t_mid, double half, double omega_mid, double revolutions,
-                                            const std::vector<channel>& channels, AdiabaticSums& adiabatic_sums) {
+                                            const std::vector<channel>& channels, AdiabaticSums& adiabatic_sums, block_workspace& w) {
   const double alpha = s.alpha();
   const double span = phase_rate(s, omega_mid + std::abs(alpha) * half) * 2.0 * half;
   const int panels = std::max(1, static_cast<int>(std::ceil(span / kMaxPanelPhase)));
   const gauss_rule& rule = rule_for(span / panels);
   const double h = 2.0 * half / panels;
   const std::size_t n = channels.size();
-  std::vector<cplx> sums(n);
+  std::vector<cplx>& sums = w.sums;
+  sums.assign(n, 0.0);
   // The modes still ringing over the block, per channel: a mode's ringing decays from its
   // crossing on, and one below 1e-17 of the adiabatic response at the block's start adds nothing a
   // double can hold. Its time since the crossing from the speeds: (omega_mid - Omega(t*)) / alpha.
   adiabatic_sums(t_mid - half, sums);
-  struct ring_term {
-    std::size_t channel;
-    cplx lambda, ring;
-    double since_mid, crossing_speed;
-  };
-  std::vector<ring_term> ringing;
+  std::vector<block_workspace::ring_term>& ringing = w.ringing;
+  ringing.clear();
   for (std::size_t c = 0; c < n; ++c)
     for (const auto& m : s.modes()) {
       if (!(m.crossing > 0.0)) continue;
@@ -187,7 +195,8 @@ std::vector<std::array<cplx, 2>> block_read(const swept_response& s, double t_mi
       if (std::abs(ring) * std::exp(m.lambda.real() * std::max(0.0, since_mid - half)) > 1e-17 * std::abs(sums[c]))
         ringing.push_back({c, m.lambda, ring, since_mid, m.crossing_speed});
     }
-  std::vector<cplx> a(n, 0.0), b(n, 0.0), ring_a(n), ring_b(n);
+  std::vector<cplx>&a = w.a, &b = w.b, &ring_a = w.ring_a, &ring_b = w.ring_b;
+  a.assign(n, 0.0), b.assign(n, 0.0), ring_a.assign(n, 0.0), ring_b.assign(n, 0.0);
   for (int p = 0; p < panels; ++p) {
     const double mid = -half + (p + 0.5) * h;
     for (std::size_t i = 0; i < rule.node.size(); ++i) {
@@ -198,7 +207,7 @@ std::vector<std::array<cplx, 2>> block_read(const swept_response& s, double t_mi
       const cplx back = std::polar(1.0, -(omega_mid * (tau + half) + 0.5 * alpha * (tau * tau - half * half)));
       adiabatic_sums(t_mid + tau, sums);
       std::fill(ring_a.begin(), ring_a.end(), cplx(0.0)), std::fill(ring_b.begin(), ring_b.end(), cplx(0.0));
-      for (const ring_term& r : ringing) {
+      for (const auto& r : ringing) {
         const double dt = r.since_mid + tau;  // since the crossing (0 before it: a block may hold the crossing)
         if (!(dt > 0.0)) continue;
         const double turned = (r.crossing_speed + 0.5 * alpha * dt) * dt;  // theta(t) - theta(t*)
@@ -232,7 +241,8 @@ std::array<cplx, 2> swept_response::read(double ta, double tb, double revolution
     for (std::size_t k = 0; k < modes_.size(); ++k) out[0] += channels[0].gamma[k] * adiabatic(k, t, f);
   };
   const double t_mid = 0.5 * (ta + tb);
-  return block_read(*this, t_mid, 0.5 * (tb - ta), speed(t_mid), revolutions, channels, exact)[0];
+  block_workspace w;
+  return block_read(*this, t_mid, 0.5 * (tb - ta), speed(t_mid), revolutions, channels, exact, w)[0];
 }
 
 swept_rows swept_row_times(const std::vector<double>& speeds, double alpha, double revolutions) {
@@ -405,9 +415,10 @@ swept_table_columns swept_1x(const linear_rotor& rotor, const std::vector<double
   constexpr std::size_t kChunk = 64;
   parallel_for((order.size() + kChunk - 1) / kChunk, 0, [&](std::size_t chunk) {
     adiabatic_spans::reader read{spans};
+    block_workspace w;
     for (std::size_t k = chunk * kChunk; k < std::min(order.size(), (chunk + 1) * kChunk); ++k) {
       const std::size_t i = order[k];
-      const auto reads = block_read(s, rows.time[i], kPi * revolutions / speeds[i], speeds[i], revolutions, channels, read);
+      const auto reads = block_read(s, rows.time[i], kPi * revolutions / speeds[i], speeds[i], revolutions, channels, read, w);
       for (std::size_t p = 0, c = 0; p < probe_angles.size(); ++p) {
         out.columns[p][i][0] = reads[c][0], out.columns[p][i][1] = reads[c][1], ++c;
         if (with_bow) out.columns[p][i][2] = reads[c][0], out.columns[p][i][3] = reads[c][1], ++c;
