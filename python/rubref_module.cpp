@@ -562,6 +562,7 @@ void bind_loop(py::module_& m) {
     }
     py::dict out;
     out["rpm"] = to_array(t.rpm);
+    if (!t.time_s.empty()) out["time_s"] = to_array(t.time_s);
     out["orders"] = orders;
     out["notes"] = t.notes;
     out["conventions"] = t.conventions;
@@ -569,10 +570,12 @@ void bind_loop(py::module_& m) {
   });
   m.def("_loop_table", [conventions_of](const std::string& path, const std::string& amplitude, const std::string& amplitude_unit,
                                         const std::string& phase, const std::string& phase_unit, std::optional<double> scale,
-                                        const std::map<std::string, double>& probe_angles, double revolutions_per_row, const py::object& progress) {
+                                        const std::map<std::string, double>& probe_angles, double revolutions_per_row, double sweep_rate,
+                                        const py::object& progress) {
     const order_table t = read_order_table(path, conventions_of(amplitude, amplitude_unit, phase, phase_unit, scale, probe_angles));
     tracking_settings settings;
     settings.revolutions_per_row = revolutions_per_row;
+    settings.sweep_rate_rpm_per_s = sweep_rate;
     const tracking_result r = interruptible(progress, [&](const auto& report) {
       return run_tracking_loop(t, [&report](const std::string& line) { report(line); }, settings);
     });

@@ -101,6 +101,17 @@ TEST(OrderTable, RowsAreReadInRisingSpeedAndWhatWasDoneIsSaid) {
   EXPECT_TRUE(said("30 rows (75 % of the table) dwell at"));
 }
 
+TEST(OrderTable, ATimeColumnIsEachRowsTimeAndWritesBack) {
+  // A shuffled coast-down with its times: they follow the rows into rising speed.
+  const std::string head = "# amplitude: 0-peak\n# phase: lead\nrpm,time_s,amp_1x_um,phase_1x_deg\n";
+  const order_table t = parse_order_table(head + "2000,1.5,1,0\n3000,0.5,2,10\n1000,2.5,3,20\n", "t.csv", {});
+  EXPECT_EQ(t.time_s, (std::vector<double>{2.5, 1.5, 0.5}));
+  for (const auto& n : t.notes) EXPECT_EQ(n.find("time_s"), std::string::npos) << n;  // read, not ignored
+  const order_table back = parse_order_table(to_csv(t, {}), "back.csv", {});
+  EXPECT_EQ(back.time_s, t.time_s);
+  EXPECT_TRUE(parse_order_table(head.substr(0, head.find("rpm")) + "rpm,amp_1x_um,phase_1x_deg\n1000,1,0\n", "n.csv", {}).time_s.empty());
+}
+
 TEST(OrderTable, TheSharedFilesTwoAmplitudeColumnsAreCheckedAgainstEachOther) {
   // The RK-4 file's header: amp_1x in mils, amp_1x_um in micrometres (data/rk4_runup/README.md).
   const std::string head = "rpm,amp_1x,phase_1x_deg,amp_1x_um\n";
@@ -162,6 +173,7 @@ INSTANTIATE_TEST_SUITE_P(
         malformed{"negative_amplitude", kDeclared + "rpm,amp_1x_um,phase_1x_deg\n1000,-1,0\n", "", "a negative amplitude"},
         malformed{"zero_speed", kDeclared + "rpm,amp_1x_um,phase_1x_deg\n0,1,0\n", "", "must be positive"},
         malformed{"not_a_number", kDeclared + "rpm,amp_1x_um,phase_1x_deg\n1000,abc,0\n", "", "not a finite number"},
+        malformed{"two_rows_at_one_time", kDeclared + "rpm,time_s,amp_1x_um,phase_1x_deg\n1000,2,1,0\n1100,2,1,0\n", "", "two rows have the same time_s"},
         malformed{"no_order_columns", kDeclared + "rpm,vibration\n1000,1\n", "", "an order-tracked table needs"},
         malformed{"angle_for_unknown_probe", kDeclared + "# probe_angle_deg.z: 45\nrpm,x_amp_1x_um,x_phase_1x_deg\n1000,1,0\n", "",
                   "no probe of this table"},

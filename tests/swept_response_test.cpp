@@ -21,6 +21,7 @@
 
 #include <boost/numeric/odeint.hpp>
 
+#include "ref/base/errors.hpp"
 #include "ref/base/parallel.hpp"
 #include "ref/format/order_table.hpp"
 #include "ref/tracking/response_fit.hpp"
@@ -49,7 +50,8 @@ struct swept_truth {
   double from = 0.0, to = 0.0;  // the rows' speeds (rad/s), in time order
   double noise = 0.0;
 };
-order_table swept_table(const swept_truth& t, unsigned seed = 11);
+// with_time: the table has a time_s column (each block's middle).
+order_table swept_table(const swept_truth& t, unsigned seed = 11, bool with_time = false);
 
 // An anisotropic rotor with cross-coupling (per unit mass): modes near 150 and 180 rad/s.
 linear_rotor anisotropic() { return {150.0, 180.0, 0.02, 0.03, 400.0, -900.0}; }
@@ -257,7 +259,7 @@ struct real_swept_ode {
   }
 };
 
-order_table swept_table(const swept_truth& t, unsigned seed) {
+order_table swept_table(const swept_truth& t, unsigned seed, bool with_time) {
   using namespace boost::numeric::odeint;
   // A lead-in from 0.7 of the first row's speed, started steady there: what a steady start leaves
   // beside the sweep's own response decays over the lead-in (e^{-zeta w t}, far below the noise).
@@ -278,6 +280,7 @@ order_table swept_table(const swept_truth& t, unsigned seed) {
   std::mt19937_64 gen(seed);
   std::normal_distribution<double> n(0.0, t.noise);  // this toolchain's; the tolerances hold for any draw
   std::vector<std::pair<double, cplx>> rows;  // in time order
+  std::vector<double> times;                  // each row's block's middle
   double time = 0.0;
   for (std::size_t block = 0;; ++block) {
     const double ta = time_at_angle(2.0 * kPi * t.revolutions * static_cast<double>(block));
@@ -289,7 +292,7 @@ order_table swept_table(const swept_truth& t, unsigned seed) {
     time = tb;
     const double speed = 2.0 * kPi * t.revolutions / (tb - ta);
     const bool started = t.alpha > 0.0 ? speed >= t.from : speed <= t.from;
-    if (started) rows.emplace_back(speed, cplx(s[4], s[5]) / (kPi * t.revolutions) + t.runout + cplx(n(gen), n(gen)));
+    if (started) rows.emplace_back(speed, cplx(s[4], s[5]) / (kPi * t.revolutions) + t.runout + cplx(n(gen), n(gen))), times.push_back(0.5 * (ta + tb));
     if (t.alpha > 0.0 ? speed > t.to : speed < t.to) break;
   }
   // As the reader leaves a file: rows in rising speed, each with its line (its place in time).
@@ -300,6 +303,7 @@ order_table swept_table(const swept_truth& t, unsigned seed) {
     table.rpm.push_back(rows[i].first * 60.0 / (2.0 * kPi));
     table.line.push_back(i + 2);
     table.orders[0].vector.push_back(rows[i].second);
+    if (with_time) table.time_s.push_back(times[i]);
   }
   return table;
 }
@@ -365,6 +369,46 @@ TEST(SweptFit, ACoastDownRingsBelowTheCriticalSpeedAndIsRecovered) {
   response_fit_options o;
   o.start = &steady_fit;
   expect_recovered(t, fit_response(table, parts, o), steady_fit);
+}
+
+TEST(SweptFit, ATimeColumnGivesTheRateWhichTheFitHolds) {
+  // A coast-down with a time_s column, its rows shuffled in the file: the time says the direction
+  // and the rate (the line through the blocks' middles: exact for a constant acceleration, to the
+  // table's integration, 1e-9), and the fit holds the rate and recovers the rotor.
+  swept_truth t = ringing_run_up();
+  t.alpha = -t.alpha, t.from = 300.0, t.to = 75.0;
+  order_table table = swept_table(t, 11, true);
+  std::mt19937_64 gen(3);
+  std::shuffle(table.line.begin(), table.line.end(), gen);
+  EXPECT_EQ(sweep_direction_of(table), -1);
+  const std::optional<timed_sweep> timed = sweep_of_times(table);
+  ASSERT_TRUE(timed.has_value());
+  EXPECT_NEAR(timed->alpha, t.alpha, 1e-6 * std::abs(t.alpha));
+  EXPECT_LT(timed->departure_rpm, 1e-6 * timed->range_rpm);
+  const response_fit steady_fit = fit_response(table, {});
+  response_parts parts;
+  parts.sweep = true;
+  response_fit_options o;
+  o.start = &steady_fit;
+  o.sweep_rate = std::abs(timed->alpha);
+  const response_fit swept = fit_response(table, parts, o);
+  EXPECT_TRUE(swept.sweep_rate_held);
+  EXPECT_EQ(swept.sweep_rpm_per_s.value, std::abs(timed->alpha) * 60.0 / (2.0 * kPi));
+  expect_recovered(t, swept, steady_fit);
+  // One coordinate fewer than the fit that finds the rate itself.
+  response_fit_options fitted = o;
+  fitted.sweep_rate = 0.0;
+  EXPECT_EQ(fit_response(table, parts, fitted).parameters, swept.parameters + 1);
+}
+
+TEST(SweptFit, AHeldRateTooFastForEveryBlockIsRefused) {
+  // 1e6 rad/s^2 at 75 rad/s: a block of one revolution (2 pi / 75 s) would pass zero speed.
+  const order_table table = swept_table(ringing_run_up());
+  response_parts parts;
+  parts.sweep = true;
+  response_fit_options o;
+  o.sweep_rate = 1e6;
+  EXPECT_THROW(fit_response(table, parts, o), input_error);
 }
 
 TEST(SweptLoop, NamesTheSweepOfARingingRunUp) {

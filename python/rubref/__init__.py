@@ -396,7 +396,7 @@ def _conventions(where, amplitude, amplitude_unit, phase, phase_unit, scale, pro
 
 
 @_front_door({"path": _Arg("path", "an order-tracked table (docs/data-format.md)"), **_TABLE_ARGS},
-             returns="dict: rpm (array, rising), orders [{probe, order, probe_angle_deg (None: not declared), vector_m (complex "
+             returns="dict: rpm (array, rising), time_s (array, where the table has a time_s column), orders [{probe, order, probe_angle_deg (None: not declared), vector_m (complex "
                      "array, 0-to-peak, the reading Re(v e^{jk theta})), amplitude_column, phase_column}], notes, conventions")
 def read_order_table(path, amplitude=None, amplitude_unit=None, phase=None, phase_unit=None, scale=None, probe_angle=None):
     """An order-tracked table (1X amplitude and phase against speed) as complex vectors; the
@@ -408,10 +408,11 @@ def read_order_table(path, amplitude=None, amplitude_unit=None, phase=None, phas
               "mass": _Arg("number", "rotor mass (None: the records' m_kg, else the paper's)", unit="kg", optional=True),
               "max_effects": _Arg("count", row=("trace", "max_effects")), **_TABLE_ARGS,
               "revolutions_per_row": _Arg("number", "an order table's block: the revolutions each row was read over (None: fitted)", optional=True),
+              "sweep_rate": _Arg("number", "an order table's run-up or coast-down rate (None: from its time_s column, else fitted)", unit="rpm/s", optional=True),
               "progress": _PROGRESS},
              returns="dict: report.json's (error_before, error_after (the orbit's NRMSE), verdict {claim, named, tentative, explained_share, unexplained, rival, ...}, effects [{name, params, ...}], errors, notes, warnings, ...)")
 def loop(paths, clearance=None, mass=None, max_effects=_default("trace", "max_effects"), amplitude=None, amplitude_unit=None, phase=None,
-         phase_unit=None, scale=None, probe_angle=None, revolutions_per_row=None, progress=None):
+         phase_unit=None, scale=None, probe_angle=None, revolutions_per_row=None, sweep_rate=None, progress=None):
     """The loop (docs/loop.md): fit the paper's model to the records, trace the residual to the
     effects it lacks, refit; errors before and after. On one order-tracked table
     (docs/real-data.md) the table's conventions apply instead of clearance, mass and max_effects.
@@ -424,8 +425,8 @@ def loop(paths, clearance=None, mass=None, max_effects=_default("trace", "max_ef
             if value is not None:
                 raise InputError(f"loop: '{name}' is for record files; an order-tracked table takes amplitude, phase, scale, probe_angle")
         return _rubref._loop_table(paths[0], *_conventions("loop", amplitude, amplitude_unit, phase, phase_unit, scale, probe_angle),
-                                   revolutions_per_row or 0.0, sink)
-    for name in (*_TABLE_ARGS, "revolutions_per_row"):
+                                   revolutions_per_row or 0.0, sweep_rate or 0.0, sink)
+    for name in (*_TABLE_ARGS, "revolutions_per_row", "sweep_rate"):
         if locals()[name] is not None:
             raise InputError(f"loop: '{name}' is an order-tracked table's convention; these are record files")
     return _rubref._loop(paths, clearance, mass, max_effects, sink)

@@ -27,6 +27,7 @@ struct loop_state {
   std::vector<std::string> probe_angles;  // "DEG" or "NAME=DEG"
   double scale = 0.0;
   double revolutions_per_row = 0.0;
+  double sweep_rate = 0.0;
 };
 
 // The one line a run ends with: the errors, then the verdict (ref/inference/verdict.hpp), records
@@ -62,6 +63,7 @@ void run_on_table(const loop_state& st, staged_directory& dir) {
   tracking_settings settings;  // the rub fits' orbits and the verdict's check, as on records
   settings.orbits = st.settings.orbits, settings.check_tolerance_scale = st.settings.check_tolerance_scale;
   settings.revolutions_per_row = st.revolutions_per_row;
+  settings.sweep_rate_rpm_per_s = st.sweep_rate;
   const tracking_result r = run_tracking_loop(table, [](const std::string& line) { std::cerr << line << std::endl; }, settings);
   dir.write("report.json", to_json(r).dump(2) + "\n");
   dir.write("report.md", to_markdown(r));
@@ -100,13 +102,17 @@ void add_loop(CLI::App& app) {
   table->add_option("--revolutions-per-row", st->revolutions_per_row,
                     "revolutions each row's orders were read over (the run-up transient's block); default: fitted among 1, 2, 3, 4, 6, 8")
       ->check(CLI::Range(1.0, 1e6));
+  table->add_option("--sweep-rate", st->sweep_rate,
+                    "the run-up's or coast-down's rate [rpm/s], held by the run-up transient's fit; default: from a time_s column, else fitted")
+      ->check(CLI::PositiveNumber);
   add_threads_option(*sub);
   sub->callback([st] {
     staged_directory dir(st->out);  // the output folder is checked before the work, not after it
     if (is_order_table_header(header_of(st->files.front()))) return run_on_table(*st, dir);
     if (!st->conventions.amplitude.empty() || !st->conventions.amplitude_unit.empty() || !st->conventions.phase.empty() ||
-        !st->conventions.phase_unit.empty() || st->scale != 0.0 || !st->probe_angles.empty() || st->revolutions_per_row != 0.0)
-      throw input_error("--amplitude, --amplitude-unit, --phase, --phase-unit, --scale, --probe-angle and --revolutions-per-row describe an order-tracked table; " +
+        !st->conventions.phase_unit.empty() || st->scale != 0.0 || !st->probe_angles.empty() || st->revolutions_per_row != 0.0 ||
+        st->sweep_rate != 0.0)
+      throw input_error("--amplitude, --amplitude-unit, --phase, --phase-unit, --scale, --probe-angle, --revolutions-per-row and --sweep-rate describe an order-tracked table; " +
                         st->files.front() + " is a time record");
     std::vector<std::pair<record, std::string>> records;
     for (const auto& f : st->files) records.emplace_back(read_record(f), f);

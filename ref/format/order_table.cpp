@@ -141,6 +141,7 @@ struct pair_columns {
 struct table_columns {
   std::size_t speed;  // the column count if there is none
   double speed_factor = 1.0;  // to rpm
+  std::optional<std::size_t> time;  // a time_s column: each row's time (the sweep's, docs/data-format.md)
   std::map<std::pair<std::string, int>, pair_columns> pairs;
   std::vector<std::pair<std::string, int>> pair_order;  // in header order
   std::vector<std::string> ignored;
@@ -154,6 +155,10 @@ table_columns columns_of(const record& r, const std::string& src) {
     if (is_speed_column(name)) {
       if (out.speed != r.columns.size()) fail(src, "two speed columns ('" + r.columns[out.speed] + "' and '" + name + "'): keep one");
       out.speed = c, out.speed_factor = name == "speed_hz" ? 60.0 : 1.0;
+      continue;
+    }
+    if (name == "time_s") {  // (a column named twice is the record reader's error)
+      out.time = c;
       continue;
     }
     const auto oc = parse_order_column(name);
@@ -434,12 +439,22 @@ order_table parse_order_table(std::string_view text, std::string_view source, co
   if (!columns.ignored.empty()) {
     std::string list;
     for (const auto& n : columns.ignored) list += (list.empty() ? "'" : ", '") + n + "'";
-    t.notes.push_back("columns not read (neither the speed nor a [probe_]amp_<k>x / phase_<k>x column): " + list);
+    t.notes.push_back("columns not read (neither the speed, time_s nor a [probe_]amp_<k>x / phase_<k>x column): " + list);
   }
   const table_reading reading = check_conventions(conventions, src);
   const probe_angles probes = probes_of(r, columns, given, src);
   const speed_rows rows = rows_by_speed(r, columns, src);
   t.rpm = rows.rpm, t.line = rows.line;
+  if (columns.time) {
+    // Each row's time, in the rows' (rising speed) order; two rows at one time cannot both be
+    // blocks of one sweep.
+    const auto& time = r.data[*columns.time];
+    for (const std::size_t i : rows.order) t.time_s.push_back(time[i]);
+    std::vector<double> sorted = t.time_s;
+    std::sort(sorted.begin(), sorted.end());
+    if (const auto twice = std::adjacent_find(sorted.begin(), sorted.end()); twice != sorted.end())
+      fail(src, "two rows have the same time_s (" + format_number(*twice) + " s): a row is one block of the sweep, at its own time");
+  }
   t.notes.insert(t.notes.end(), rows.notes.begin(), rows.notes.end());
 
   std::string units_used;
@@ -474,6 +489,7 @@ std::string to_csv(const order_table& t, const order_table_style& style) {
   }
   if (unit->metres == 0.0) out += "# scale_mV_per_um: " + format_number(style.scale_mV_per_um) + "\n";
   out += "rpm";
+  if (!t.time_s.empty()) out += ",time_s";
   for (const auto& o : t.orders) {
     const std::string stem = (o.probe.empty() ? "" : o.probe + "_");
     const std::string k = std::to_string(o.order) + "x";
@@ -482,6 +498,7 @@ std::string to_csv(const order_table& t, const order_table_style& style) {
   out += "\n";
   for (std::size_t i = 0; i < t.rows(); ++i) {
     out += format_number(t.rpm[i]);
+    if (!t.time_s.empty()) out += "," + format_number(t.time_s[i]);
     for (const auto& o : t.orders) {
       const double metres = std::abs(o.vector[i]) / *kind;
       const double amplitude = unit->metres > 0.0 ? metres / unit->metres : metres * 1e6 * style.scale_mV_per_um * 1e-3 / unit->volts;

@@ -140,19 +140,22 @@ struct problem {
   // sweep's reference speed (the table's lowest), direction and block.
   std::vector<double> speeds = {};
   double sweep_ref = 1.0, revolutions = 1.0, rate_start = 0.0;
+  double held_rate = 0.0;  // |alpha| held (rad/s^2; 0: the rate is a coordinate)
   int direction = 1;
 
   void lay_out() {
     free = parts.anisotropy ? std::vector<std::size_t>{ln_wx, ln_wy, ln_zx, ln_zy} : std::vector<std::size_t>{ln_wx, ln_zx};
     if (beta_fitted) free.push_back(probe_beta);
     if (parts.cross_coupling) free.push_back(k_xy), free.push_back(k_yx);
-    if (parts.sweep) free.push_back(ln_sweep);
+    if (parts.sweep && !(held_rate > 0.0)) free.push_back(ln_sweep);
   }
   double sweep_fastest() const { return std::log(0.5 / (kPi * revolutions)); }
+  double held_ln_sweep() const { return std::log(held_rate / (sweep_ref * sweep_ref)); }
   std::vector<double> full(const std::vector<double>& q) const {
     std::vector<double> f(kSlots, 0.0);
     for (std::size_t k = 0; k < free.size(); ++k) f[free[k]] = q[k];
     if (!parts.anisotropy) f[ln_wy] = f[ln_wx], f[ln_zy] = f[ln_zx];
+    if (parts.sweep && held_rate > 0.0) f[ln_sweep] = held_ln_sweep();
     return f;
   }
   std::vector<double> reduce(const std::vector<double>& f) const {
@@ -438,7 +441,8 @@ problem set_up(const order_table& table, const response_parts& parts, const resp
   if (parts.sweep) {
     for (const double rpm : table.rpm) pr.speeds.push_back(rpm * kRpmToRadS);
     pr.sweep_ref = table.rpm.front() * kRpmToRadS;  // the table's lowest speed (rows in rising speed)
-    pr.rate_start = options.sweep_rate_start;
+    pr.held_rate = options.sweep_rate;
+    pr.rate_start = pr.held_rate > 0.0 ? pr.held_rate : options.sweep_rate_start;
   }
   pr.lay_out();
   return pr;
@@ -509,7 +513,7 @@ std::vector<std::vector<double>> starts_of(problem& pr, const response_fit* star
     else
       for (double ratio = kSweepStartLo; ratio < kSweepStartHi * kSweepStartStep; ratio *= kSweepStartStep) add(swept_start(pr, start->theta, ratio * z * z * w * w));
     rank_family();
-    if (const double alpha = contiguous_rate(pr, start->theta); alpha > 0.0) add(swept_start(pr, start->theta, alpha));
+    if (const double alpha = pr.held_rate > 0.0 ? 0.0 : contiguous_rate(pr, start->theta); alpha > 0.0) add(swept_start(pr, start->theta, alpha));
     rank_family();
     return from;
   }
@@ -703,8 +707,13 @@ void estimates_into(response_fit& f, const problem& pr, const std::vector<double
     // The rate in rpm/s, from its chart ln(|alpha| / w_lo^2); determined as a critical speed is, and
     // not at either end of its range (at the slow end the table is quasi-steady).
     f.sweep_rpm_per_s = log_estimate(best[ln_sweep] + 2.0 * std::log(pr.sweep_ref), sd_of(ln_sweep), kRpmToRadS, rules.max_interval_ratio);
-    f.sweep_at_slow_bound = best[ln_sweep] <= std::log(kSweepSlowest) + 1e-9;
-    if (f.sweep_at_slow_bound || best[ln_sweep] >= pr.sweep_fastest() - 1e-9) f.sweep_rpm_per_s.determined = false;
+    f.sweep_rate_held = pr.held_rate > 0.0;
+    if (f.sweep_rate_held) {  // given: its own value, not the table's estimate
+      const double rpm_per_s = pr.held_rate / kRpmToRadS;
+      f.sweep_rpm_per_s = {rpm_per_s, rpm_per_s, rpm_per_s, true};
+    }
+    f.sweep_at_slow_bound = !f.sweep_rate_held && best[ln_sweep] <= std::log(kSweepSlowest) + 1e-9;
+    if (f.sweep_at_slow_bound || (!f.sweep_rate_held && best[ln_sweep] >= pr.sweep_fastest() - 1e-9)) f.sweep_rpm_per_s.determined = false;
     f.sweep_direction = pr.direction;
     f.sweep_revolutions = pr.revolutions;
   }
@@ -810,14 +819,41 @@ std::pair<std::vector<int>, std::vector<double>> sweep_candidates(const order_ta
 
 }  // namespace
 
+std::optional<timed_sweep> sweep_of_times(const order_table& table) {
+  if (table.time_s.empty()) return std::nullopt;
+  const std::size_t n = table.rows();
+  if (table.time_s.size() != n) throw input_error(table.source + ": the time_s column has " + std::to_string(table.time_s.size()) + " values for " + std::to_string(n) + " rows");
+  if (n < 3) throw input_error(table.source + ": a sweep's rate from the time_s column needs at least 3 rows");
+  double tm = 0.0, wm = 0.0;
+  for (std::size_t i = 0; i < n; ++i) tm += table.time_s[i], wm += table.rpm[i] * kRpmToRadS;
+  tm /= static_cast<double>(n), wm /= static_cast<double>(n);
+  double stt = 0.0, stw = 0.0;
+  for (std::size_t i = 0; i < n; ++i) stt += (table.time_s[i] - tm) * (table.time_s[i] - tm), stw += (table.time_s[i] - tm) * (table.rpm[i] * kRpmToRadS - wm);
+  timed_sweep s;
+  s.alpha = stw / stt;
+  double ss = 0.0;
+  for (std::size_t i = 0; i < n; ++i) {
+    const double d = table.rpm[i] * kRpmToRadS - wm - s.alpha * (table.time_s[i] - tm);
+    ss += d * d, s.departure_rpm = std::max(s.departure_rpm, std::abs(d) / kRpmToRadS);
+  }
+  s.alpha_sd = std::sqrt(ss / static_cast<double>(n - 2) / stt);
+  s.range_rpm = table.rpm.back() - table.rpm.front();
+  if (!(std::abs(s.alpha) > 0.0) || !(std::abs(s.alpha) > 2.0 * s.alpha_sd))
+    throw input_error(table.source + ": the speed does not change with the time_s column (" + format_digits(s.alpha / kRpmToRadS) + " +- " +
+                      format_digits(2.0 * s.alpha_sd / kRpmToRadS) + " rpm/s): it is no run-up or coast-down");
+  return s;
+}
+
 int sweep_direction_of(const order_table& table) {
   // The rows' file lines in rising speed: a run-up's rise with the speed, a coast-down's fall. A
   // sweep's speed column jitters a little (a few reversals); shuffled rows reverse half the time,
   // so a direction needs three times as many steps one way as the other.
+  // A time_s column, where the table has one, says it in place of the file's order.
   std::size_t rises = 0, falls = 0;
-  for (std::size_t i = 1; i < table.line.size(); ++i) {
-    if (table.line[i] > table.line[i - 1]) ++rises;
-    if (table.line[i] < table.line[i - 1]) ++falls;
+  for (std::size_t i = 1; i < table.rows(); ++i) {
+    const bool later = table.time_s.empty() ? table.line[i] > table.line[i - 1] : table.time_s[i] > table.time_s[i - 1];
+    const bool earlier = table.time_s.empty() ? table.line[i] < table.line[i - 1] : table.time_s[i] < table.time_s[i - 1];
+    rises += later, falls += earlier;
   }
   if (rises > 3 * falls) return 1;
   if (falls > 3 * rises) return -1;
@@ -862,12 +898,14 @@ response_fit fit_response(const order_table& table, const response_parts& parts,
     for (const double revolutions : blocks) {
       problem pr = set_up(table, parts, options);
       pr.direction = direction, pr.revolutions = revolutions;
+      // A held rate too fast for this block (it would reach zero speed): not a block of this sweep.
+      if (pr.held_rate > 0.0 && pr.held_ln_sweep() > pr.sweep_fastest()) continue;
       std::vector<std::vector<double>> from;
       if (!previous) {
         from = starts_of(pr, start, options.starts);
       } else {
         from.push_back(pr.clamp(previous->q));
-        if (start && !start->parts.sweep && !start->theta.empty())
+        if (start && !start->parts.sweep && !start->theta.empty() && !(pr.held_rate > 0.0))
           if (const double alpha = contiguous_rate(pr, start->theta); alpha > 0.0) from.push_back(pr.clamp(pr.reduce(swept_start(pr, start->theta, alpha))));
       }
       const fitted_point here = best_from(pr, from);
@@ -876,6 +914,9 @@ response_fit fit_response(const order_table& table, const response_parts& parts,
       if (!previous || here.cost < previous->cost) previous = here;
     }
   }
+  if (!kept && options.sweep_rate > 0.0 && evaluations == 0)
+    throw input_error(table.source + ": a sweep of " + format_digits(options.sweep_rate / kRpmToRadS) + " rpm/s is too fast for blocks of " +
+                      format_digits(blocks.front()) + (blocks.size() > 1 ? " or more" : "") + " revolutions at the table's lowest speed (a block would reach zero speed)");
   if (!kept) throw numerical_error(table.source + ": the swept 1X response fit found no finite residual from any start");
   response_fit f = finish(*kept, best, options);
   f.evaluations = evaluations;

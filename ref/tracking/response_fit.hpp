@@ -83,6 +83,7 @@ struct response_fit {
   double sweep_revolutions = 0.0;
   bool sweep_revolutions_fitted = false;
   bool sweep_at_slow_bound = false;
+  bool sweep_rate_held = false;  // the rate was given (response_fit_options::sweep_rate), not fitted
 
   // The fit's quality.
   std::vector<double> noise_m;       // per probe: the row-to-row scatter of its 1X vector (robust)
@@ -122,6 +123,9 @@ struct response_fit_options {
   // A swept fit from a steady one: start at this rate (rad/s^2, another fit's) in place of the
   // grid of rates (0: the grid).
   double sweep_rate_start = 0.0;
+  // The sweep's rate |alpha| (rad/s^2) held, not fitted: measured (the table's time_s column,
+  // sweep_of_times) or declared (0: fitted).
+  double sweep_rate = 0.0;
 };
 
 // The block sizes (revolutions per row) a sweep fit tries when the table does not declare one.
@@ -130,6 +134,17 @@ inline constexpr double kSweepRevolutions[] = {1.0, 2.0, 3.0, 4.0, 6.0, 8.0};
 // The direction the table's speed ran in, from its rows' order in the file: +1 rising (a
 // run-up), -1 falling (a coast-down), 0 when the file's order says neither (shuffled rows).
 int sweep_direction_of(const order_table& table);
+
+// The sweep a table's time_s column shows: the least-squares line of its speeds against its times
+// (the swept model's constant acceleration), alpha in rad/s^2 (< 0 a coast-down) with its standard
+// error, and how far the speeds depart from the line (largest, rpm; a sweep whose rate changes
+// departs by more than its speed column's jitter). Unset when the table has no time column;
+// input_error when its speed does not change with time.
+struct timed_sweep {
+  double alpha = 0.0, alpha_sd = 0.0;
+  double departure_rpm = 0.0, range_rpm = 0.0;
+};
+std::optional<timed_sweep> sweep_of_times(const order_table& table);
 
 // input_error unless the table can be fitted: a 1X column, at least 8 rows, more than one speed.
 void check_fittable(const order_table& table);

@@ -149,7 +149,8 @@ std::string estimates_of(const std::string& name, const response_fit& f) {
   }
   if (name == part_names()[1]) return "bow " + interval_text(f.bow_m, 1e6, " µm") + " at " + interval_text(f.bow_phase_deg, 1.0, " deg");
   if (name == sweep_transient_part) {
-    std::string s = std::string(f.sweep_direction > 0 ? "run-up" : "coast-down") + " at " + interval_text(f.sweep_rpm_per_s, 1.0, " rpm/s") + ", " +
+    std::string s = std::string(f.sweep_direction > 0 ? "run-up" : "coast-down") + " at " +
+                    (f.sweep_rate_held ? format_digits(f.sweep_rpm_per_s.value, 4) + " rpm/s (given)" : interval_text(f.sweep_rpm_per_s, 1.0, " rpm/s")) + ", " +
                     format_digits(f.sweep_revolutions) + " revolutions per row (" + (f.sweep_revolutions_fitted ? "fitted" : "declared") + ")";
     if (!f.parts.anisotropy)  // the modes it moves, when no anisotropy names them itself
       for (const auto& m : f.modes)
@@ -219,12 +220,14 @@ struct table_run {
   std::size_t observations = 0;
   fit_orbit_options orbits = {};  // the rub fits' orbits (the verdict's check tightens them)
   double revolutions_per_row = 0.0;  // declared (0: a swept fit's block is fitted)
+  double sweep_rate = 0.0;           // |alpha| (rad/s^2) declared or from the time_s column (0: fitted)
 
   response_fit_options options(const response_fit* start, std::vector<std::size_t> rows = {}, fit_starts how = fit_starts::grid) const {
     response_fit_options o;
     o.rows = std::move(rows), o.start = start, o.starts = how, o.noise_m = noise.noise;
     o.noise_relative_error = noise.relative_error();
     o.revolutions_per_row = revolutions_per_row;
+    o.sweep_rate = sweep_rate;
     return o;
   }
   rub_fit_options rub_options(std::vector<std::size_t> rows = {}, const rub_fit* start = nullptr) const {
@@ -698,6 +701,10 @@ tracking_result run_tracking_loop(const order_table& table, const std::function<
   check({"loop", "check_tolerance_scale"}, settings.check_tolerance_scale);
   if (!(settings.revolutions_per_row == 0.0 || (settings.revolutions_per_row >= 1.0 && std::isfinite(settings.revolutions_per_row))))
     throw input_error(setting("revolutions_per_row") + " must be at least 1 (revolutions per row), or 0 to fit it; got " + format_digits(settings.revolutions_per_row));
+  if (!(settings.sweep_rate_rpm_per_s >= 0.0 && std::isfinite(settings.sweep_rate_rpm_per_s)))
+    throw input_error(setting("sweep_rate") + " must be a positive rate in rpm/s (its direction is the table's), or 0 to fit it; got " +
+                      format_digits(settings.sweep_rate_rpm_per_s));
+  const std::optional<timed_sweep> timed = sweep_of_times(table);
   std::mutex lines;  // the fit's and its check's progress, a whole line at a time
   const auto prefixed = [&](std::string prefix) {
     return std::function<void(const std::string&)>([&lines, &progress, prefix = std::move(prefix)](const std::string& s) {
@@ -719,6 +726,20 @@ tracking_result run_tracking_loop(const order_table& table, const std::function<
   table_run run{table, say, evidence_rules{}, noise_estimate(row_scatter_noise(table), table.rows()), folds(table.rows())};
   run.orbits = settings.orbits;
   run.revolutions_per_row = settings.revolutions_per_row;
+  // The sweep's rate, where the table's maker or its time column says it: held by every swept fit.
+  const auto rpm_per_s = [](double alpha) { return format_digits(alpha * 60.0 / (2.0 * std::numbers::pi), 4) + " rpm/s"; };
+  const std::string timed_text =
+      timed ? std::string(timed->alpha > 0.0 ? "a run-up" : "a coast-down") + " at " + rpm_per_s(std::abs(timed->alpha)) + " +- " + rpm_per_s(2.0 * timed->alpha_sd) +
+                  " (the line of speed against time; the speeds depart from it by at most " + format_digits(timed->departure_rpm, 3) + " rpm, " +
+                  format_digits(100.0 * timed->departure_rpm / timed->range_rpm, 2) + " % of the table's range)"
+            : std::string();
+  if (settings.sweep_rate_rpm_per_s > 0.0) {
+    run.sweep_rate = settings.sweep_rate_rpm_per_s * 2.0 * std::numbers::pi / 60.0;
+    if (timed) r.notes.push_back("the sweep rate is declared (" + rpm_per_s(run.sweep_rate) + "); the time_s column shows " + timed_text + ": the declared rate is used");
+  } else if (timed) {
+    run.sweep_rate = std::abs(timed->alpha);
+    r.notes.push_back("the time_s column: " + timed_text + "; a swept fit holds that rate (a constant acceleration)");
+  }
   r.noise_scatter_m = run.noise.noise;
   r.noise_residual_m = fit_contact_free(run);
   r.before = run.fits[0];

@@ -113,6 +113,9 @@ struct tracking_settings {
   // The revolutions each row's 1X was read over (the sweep_transient's block), where the table's
   // maker says; 0: fitted among kSweepRevolutions.
   double revolutions_per_row = 0.0;
+  // The sweep's rate (rpm/s) where the table's maker says; 0: from the table's time_s column where
+  // it has one (sweep_of_times), else fitted.
+  double sweep_rate_rpm_per_s = 0.0;
 };
 
 tracking_result run_tracking_loop(const order_table& table, const std::function<void(const std::string&)>& progress = {},

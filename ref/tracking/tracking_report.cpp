@@ -61,7 +61,8 @@ json fit_json(const response_fit& f) {
                             {"direction", f.sweep_direction > 0 ? "run-up" : "coast-down"},
                             {"revolutions_per_row", f.sweep_revolutions},
                             {"revolutions_per_row_fitted", f.sweep_revolutions_fitted},
-                            {"quasi_steady", f.sweep_at_slow_bound}};
+                            {"quasi_steady", f.sweep_at_slow_bound},
+                            {"rate_given", f.sweep_rate_held}};
   j["cancellation"] = f.cancellation;
   j["chi2"] = f.chi2;
   j["dof"] = f.dof;
@@ -211,8 +212,9 @@ std::string to_markdown(const tracking_result& r) {
   if (f.parts.cross_coupling)
     s += "- cross-coupling k_xy/m " + with_interval(f.k_xy_over_m) + " 1/s², k_yx/m " + with_interval(f.k_yx_over_m) + " 1/s²\n";
   if (f.parts.sweep)
-    s += "- the run-up's transient: swept " + std::string(f.sweep_direction > 0 ? "up" : "down") + " at " + with_interval(f.sweep_rpm_per_s) +
-         " rpm/s (constant acceleration), each row read over " + format_digits(f.sweep_revolutions) + " revolutions (" +
+    s += "- the run-up's transient: swept " + std::string(f.sweep_direction > 0 ? "up" : "down") + " at " +
+         (f.sweep_rate_held ? format_digits(f.sweep_rpm_per_s.value, 4) + " rpm/s (given: see the notes)" : with_interval(f.sweep_rpm_per_s) + " rpm/s") +
+         " (constant acceleration), each row read over " + format_digits(f.sweep_revolutions) + " revolutions (" +
          (f.sweep_revolutions_fitted ? "fitted" : "declared") + "); the steady base fit put the critical speed at " +
          with_interval(r.before.modes.front().critical_speed_rpm, 1.0, 4) + " rpm, damping ratio " + with_interval(r.before.modes.front().damping_ratio) +
          " (a steady fit's bias on a swept table)\n";
