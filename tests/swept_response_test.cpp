@@ -401,6 +401,39 @@ TEST(SweptFit, ATimeColumnGivesTheRateWhichTheFitHolds) {
   EXPECT_EQ(fit_response(table, parts, fitted).parameters, swept.parameters + 1);
 }
 
+TEST(SweptFit, BlocksThatFitAsWellWidenTheIntervalsToCoverTheirs) {
+  // A slower sweep (eta / zeta^2 = 0.1) read in blocks of 3: the block changes the read little,
+  // so several blocks may fit as well. Whatever the fit chose, the truth is inside the intervals,
+  // and they cover those of the fit held at any block named as fitting as well.
+  swept_truth t = ringing_run_up();
+  t.alpha = 0.1 * 0.01 * 0.01 * 150.0 * 150.0, t.revolutions = 3.0;
+  const order_table table = swept_table(t, 13);
+  const response_fit steady_fit = fit_response(table, {});
+  response_parts parts;
+  parts.sweep = true;
+  response_fit_options o;
+  o.start = &steady_fit;
+  const response_fit f = fit_response(table, parts, o);
+  // (This table's blocks 1, 2 and 3 fit alike: the test reaches the widening.)
+  ASSERT_GT(f.sweep_alternatives.size(), 1u);
+  EXPECT_EQ(f.sweep_alternatives.front(), f.sweep_revolutions);
+  const double rpm = 60.0 / (2.0 * kPi);
+  // (1 % of slack, as expect_recovered's: linearised intervals.)
+  expect_within(f.sweep_rpm_per_s, t.alpha * rpm, 0.01, "sweep rate");
+  expect_within(f.modes.front().critical_speed_rpm, t.rotor.wx * rpm, 0.01, "critical speed");
+  expect_within(f.modes.front().damping_ratio, t.rotor.zx, 0.01, "damping ratio");
+  // A held block's fit starts elsewhere and ends within the solver's tolerance of the same point:
+  // its interval's ends agree to far better than 1e-6 of the speed.
+  for (std::size_t i = 1; i < f.sweep_alternatives.size(); ++i) {
+    response_fit_options held = o;
+    held.revolutions_per_row = f.sweep_alternatives[i];
+    const auto& g = fit_response(table, parts, held).modes.front().critical_speed_rpm;
+    const auto& c = f.modes.front().critical_speed_rpm;
+    EXPECT_LE(c.lo, g.lo + 1e-6 * g.value) << f.sweep_alternatives[i];
+    EXPECT_GE(c.hi, g.hi - 1e-6 * g.value) << f.sweep_alternatives[i];
+  }
+}
+
 TEST(SweptFit, AHeldRateTooFastForEveryBlockIsRefused) {
   // 1e6 rad/s^2 at 75 rad/s: a block of one revolution (2 pi / 75 s) would pass zero speed.
   const order_table table = swept_table(ringing_run_up());

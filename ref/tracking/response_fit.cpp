@@ -800,6 +800,29 @@ response_fit finish(problem& pr, const fitted_point& at, const response_fit_opti
   return f;
 }
 
+// The 95 % point of chi^2 with one degree of freedom: a profile's interval.
+constexpr double kProfile95 = 3.841458820694124;
+
+// Every estimate of `f` widened to cover `other`'s interval (the same model at another value of a
+// discrete coordinate that fits as well); determined only where both are.
+void widen_by(response_fit& f, const response_fit& other) {
+  const auto widen = [](estimate& a, const estimate& b) {
+    a.lo = std::min(a.lo, b.lo), a.hi = std::max(a.hi, b.hi), a.determined = a.determined && b.determined;
+  };
+  for (std::size_t m = 0; m < std::min(f.modes.size(), other.modes.size()); ++m) {
+    widen(f.modes[m].critical_speed_rpm, other.modes[m].critical_speed_rpm);
+    widen(f.modes[m].damping_ratio, other.modes[m].damping_ratio);
+  }
+  widen(f.unbalance_m, other.unbalance_m), widen(f.unbalance_phase_deg, other.unbalance_phase_deg);
+  for (std::size_t p = 0; p < f.probes.size(); ++p) {
+    widen(f.probe_angle_deg[p], other.probe_angle_deg[p]);
+    widen(f.runout_m[p], other.runout_m[p]), widen(f.runout_phase_deg[p], other.runout_phase_deg[p]);
+  }
+  if (f.parts.shaft_bow) widen(f.bow_m, other.bow_m), widen(f.bow_phase_deg, other.bow_phase_deg);
+  if (f.parts.cross_coupling) widen(f.k_xy_over_m, other.k_xy_over_m), widen(f.k_yx_over_m, other.k_yx_over_m);
+  if (!f.sweep_rate_held) widen(f.sweep_rpm_per_s, other.sweep_rpm_per_s);
+}
+
 // A sweep's direction and block as given (options), as the fit it starts from had them, or every
 // candidate: both directions where the table's row order says neither, every block of
 // kSweepRevolutions where none is declared.
@@ -812,6 +835,7 @@ std::pair<std::vector<int>, std::vector<double>> sweep_candidates(const order_ta
   else directions = {1, -1};
   std::vector<double> blocks;
   if (o.revolutions_per_row > 0.0) blocks = {o.revolutions_per_row};
+  else if (!o.sweep_blocks.empty()) blocks = o.sweep_blocks;
   else if (swept_start) blocks = {start->sweep_revolutions};
   else blocks.assign(std::begin(kSweepRevolutions), std::end(kSweepRevolutions));
   return {directions, blocks};
@@ -893,6 +917,12 @@ response_fit fit_response(const order_table& table, const response_parts& parts,
   std::optional<problem> kept;
   fitted_point best;
   int evaluations = 0;
+  struct tried_block {
+    int direction;
+    double revolutions;
+    fitted_point at;
+  };
+  std::vector<tried_block> tried;
   for (const int direction : directions) {
     std::optional<fitted_point> previous;
     for (const double revolutions : blocks) {
@@ -910,8 +940,9 @@ response_fit fit_response(const order_table& table, const response_parts& parts,
       }
       const fitted_point here = best_from(pr, from);
       evaluations += pr.evaluations;
+      if (std::isfinite(here.cost)) tried.push_back({direction, revolutions, here});
       if (here.cost < best.cost) best = here, kept.emplace(std::move(pr));
-      if (!previous || here.cost < previous->cost) previous = here;
+      if (std::isfinite(here.cost) && (!previous || here.cost < previous->cost)) previous = here;  // (a block no start fits starts none)
     }
   }
   if (!kept && options.sweep_rate > 0.0 && evaluations == 0)
@@ -919,6 +950,21 @@ response_fit fit_response(const order_table& table, const response_parts& parts,
                       format_digits(blocks.front()) + (blocks.size() > 1 ? " or more" : "") + " revolutions at the table's lowest speed (a block would reach zero speed)");
   if (!kept) throw numerical_error(table.source + ": the swept 1X response fit found no finite residual from any start");
   response_fit f = finish(*kept, best, options);
+  // The block and direction are fitted among a few values: where another fits as well (its chi^2
+  // within the 95 % point of one coordinate's, 3.84, scaled as the covariance is), the estimates
+  // take its intervals too (a profile over the discrete coordinate: at a slow sweep the block
+  // changes the read little, and its choice must not make the intervals miss).
+  const double scale = std::max(1.0, f.chi2 / static_cast<double>(std::max<std::size_t>(f.dof, 1)));
+  f.sweep_alternatives.push_back(f.sweep_revolutions * f.sweep_direction);
+  for (const tried_block& t : tried) {
+    if (t.revolutions == f.sweep_revolutions && t.direction == f.sweep_direction) continue;
+    if (!(t.at.cost <= best.cost + kProfile95 * scale)) continue;
+    problem pr = set_up(table, parts, options);
+    pr.direction = t.direction, pr.revolutions = t.revolutions;
+    const response_fit other = finish(pr, t.at, options);
+    widen_by(f, other);
+    f.sweep_alternatives.push_back(t.revolutions * t.direction);
+  }
   f.evaluations = evaluations;
   f.sweep_revolutions_fitted = blocks.size() > 1 || (start && start->parts.sweep && start->sweep_revolutions_fitted && options.revolutions_per_row <= 0.0);
   return f;

@@ -84,6 +84,9 @@ struct response_fit {
   bool sweep_revolutions_fitted = false;
   bool sweep_at_slow_bound = false;
   bool sweep_rate_held = false;  // the rate was given (response_fit_options::sweep_rate), not fitted
+  // The blocks (revolutions per row, negative for a coast-down) that fit as well as the chosen one
+  // (first): its estimates' intervals cover theirs.
+  std::vector<double> sweep_alternatives;
 
   // The fit's quality.
   std::vector<double> noise_m;       // per probe: the row-to-row scatter of its 1X vector (robust)
@@ -119,6 +122,7 @@ struct response_fit_options {
   std::vector<double> noise_m;        // per probe (empty: row_scatter of each)
   double noise_relative_error = 0.0;  // the noise estimate's relative standard error (widens the chi^2 test)
   double revolutions_per_row = 0.0;
+  std::vector<double> sweep_blocks;  // the blocks to try where none is declared (empty: kSweepRevolutions)
   int sweep_direction = 0;
   // A swept fit from a steady one: start at this rate (rad/s^2, another fit's) in place of the
   // grid of rates (0: the grid).

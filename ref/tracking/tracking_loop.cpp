@@ -138,6 +138,16 @@ std::string interval_text(const estimate& e, double scale, const std::string& un
   return format_digits(e.value * scale, 3) + " [" + format_digits(e.lo * scale, 3) + ", " + format_digits(e.hi * scale, 3) + "]" + unit;
 }
 
+// The other blocks (and directions) that fit a sweep as well as its own: "; 2, 4 fit as well".
+std::string also_fitting(const response_fit& f) {
+  std::string s;
+  for (std::size_t i = 1; i < f.sweep_alternatives.size(); ++i) {
+    const double b = f.sweep_alternatives[i];
+    s += (s.empty() ? "; " : ", ") + format_digits(std::abs(b)) + ((b > 0.0) == (f.sweep_direction > 0) ? "" : (b > 0.0 ? " up" : " down"));
+  }
+  return s.empty() ? s : s + " fit as well";
+}
+
 // An effect's fitted parameters with their 95 % intervals, one line.
 std::string estimates_of(const std::string& name, const response_fit& f) {
   if (name == anisotropy_part) {
@@ -151,7 +161,8 @@ std::string estimates_of(const std::string& name, const response_fit& f) {
   if (name == sweep_transient_part) {
     std::string s = std::string(f.sweep_direction > 0 ? "run-up" : "coast-down") + " at " +
                     (f.sweep_rate_held ? format_digits(f.sweep_rpm_per_s.value, 4) + " rpm/s (given)" : interval_text(f.sweep_rpm_per_s, 1.0, " rpm/s")) + ", " +
-                    format_digits(f.sweep_revolutions) + " revolutions per row (" + (f.sweep_revolutions_fitted ? "fitted" : "declared") + ")";
+                    format_digits(f.sweep_revolutions) + " revolutions per row (" + (f.sweep_revolutions_fitted ? "fitted" : "declared") +
+                    also_fitting(f) + ")";
     if (!f.parts.anisotropy)  // the modes it moves, when no anisotropy names them itself
       for (const auto& m : f.modes)
         s += "; mode " + m.axis + " " + interval_text(m.critical_speed_rpm, 1.0, " rpm") + ", damping ratio " + interval_text(m.damping_ratio, 1.0, "");
@@ -303,16 +314,18 @@ void fit_sweeps(table_run& run, std::vector<std::string>& notes) {
       for (const response_fit* start : from) try {
           response_fit_options o = run.options(start);
           // The block and the direction are the instrument's and the run's, not the rotor's: found
-          // once, by the swept base fit, and kept for its steady starts (a swept start keeps its
-          // own), which start at its rate (the rate is set by the beats' spacing, which the
-          // effects move little).
-          if (mask != 0u && run.swept[0] && !start->parts.sweep) {
+          // by the swept base fit (the blocks that fit it as well as its own, in the run's
+          // direction), and kept for every combination after it, whose steady starts start at its
+          // rate (the rate is set by the beats' spacing, which the effects move little).
+          if (mask != 0u && run.swept[0]) {
             const response_fit& base = *run.swept[0];
-            o.revolutions_per_row = base.sweep_revolutions, o.sweep_direction = base.sweep_direction;
-            o.sweep_rate_start = base.sweep_rpm_per_s.value * 2.0 * std::numbers::pi / 60.0;
+            o.sweep_direction = base.sweep_direction;
+            for (const double b : base.sweep_alternatives)
+              if ((b > 0.0) == (base.sweep_direction > 0)) o.sweep_blocks.push_back(std::abs(b));
+            if (!start->parts.sweep) o.sweep_rate_start = base.sweep_rpm_per_s.value * 2.0 * std::numbers::pi / 60.0;
           }
           response_fit f = fit_response(run.table, table_run::parts_of(mask | kSweep), o);
-          if (mask != 0u && run.swept[0] && !start->parts.sweep) f.sweep_revolutions_fitted = run.swept[0]->sweep_revolutions_fitted;
+          if (mask != 0u && run.swept[0]) f.sweep_revolutions_fitted = run.swept[0]->sweep_revolutions_fitted;
           if (!fitted[i] || f.chi2 < fitted[i]->chi2) fitted[i] = std::move(f);
         } catch (const numerical_error& e) {
           failed[i] = e.what();
@@ -640,8 +653,8 @@ std::vector<std::string> cannot_see(const tracking_result& r, bool declared) {
       "a seal's follower cross-coupling (k_xy = -k_yx) on a rotor whose supports are alike: its unbalance response is a forward whirl, on which the "
       "cross-coupling acts as less damping, which the damping ratio takes (on an anisotropic rotor it shows)",
       "a run-up's transient beyond one constant acceleration: sweep_transient sweeps the rotor through the table's speeds at one rate (a profile that "
-      "changes its rate, or a tracking filter in place of blocks of whole revolutions, shows as a residual it leaves); it is tried where no steady "
-      "combination fits to the noise",
+      "changes its rate, or a tracking filter in place of blocks of whole revolutions, shows as a residual it leaves; a time_s column "
+      "shows how far the speeds depart from one rate); it is tried wherever the base fit leaves a residual beyond the noise",
   };
   if (!declared)
     out.push_back("a rub, with a probe whose angle is not declared: the stator's direction against the probe is unknown, so the rub fit is not tried");
@@ -753,10 +766,12 @@ tracking_result run_tracking_loop(const order_table& table, const std::function<
   // they are tried, the verdict's check (docs/loop.md, "The verdict's check"; the records' loop's
   // rule) runs them again beside the fit, with every orbit tolerance check_tolerance_scale times
   // the fit's, and judges every model again; an effect the two do not both name is tentative.
-  // The run-up's own transient, where no steady combination fits to the noise (closed form, so the
-  // verdict's check, which re-runs the orbits' fits, reuses these); the rub, where no plausible
-  // combination, steady or swept, does.
-  if (!any_noise) fit_sweeps(run, r.notes);
+  // The run-up's own transient, wherever the base leaves a residual beyond the noise (closed form,
+  // so the verdict's check, which re-runs the orbits' fits, reuses these): it competes with the
+  // steady effects, not after them (on one probe, two modes 0.3 % apart took a slow sweep's lag
+  // to the noise). The rub, where no plausible combination, steady or swept, fits to the noise.
+  const bool base_at_noise = undetermined_part(run.fits[0], run.rules).empty() && run.fits[0].consistent_with_noise;
+  if (!base_at_noise) fit_sweeps(run, r.notes);
   for (unsigned mask = 0; mask < 8; ++mask)
     any_noise = any_noise || (run.swept[mask] && undetermined_sweep(*run.swept[mask], run.rules).empty() && run.swept[mask]->consistent_with_noise);
   const bool rub_tried = declared && !any_noise, checked_run = rub_tried && settings.check_tolerance_scale != 0.0;

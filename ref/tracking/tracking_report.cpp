@@ -62,7 +62,9 @@ json fit_json(const response_fit& f) {
                             {"revolutions_per_row", f.sweep_revolutions},
                             {"revolutions_per_row_fitted", f.sweep_revolutions_fitted},
                             {"quasi_steady", f.sweep_at_slow_bound},
-                            {"rate_given", f.sweep_rate_held}};
+                            {"rate_given", f.sweep_rate_held},
+                            {"revolutions_per_row_fitting_as_well", json(std::vector<double>(f.sweep_alternatives.begin() + (f.sweep_alternatives.empty() ? 0 : 1),
+                                                                                         f.sweep_alternatives.end()))}};
   j["cancellation"] = f.cancellation;
   j["chi2"] = f.chi2;
   j["dof"] = f.dof;
