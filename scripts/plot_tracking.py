@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Figures of `rubref loop` on an order-tracked table (docs/real-data.md): reads plot_data.json,
 writes bode.png (1X amplitude and phase against speed: the table, the base fit, the fit with the
-effects found), polar.png (the 1X vector in the complex plane) and residual.png (|residual| / noise
+effects found, and where that fit is swept, the steady fit of the same effects), polar.png (the 1X vector in the complex plane) and residual.png (|residual| / noise
 against speed, before and after), one set per probe; with 2X columns also bode_2x.png (the 2X
 table, its runout-only fit and the fit the loop kept)."""
 import cmath
@@ -30,10 +30,14 @@ for p in d["probes"]:
     suffix = f"_{p['name']}" if p["name"] and len(d["probes"]) > 1 else ""
     title = Path(d["source"]).name + (f", probe {p['name']}" if p["name"] else "")
     data, before, after = vectors(p, "data"), vectors(p, "before"), vectors(p, "after")
+    steady = vectors(p, "steady") if "steady_re" in p else None  # the after fit's effects, steady (the sweep's bias)
+    steady_label = "the same effects, steady"
 
     fig, axs = plt.subplots(2, 1, figsize=(7.5, 6), sharex=True)
     axs[0].plot(rpm, [abs(v) for v in data], ".", ms=2, color="0.55", label="table")
     axs[0].plot(rpm, [abs(v) for v in before], "-", lw=1.2, color="tab:red", label="base fit (one critical speed, unbalance, runout)")
+    if steady:
+        axs[0].plot(rpm, [abs(v) for v in steady], "--", lw=1.0, color="tab:orange", label=steady_label)
     if after_label:
         axs[0].plot(rpm, [abs(v) for v in after], "-", lw=1.0, color="tab:blue", label=after_label)
     axs[0].set_ylabel("1X amplitude, 0-peak [µm]")
@@ -41,6 +45,8 @@ for p in d["probes"]:
     axs[0].set_title(title)
     axs[1].plot(rpm, [math.degrees(cmath.phase(v)) for v in data], ".", ms=2, color="0.55")
     axs[1].plot(rpm, [math.degrees(cmath.phase(v)) for v in before], "-", lw=1.2, color="tab:red")
+    if steady:
+        axs[1].plot(rpm, [math.degrees(cmath.phase(v)) for v in steady], "--", lw=1.0, color="tab:orange")
     if after_label:
         axs[1].plot(rpm, [math.degrees(cmath.phase(v)) for v in after], "-", lw=1.0, color="tab:blue")
     axs[1].set_ylabel("1X phase (lead) [deg]")
@@ -67,6 +73,8 @@ for p in d["probes"]:
     noise = p["noise_m"] * um
     fig, ax = plt.subplots(figsize=(7.5, 3.5))
     ax.plot(rpm, [abs(a - b) / noise for a, b in zip(data, before)], ".", ms=2, color="tab:red", label="base fit")
+    if steady:
+        ax.plot(rpm, [abs(a - b) / noise for a, b in zip(data, steady)], ".", ms=2, color="tab:orange", label=steady_label)
     if after_label:
         ax.plot(rpm, [abs(a - b) / noise for a, b in zip(data, after)], ".", ms=2, color="tab:blue", label=after_label)
     ax.axhline(math.sqrt(2), color="k", lw=0.8, ls="--", label="noise (RMS of |residual|)")

@@ -27,6 +27,7 @@
 #include "ref/tracking/response_fit.hpp"
 #include "ref/tracking/swept_response.hpp"
 #include "ref/tracking/tracking_loop.hpp"
+#include "ref/tracking/tracking_report.hpp"
 
 #include <optional>
 #include <random>
@@ -451,6 +452,11 @@ TEST(SweptLoop, NamesTheSweepOfARingingRunUp) {
   EXPECT_EQ(r.decision.named, std::vector<std::string>{"sweep_transient"}) << trace;
   EXPECT_EQ(r.decision.claim, "full") << trace;
   EXPECT_TRUE(r.after.parts.sweep);
+  // The steady fit of the same effects beside it: in the report (its bias) and in the figure.
+  ASSERT_TRUE(r.steady.has_value());
+  EXPECT_FALSE(r.steady->parts.sweep);
+  EXPECT_NE(to_markdown(r).find("the steady fit of the same effects put mode both at"), std::string::npos);
+  EXPECT_TRUE(plot_data(r)["probes"][0].contains("steady_re"));
 }
 
 // The same rotor's steady response (the sweep infinitely slow), rows every 0.5 % from 75 to 300
@@ -502,6 +508,11 @@ TEST(SweptLoop, GivesNoSweepToASteadyTableWithAnEffectOutsideTheModel) {
   }
   EXPECT_TRUE(tried) << trace;
   for (const auto& e : r.decision.chosen()) EXPECT_NE(e, "sweep_transient") << trace;
+  // The swept base fit cannot tell its rate: the report says the table is quasi-steady.
+  const auto swept_base = std::find_if(r.models.begin(), r.models.end(), [](const tracked_model& m) { return m.effects == std::vector<std::string>{"sweep_transient"}; });
+  ASSERT_NE(swept_base, r.models.end());
+  EXPECT_FALSE(swept_base->undetermined.empty()) << trace;
+  EXPECT_NE(to_markdown(r).find("the table is quasi-steady at its noise"), std::string::npos);
 }
 
 }  // namespace

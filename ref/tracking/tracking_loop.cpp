@@ -671,6 +671,7 @@ void decide_1x(table_run& run, tracking_result& r, std::size_t chosen, unsigned 
                const verdict* check = nullptr) {
   r.models[chosen].summary = "chosen: " + r.models[chosen].summary;
   r.after = run.response(chosen_mask & ~kRub);
+  if (chosen_mask & kSweep) r.steady = run.fits[chosen_mask & 7u];
   if (!(chosen_mask & kSweep) && run.rubs[chosen_mask | kRub]) r.rub = rub_result_of(run, r.models, chosen_mask, r.after);
   const bool rub_named = r.rub && r.rub->named;
   const double chi2_after = rub_named ? r.rub->fit.chi2 : r.after.chi2;

@@ -81,6 +81,7 @@ struct tracking_result {
   order_table table;
   response_fit before;                   // the base fit
   response_fit after;                    // with the contact-free effects added (the rub's fit, when named, is in `rub`)
+  std::optional<response_fit> steady;    // where `after` is swept: the steady fit of the same effects (its bias, the figure)
   std::vector<tracked_model> models;     // every combination, the base first
   double error_before = 0.0, error_after = 0.0;  // m, RMS residual per component
   // The 1X's verdict (the claim rule, ref/inference/evidence.hpp): the effects chosen among the

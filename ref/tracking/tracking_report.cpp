@@ -139,7 +139,7 @@ json to_json(const tracking_result& r) {
   j["rows"] = r.table.rows();
   j["speed_range_rpm"] = json::array({r.table.rpm.front(), r.table.rpm.back()});
   j["intake"] = {{"conventions", r.table.conventions}, {"notes", r.notes}};
-  const json after = fit_json(r.after);
+  json after = fit_json(r.after);
   const bool rub_named = r.rub && r.rub->named;
   j["modes"] = rub_named ? modes_json(r.rub->fit.modes) : after["modes"];
   j["modes_from"] = rub_named ? "the rub fit" : "the contact-free fit";
@@ -169,6 +169,7 @@ json to_json(const tracking_result& r) {
                   {"with_misalignment_fit", two_x_fit_json(t.with)}};
   }
   j["before_fit"] = fit_json(r.before);
+  if (r.steady) after["sweep_transient"]["steady_fit_of_the_same_effects"] = fit_json(*r.steady);
   j["after_fit"] = after;
   j["models"] = json::array();
   for (const auto& m : r.models) {
@@ -217,9 +218,19 @@ std::string to_markdown(const tracking_result& r) {
     s += "- the run-up's transient: swept " + std::string(f.sweep_direction > 0 ? "up" : "down") + " at " +
          (f.sweep_rate_held ? format_digits(f.sweep_rpm_per_s.value, 4) + " rpm/s (given: see the notes)" : with_interval(f.sweep_rpm_per_s) + " rpm/s") +
          " (constant acceleration), each row read over " + format_digits(f.sweep_revolutions) + " revolutions (" +
-         (f.sweep_revolutions_fitted ? "fitted" : "declared") + "); the steady base fit put the critical speed at " +
-         with_interval(r.before.modes.front().critical_speed_rpm, 1.0, 4) + " rpm, damping ratio " + with_interval(r.before.modes.front().damping_ratio) +
-         " (a steady fit's bias on a swept table)\n";
+         (f.sweep_revolutions_fitted ? "fitted" : "declared") + "); the steady fit of the same effects put ";
+  if (f.parts.sweep && r.steady) {
+    std::string modes;
+    for (const auto& m : r.steady->modes)
+      modes += (modes.empty() ? "" : "; ") + ("mode " + m.axis + " at " + with_interval(m.critical_speed_rpm, 1.0, 4) + " rpm, damping ratio " + with_interval(m.damping_ratio));
+    s += modes + " (a steady fit's bias on a swept table)\n";
+  }
+  // Where the sweep was fitted and not kept for want of a determined rate: the table is
+  // quasi-steady at its noise, said as such.
+  for (const auto& m : r.models)
+    if (m.effects == std::vector<std::string>{"sweep_transient"} && !m.undetermined.empty() && !f.parts.sweep)
+      s += "- the run-up's transient: the table is quasi-steady at its noise (" + m.undetermined + "): a steady fit's critical speed and damping "
+           "are not biased by the sweep beyond their intervals\n";
   for (std::size_t p = 0; p < r.noise_scatter_m.size(); ++p)
     s += "- noise" + (f.probes[p].empty() ? std::string() : " of " + f.probes[p]) + ": " + um(r.noise_scatter_m[p]) + " from the rows' scatter, " +
          um(r.noise_residual_m[p]) + " from the base fit's residual; used " + um(f.noise_m[p]) +
@@ -275,7 +286,7 @@ json plot_data(const tracking_result& r) {
   for (std::size_t p = 0; p < r.after.probes.size(); ++p) {
     json probe;
     probe["name"] = r.after.probes[p];
-    std::vector<double> dre, dim, bre, bim, are, aim;
+    std::vector<double> dre, dim, bre, bim, are, aim, sre, sim;
     std::size_t order = 0;
     for (std::size_t o = 0; o < r.table.orders.size(); ++o)
       if (r.table.orders[o].order == 1 && r.table.orders[o].probe == r.after.probes[p]) order = o;
@@ -284,7 +295,9 @@ json plot_data(const tracking_result& r) {
       bre.push_back(r.before.model[p][i].real()), bim.push_back(r.before.model[p][i].imag());
       const auto a = r.rub && r.rub->named ? r.rub->fit.model[p][i] : r.after.model[p][i];
       are.push_back(a.real()), aim.push_back(a.imag());
+      if (r.steady) sre.push_back(r.steady->model[p][i].real()), sim.push_back(r.steady->model[p][i].imag());
     }
+    if (r.steady) probe["steady_re"] = sre, probe["steady_im"] = sim;
     probe["data_re"] = dre, probe["data_im"] = dim;
     probe["before_re"] = bre, probe["before_im"] = bim;
     probe["after_re"] = are, probe["after_im"] = aim;
