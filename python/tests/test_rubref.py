@@ -234,6 +234,13 @@ def test_order_table_reads_as_complex_vectors_and_loops(tmp_path):
     import math
     # 1e-6: a noise-free table, fitted to its own rounding.
     assert abs(report["modes"][0]["critical_speed_rpm"] - 160 * 30 / math.pi) < 1e-6 * 160 * 30 / math.pi
+    # A negative sweep rate is refused before any work (its direction is the table's).
+    with pytest.raises(rubref.InputError, match="'sweep_rate' must be a positive rate in rpm/s"):
+        rubref.loop(tmp_path / "t.csv", amplitude="0-peak", phase="lead", sweep_rate=-5.0)
+    # A time_s column follows its rows into rising speed.
+    (tmp_path / "timed.csv").write_text("rpm,time_s,amp_1x_um,phase_1x_deg\n2000,2.0,1,0\n1000,4.0,2,10\n")
+    timed = rubref.read_order_table(tmp_path / "timed.csv", amplitude="0-peak", phase="lead")
+    assert list(timed["time_s"]) == [4.0, 2.0]
 
 
 
