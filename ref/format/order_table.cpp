@@ -372,9 +372,12 @@ read_order order_of(const record& r, const std::pair<std::string, int>& key, con
   return out;
 }
 
-// Dwells: the longest run of rows, in file order, within 1 % of its first row's speed. Said, so
-// a reader knows where the table's weight lies; the fit takes every row as one measurement.
-std::optional<std::string> dwell_note(const record& r, const table_columns& columns) {
+// Dwells: the longest run of rows, in file order, within 1 % of its first row's speed, where it
+// holds at least 10 rows and a tenth of the table (data rows from..from+length).
+struct dwell_run {
+  std::size_t from = 0, length = 0;
+};
+std::optional<dwell_run> longest_dwell(const record& r, const table_columns& columns) {
   const auto& speed = r.data[columns.speed];
   const std::size_t n = r.rows();
   std::size_t best_from = 0, best_length = 0;
@@ -384,6 +387,16 @@ std::optional<std::string> dwell_note(const record& r, const table_columns& colu
     if (j - i > best_length) best_from = i, best_length = j - i;
   }
   if (!(best_length >= 10 && best_length * 10 >= n)) return std::nullopt;
+  return dwell_run{best_from, best_length};
+}
+
+// A dwell, said, so a reader knows where the table's weight lies; the fit takes every row as one
+// measurement.
+std::optional<std::string> dwell_note(const record& r, const table_columns& columns) {
+  const auto& speed = r.data[columns.speed];
+  const auto dwell = longest_dwell(r, columns);
+  if (!dwell) return std::nullopt;
+  const std::size_t n = r.rows(), best_from = dwell->from, best_length = dwell->length;
   double lo = speed[best_from], hi = lo;
   for (std::size_t i = best_from; i < best_from + best_length; ++i) lo = std::min(lo, speed[i]), hi = std::max(hi, speed[i]);
   return "lines " + std::to_string(r.first_data_line + best_from) + "-" + std::to_string(r.first_data_line + best_from + best_length - 1) + ": " +
@@ -467,6 +480,8 @@ order_table parse_order_table(std::string_view text, std::string_view source, co
   t.conventions = "amplitude " + conventions.amplitude_kind.value + " (" + (conventions.amplitude_kind.where == "file" ? "from the file" : "given") +
                   "), phase " + reading.sense + " (" + (conventions.phase_sense.where == "file" ? "from the file" : "given") + "); " + units_used;
   if (auto note = dwell_note(r, columns)) t.notes.push_back(std::move(*note));
+  if (const auto dwell = longest_dwell(r, columns))
+    for (const std::size_t i : rows.order) t.dwell.push_back(i >= dwell->from && i < dwell->from + dwell->length);
   return t;
 }
 

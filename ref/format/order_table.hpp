@@ -50,6 +50,7 @@ struct order_table {
   std::vector<double> rpm;               // per row, rising (the reader sorts)
   std::vector<std::size_t> line;         // the file line of each row (tracked from a record: its dwell's place in time); its order is the sweep's
   std::vector<double> time_s;            // per row, the time of its block's middle (a time_s column; empty: the table has none)
+  std::vector<bool> dwell;               // per row, whether it is in the table's dwell (the notes say it; empty: none)
   std::vector<tracked_order> orders;     // in header order
   std::vector<std::string> notes;        // what the reader did and found: order, repeats, dwells, ignored columns
   std::string conventions;               // one line: the conventions used and where each came from

@@ -136,9 +136,12 @@ struct problem {
   std::vector<std::size_t> free;    // the slot of each coordinate
   double w_lo = 1.0, w_hi = 1.0;  // rad/s
   int evaluations = 0;
-  // sweep only: every row's speed (rad/s; the sweep runs through all of them, fitted or not), the
-  // sweep's reference speed (the table's lowest), direction and block.
+  // sweep only: every swept row's speed (rad/s; the sweep runs through all of them, fitted or
+  // not: every row outside the table's dwell, whose rows are steady), each table row's index
+  // among them (-1: in the dwell), the sweep's reference speed (the lowest swept), direction and
+  // block.
   std::vector<double> speeds = {};
+  std::vector<std::ptrdiff_t> swept_row = {};
   double sweep_ref = 1.0, revolutions = 1.0, rate_start = 0.0;
   double held_rate = 0.0;  // |alpha| held (rad/s^2; 0: the rate is a coordinate)
   int direction = 1;
@@ -221,11 +224,20 @@ struct problem {
       return {};
     }
   }
-  // The real-linear columns of amplitude c (Re, Im) for probe p at table row `row`.
-  std::pair<cplx, cplx> swept_column(const swept_table_columns& cols, std::size_t p, std::size_t row, std::size_t c) const {
-    if (c == 0) return {cols.columns[p][row][0], cols.columns[p][row][1]};
-    if (c <= orders.size()) return c - 1 == p ? std::pair<cplx, cplx>{1.0, cplx(0.0, 1.0)} : std::pair<cplx, cplx>{0.0, 0.0};
-    return {cols.columns[p][row][2], cols.columns[p][row][3]};
+  // The real-linear columns (Re, Im) of every amplitude for probe p at table row `row`: the
+  // sweep's, or in the dwell the steady ones (complex-linear: Im's column is j times Re's).
+  void swept_columns_at(const swept_table_columns& cols, const std::vector<double>& f, std::size_t p, std::size_t row, std::pair<cplx, cplx>* out) const {
+    const std::size_t l = amplitudes();
+    if (swept_row[row] < 0) {
+      std::vector<cplx> col(l);
+      columns(point(f, p), p, table.rpm[row] * kRpmToRadS, col.data());
+      for (std::size_t c = 0; c < l; ++c) out[c] = {col[c], cplx(0.0, 1.0) * col[c]};
+      return;
+    }
+    const auto& at = cols.columns[p][static_cast<std::size_t>(swept_row[row])];
+    out[0] = {at[0], at[1]};
+    for (std::size_t q = 0; q < orders.size(); ++q) out[1 + q] = q == p ? std::pair<cplx, cplx>{1.0, cplx(0.0, 1.0)} : std::pair<cplx, cplx>{0.0, 0.0};
+    if (parts.shaft_bow) out[l - 1] = {at[2], at[3]};
   }
   Eigen::VectorXd swept_residuals(const std::vector<double>& f, std::vector<cplx>& amp, const std::vector<cplx>* fixed) const {
     const std::size_t m = rows.size() * orders.size(), l = amplitudes();
@@ -233,11 +245,13 @@ struct problem {
     if (cols.columns.empty()) return Eigen::VectorXd::Constant(static_cast<Eigen::Index>(2 * m), std::numeric_limits<double>::quiet_NaN());
     Eigen::MatrixXd a(2 * m, 2 * l);
     Eigen::VectorXd data(2 * m);
+    std::vector<std::pair<cplx, cplx>> at(l);
     for (std::size_t p = 0; p < orders.size(); ++p)
       for (std::size_t i = 0; i < rows.size(); ++i) {
         const Eigen::Index r = static_cast<Eigen::Index>(2 * (p * rows.size() + i));
+        swept_columns_at(cols, f, p, rows[i], at.data());
         for (std::size_t c = 0; c < l; ++c) {
-          const auto [re, im] = swept_column(cols, p, rows[i], c);
+          const auto [re, im] = at[c];
           a(r, static_cast<Eigen::Index>(2 * c)) = re.real() / sigma[p], a(r + 1, static_cast<Eigen::Index>(2 * c)) = re.imag() / sigma[p];
           a(r, static_cast<Eigen::Index>(2 * c + 1)) = im.real() / sigma[p], a(r + 1, static_cast<Eigen::Index>(2 * c + 1)) = im.imag() / sigma[p];
         }
@@ -263,16 +277,18 @@ struct problem {
     const swept_table_columns cols = parts.sweep ? swept_columns(f) : swept_table_columns{};
     if (parts.sweep && cols.columns.empty()) throw numerical_error(table.source + ": the swept response's modes cannot be computed at the fit");
     std::vector<cplx> col(l);
+    std::vector<std::pair<cplx, cplx>> swept(l);
     for (std::size_t p = 0; p < orders.size(); ++p) {
       const probe_point at = point(f, p);
       for (std::size_t i = 0; i < table.rows(); ++i) {
         if (!parts.sweep) columns(at, p, table.rpm[i] * kRpmToRadS, col.data());
+        else swept_columns_at(cols, f, p, i, swept.data());
         for (std::size_t c = 0; c < l; ++c) {
           if (!parts.sweep) {
             out[p][i][c] = amp[c] * col[c];
             continue;
           }
-          const auto [re, im] = swept_column(cols, p, i, c);
+          const auto [re, im] = swept[c];
           out[p][i][c] = amp[c].real() * re + amp[c].imag() * im;
         }
       }
@@ -439,8 +455,13 @@ problem set_up(const order_table& table, const response_parts& parts, const resp
   pr.w_lo = lo * kRpmToRadS, pr.w_hi = hi * kRpmToRadS;
   check_fittable(table);
   if (parts.sweep) {
-    for (const double rpm : table.rpm) pr.speeds.push_back(rpm * kRpmToRadS);
-    pr.sweep_ref = table.rpm.front() * kRpmToRadS;  // the table's lowest speed (rows in rising speed)
+    for (std::size_t i = 0; i < table.rows(); ++i) {
+      const bool steady = !table.dwell.empty() && table.dwell[i];
+      pr.swept_row.push_back(steady ? -1 : static_cast<std::ptrdiff_t>(pr.speeds.size()));
+      if (!steady) pr.speeds.push_back(table.rpm[i] * kRpmToRadS);
+    }
+    if (pr.speeds.size() < 8) throw numerical_error(table.source + ": a sweep needs at least 8 rows outside the table's dwell; it has " + std::to_string(pr.speeds.size()));
+    pr.sweep_ref = pr.speeds.front();  // the lowest swept speed (rows in rising speed)
     pr.held_rate = options.sweep_rate;
     pr.rate_start = pr.held_rate > 0.0 ? pr.held_rate : options.sweep_rate_start;
   }
@@ -468,12 +489,13 @@ std::vector<double> swept_start(const problem& pr, std::vector<double> f, double
 // critical speed of `f` (where the sweep rings); 0 where no such pair moves the sweep's way.
 double contiguous_rate(const problem& pr, const std::vector<double>& f) {
   const double lo = 0.5 * std::min(std::exp(f[ln_wx]), std::exp(f[ln_wy])), hi = 2.0 * std::max(std::exp(f[ln_wx]), std::exp(f[ln_wy]));
-  std::vector<std::size_t> by_line(pr.speeds.size());
-  for (std::size_t i = 0; i < by_line.size(); ++i) by_line[i] = i;
+  std::vector<std::size_t> by_line;  // the swept rows (not the dwell's)
+  for (std::size_t i = 0; i < pr.table.rows(); ++i)
+    if (pr.swept_row[i] >= 0) by_line.push_back(i);
   std::stable_sort(by_line.begin(), by_line.end(), [&](std::size_t a, std::size_t b) { return pr.table.line[a] < pr.table.line[b]; });
   std::vector<double> rates;
   for (std::size_t k = 1; k < by_line.size(); ++k) {
-    const double w1 = pr.speeds[by_line[k - 1]], w2 = pr.speeds[by_line[k]];
+    const double w1 = pr.table.rpm[by_line[k - 1]] * kRpmToRadS, w2 = pr.table.rpm[by_line[k]] * kRpmToRadS;
     const double rate = pr.direction * (w2 * w2 - w1 * w1) / (4.0 * kPi * pr.revolutions);
     if (w1 >= lo && w1 <= hi && rate > 0.0) rates.push_back(rate);
   }
@@ -845,23 +867,27 @@ std::pair<std::vector<int>, std::vector<double>> sweep_candidates(const order_ta
 
 std::optional<timed_sweep> sweep_of_times(const order_table& table) {
   if (table.time_s.empty()) return std::nullopt;
-  const std::size_t n = table.rows();
-  if (table.time_s.size() != n) throw input_error(table.source + ": the time_s column has " + std::to_string(table.time_s.size()) + " values for " + std::to_string(n) + " rows");
-  if (n < 3) throw input_error(table.source + ": a sweep's rate from the time_s column needs at least 3 rows");
+  if (table.time_s.size() != table.rows())
+    throw input_error(table.source + ": the time_s column has " + std::to_string(table.time_s.size()) + " values for " + std::to_string(table.rows()) + " rows");
+  std::vector<std::size_t> swept;  // the rows outside the table's dwell (its speed stands still)
+  for (std::size_t i = 0; i < table.rows(); ++i)
+    if (table.dwell.empty() || !table.dwell[i]) swept.push_back(i);
+  const double n = static_cast<double>(swept.size());
+  if (swept.size() < 3) throw input_error(table.source + ": a sweep's rate from the time_s column needs at least 3 rows outside the table's dwell");
   double tm = 0.0, wm = 0.0;
-  for (std::size_t i = 0; i < n; ++i) tm += table.time_s[i], wm += table.rpm[i] * kRpmToRadS;
-  tm /= static_cast<double>(n), wm /= static_cast<double>(n);
+  for (const std::size_t i : swept) tm += table.time_s[i], wm += table.rpm[i] * kRpmToRadS;
+  tm /= n, wm /= n;
   double stt = 0.0, stw = 0.0;
-  for (std::size_t i = 0; i < n; ++i) stt += (table.time_s[i] - tm) * (table.time_s[i] - tm), stw += (table.time_s[i] - tm) * (table.rpm[i] * kRpmToRadS - wm);
+  for (const std::size_t i : swept) stt += (table.time_s[i] - tm) * (table.time_s[i] - tm), stw += (table.time_s[i] - tm) * (table.rpm[i] * kRpmToRadS - wm);
   timed_sweep s;
   s.alpha = stw / stt;
   double ss = 0.0;
-  for (std::size_t i = 0; i < n; ++i) {
+  for (const std::size_t i : swept) {
     const double d = table.rpm[i] * kRpmToRadS - wm - s.alpha * (table.time_s[i] - tm);
     ss += d * d, s.departure_rpm = std::max(s.departure_rpm, std::abs(d) / kRpmToRadS);
   }
-  s.alpha_sd = std::sqrt(ss / static_cast<double>(n - 2) / stt);
-  s.range_rpm = table.rpm.back() - table.rpm.front();
+  s.alpha_sd = std::sqrt(ss / (n - 2.0) / stt);
+  s.range_rpm = table.rpm[swept.back()] - table.rpm[swept.front()];
   if (!(std::abs(s.alpha) > 0.0) || !(std::abs(s.alpha) > 2.0 * s.alpha_sd))
     throw input_error(table.source + ": the speed does not change with the time_s column (" + format_digits(s.alpha / kRpmToRadS) + " +- " +
                       format_digits(2.0 * s.alpha_sd / kRpmToRadS) + " rpm/s): it is no run-up or coast-down");
@@ -873,10 +899,15 @@ int sweep_direction_of(const order_table& table) {
   // sweep's speed column jitters a little (a few reversals); shuffled rows reverse half the time,
   // so a direction needs three times as many steps one way as the other.
   // A time_s column, where the table has one, says it in place of the file's order.
+  // A dwell's rows are not the sweep's (their speeds jitter about one).
+  std::vector<std::size_t> swept;
+  for (std::size_t i = 0; i < table.rows(); ++i)
+    if (table.dwell.empty() || !table.dwell[i]) swept.push_back(i);
   std::size_t rises = 0, falls = 0;
-  for (std::size_t i = 1; i < table.rows(); ++i) {
-    const bool later = table.time_s.empty() ? table.line[i] > table.line[i - 1] : table.time_s[i] > table.time_s[i - 1];
-    const bool earlier = table.time_s.empty() ? table.line[i] < table.line[i - 1] : table.time_s[i] < table.time_s[i - 1];
+  for (std::size_t k = 1; k < swept.size(); ++k) {
+    const std::size_t i = swept[k], h = swept[k - 1];
+    const bool later = table.time_s.empty() ? table.line[i] > table.line[h] : table.time_s[i] > table.time_s[h];
+    const bool earlier = table.time_s.empty() ? table.line[i] < table.line[h] : table.time_s[i] < table.time_s[h];
     rises += later, falls += earlier;
   }
   if (rises > 3 * falls) return 1;

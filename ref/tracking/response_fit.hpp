@@ -39,7 +39,8 @@ struct response_parts {
   bool cross_coupling = false;
   // The run-up's own transient (`sweep_transient`): the rotor swept through the table's speeds at
   // a constant angular acceleration, each row read over a block of N revolutions
-  // (ref/tracking/swept_response.hpp), in place of the steady response at each speed.
+  // (ref/tracking/swept_response.hpp), in place of the steady response at each speed; the rows of
+  // the table's dwell (order_table::dwell) stay steady (the sweep stood still there).
   bool sweep = false;
 };
 
@@ -135,12 +136,13 @@ struct response_fit_options {
 // The block sizes (revolutions per row) a sweep fit tries when the table does not declare one.
 inline constexpr double kSweepRevolutions[] = {1.0, 2.0, 3.0, 4.0, 6.0, 8.0};
 
-// The direction the table's speed ran in, from its rows' order in the file: +1 rising (a
-// run-up), -1 falling (a coast-down), 0 when the file's order says neither (shuffled rows).
+// The direction the table's speed ran in, from its time_s column or else its rows' order in the
+// file, the dwell's rows left out: +1 rising (a run-up), -1 falling (a coast-down), 0 when the
+// order says neither (shuffled rows).
 int sweep_direction_of(const order_table& table);
 
-// The sweep a table's time_s column shows: the least-squares line of its speeds against its times
-// (the swept model's constant acceleration), alpha in rad/s^2 (< 0 a coast-down) with its standard
+// The sweep a table's time_s column shows (its rows outside the dwell): the least-squares line of
+// its speeds against its times (the swept model's constant acceleration), alpha in rad/s^2 (< 0 a coast-down) with its standard
 // error, and how far the speeds depart from the line (largest, rpm; a sweep whose rate changes
 // departs by more than its speed column's jitter). Unset when the table has no time column;
 // input_error when its speed does not change with time.

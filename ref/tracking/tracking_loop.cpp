@@ -306,13 +306,20 @@ std::string part_list(unsigned mask) {
 // campaign table with a cross-coupling took 166 s for eight such fits, against 2 s without).
 void fit_sweeps(table_run& run, std::vector<std::string>& notes) {
   run.say(std::string(sweep_transient_part) + ": every combination swept through the table's speeds at a constant acceleration ...");
-  for (const std::vector<unsigned>& level : {std::vector<unsigned>{0u}, {1u, 2u, 4u}, {3u, 5u, 6u}, {7u}}) {
-    if (level.front() != 0u && (!run.swept[0] || run.swept[0]->sweep_at_slow_bound || !run.swept[0]->sweep_rpm_per_s.determined)) {
+  bool skipped = false;
+  for (const std::vector<unsigned>& all : {std::vector<unsigned>{0u}, {1u, 2u, 4u}, {3u, 5u, 6u}, {7u}}) {
+    if (all.front() != 0u && (!run.swept[0] || run.swept[0]->sweep_at_slow_bound || !run.swept[0]->sweep_rpm_per_s.determined)) {
       notes.push_back(std::string("the swept base fit finds no sweep rate (") + (run.swept[0] ? "quasi-steady" : "no response could be computed") +
                       "): the sweep is not fitted with the other effects");
       run.say("  the swept base fit is quasi-steady: the other combinations are not swept");
       return;
     }
+    // A combination whose steady fit leaves noise is not swept: its sweep could only add a
+    // coordinate to a fit the criterion already cannot improve on by more than the noise.
+    std::vector<unsigned> level;
+    for (const unsigned mask : all)
+      if (mask == 0u || !run.fits[mask].consistent_with_noise) level.push_back(mask);
+      else skipped = true;
     std::vector<std::optional<response_fit>> fitted(level.size());
     std::vector<std::string> failed(level.size());
     parallel_for(level.size(), 0, [&](std::size_t i) {
@@ -352,6 +359,7 @@ void fit_sweeps(table_run& run, std::vector<std::string>& notes) {
       run.masks.push_back(mask | kSweep);
     }
   }
+  if (skipped) notes.push_back("combinations whose steady fit leaves a residual within the noise are not fitted swept");
 }
 
 // The noise from the best-fitting plausible swept fit's residual, where that is lower (a ringing
