@@ -895,11 +895,10 @@ std::optional<timed_sweep> sweep_of_times(const order_table& table) {
 }
 
 int sweep_direction_of(const order_table& table) {
-  // The rows' file lines in rising speed: a run-up's rise with the speed, a coast-down's fall. A
-  // sweep's speed column jitters a little (a few reversals); shuffled rows reverse half the time,
-  // so a direction needs three times as many steps one way as the other.
-  // A time_s column, where the table has one, says it in place of the file's order.
-  // A dwell's rows are not the sweep's (their speeds jitter about one).
+  // The rows' file lines (or times, where the table has a time_s column) in rising speed: a
+  // run-up's rise with the speed, a coast-down's fall. A sweep's speed column jitters a little (a
+  // few reversals); shuffled rows reverse half the time, so a direction needs three times as many
+  // steps one way as the other. A dwell's rows are left out (their speeds jitter about one).
   std::vector<std::size_t> swept;
   for (std::size_t i = 0; i < table.rows(); ++i)
     if (table.dwell.empty() || !table.dwell[i]) swept.push_back(i);
@@ -982,14 +981,15 @@ response_fit fit_response(const order_table& table, const response_parts& parts,
   if (!kept) throw numerical_error(table.source + ": the swept 1X response fit found no finite residual from any start");
   response_fit f = finish(*kept, best, options);
   // The block and direction are fitted among a few values: where another fits as well (its chi^2
-  // within the 95 % point of one coordinate's, 3.84, scaled as the covariance is), the estimates
-  // take its intervals too (a profile over the discrete coordinate: at a slow sweep the block
-  // changes the read little, and its choice must not make the intervals miss).
+  // within the 95 % point of one coordinate's, 3.84, scaled as the covariance is; within it too
+  // where its unfinished descent may reach it, so that no round-off decides), the estimates take
+  // its intervals too (a profile over the discrete coordinate: at a slow sweep the block changes
+  // the read little, and its choice must not make the intervals miss).
   const double scale = std::max(1.0, f.chi2 / static_cast<double>(std::max<std::size_t>(f.dof, 1)));
   f.sweep_alternatives.push_back(f.sweep_revolutions * f.sweep_direction);
   for (const tried_block& t : tried) {
     if (t.revolutions == f.sweep_revolutions && t.direction == f.sweep_direction) continue;
-    if (!(t.at.cost <= best.cost + kProfile95 * scale)) continue;
+    if (!(t.at.cost - t.at.remaining <= best.cost + kProfile95 * scale)) continue;
     problem pr = set_up(table, parts, options);
     pr.direction = t.direction, pr.revolutions = t.revolutions;
     const response_fit other = finish(pr, t.at, options);
