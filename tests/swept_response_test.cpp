@@ -428,7 +428,8 @@ TEST(SweptFit, BlocksThatFitAsWellWidenTheIntervalsToCoverTheirs) {
   for (std::size_t i = 1; i < f.sweep_alternatives.size(); ++i) {
     response_fit_options held = o;
     held.revolutions_per_row = f.sweep_alternatives[i];
-    const auto& g = fit_response(table, parts, held).modes.front().critical_speed_rpm;
+    const response_fit at_block = fit_response(table, parts, held);
+    const auto& g = at_block.modes.front().critical_speed_rpm;
     const auto& c = f.modes.front().critical_speed_rpm;
     EXPECT_LE(c.lo, g.lo + 1e-6 * g.value) << f.sweep_alternatives[i];
     EXPECT_GE(c.hi, g.hi - 1e-6 * g.value) << f.sweep_alternatives[i];
