@@ -347,16 +347,19 @@ void expect_recovered(const swept_truth& t, const response_fit& swept, const res
   EXPECT_FALSE(steady_fit.consistent_with_noise);
 }
 
+// The table's swept fit started from its steady fit, as the loop starts it, with options `o`.
+response_fit swept_fit(const order_table& table, const response_fit& steady_fit, response_fit_options o = {}) {
+  response_parts parts;
+  parts.sweep = true;
+  o.start = &steady_fit;
+  return fit_response(table, parts, o);
+}
+
 TEST(SweptFit, ARingingRunUpIsRecoveredWithinItsIntervals) {
   const swept_truth t = ringing_run_up();
   const order_table table = swept_table(t);
   const response_fit steady_fit = fit_response(table, {});
-  response_parts parts;
-  parts.sweep = true;
-  response_fit_options o;
-  o.start = &steady_fit;
-  const response_fit swept = fit_response(table, parts, o);
-  expect_recovered(t, swept, steady_fit);
+  expect_recovered(t, swept_fit(table, steady_fit), steady_fit);
 }
 
 TEST(SweptFit, ACoastDownRingsBelowTheCriticalSpeedAndIsRecovered) {
@@ -365,11 +368,7 @@ TEST(SweptFit, ACoastDownRingsBelowTheCriticalSpeedAndIsRecovered) {
   const order_table table = swept_table(t);
   EXPECT_EQ(sweep_direction_of(table), -1);
   const response_fit steady_fit = fit_response(table, {});
-  response_parts parts;
-  parts.sweep = true;
-  response_fit_options o;
-  o.start = &steady_fit;
-  expect_recovered(t, fit_response(table, parts, o), steady_fit);
+  expect_recovered(t, swept_fit(table, steady_fit), steady_fit);
 }
 
 TEST(SweptFit, ATimeColumnGivesTheRateWhichTheFitHolds) {
@@ -387,19 +386,14 @@ TEST(SweptFit, ATimeColumnGivesTheRateWhichTheFitHolds) {
   EXPECT_NEAR(timed->alpha, t.alpha, 1e-6 * std::abs(t.alpha));
   EXPECT_LT(timed->departure_rpm, 1e-6 * timed->range_rpm);
   const response_fit steady_fit = fit_response(table, {});
-  response_parts parts;
-  parts.sweep = true;
   response_fit_options o;
-  o.start = &steady_fit;
   o.sweep_rate = std::abs(timed->alpha);
-  const response_fit swept = fit_response(table, parts, o);
+  const response_fit swept = swept_fit(table, steady_fit, o);
   EXPECT_TRUE(swept.sweep_rate_held);
   EXPECT_EQ(swept.sweep_rpm_per_s.value, std::abs(timed->alpha) * 60.0 / (2.0 * kPi));
   expect_recovered(t, swept, steady_fit);
   // One coordinate fewer than the fit that finds the rate itself.
-  response_fit_options fitted = o;
-  fitted.sweep_rate = 0.0;
-  EXPECT_EQ(fit_response(table, parts, fitted).parameters, swept.parameters + 1);
+  EXPECT_EQ(swept_fit(table, steady_fit).parameters, swept.parameters + 1);
 }
 
 TEST(SweptFit, BlocksThatFitAsWellWidenTheIntervalsToCoverTheirs) {
@@ -410,11 +404,7 @@ TEST(SweptFit, BlocksThatFitAsWellWidenTheIntervalsToCoverTheirs) {
   t.alpha = 0.1 * 0.01 * 0.01 * 150.0 * 150.0, t.revolutions = 3.0;
   const order_table table = swept_table(t, 13);
   const response_fit steady_fit = fit_response(table, {});
-  response_parts parts;
-  parts.sweep = true;
-  response_fit_options o;
-  o.start = &steady_fit;
-  const response_fit f = fit_response(table, parts, o);
+  const response_fit f = swept_fit(table, steady_fit);
   // (This table's blocks 1, 2 and 3 fit alike: the test reaches the widening.)
   ASSERT_GT(f.sweep_alternatives.size(), 1u);
   EXPECT_EQ(f.sweep_alternatives.front(), f.sweep_revolutions);
@@ -426,9 +416,9 @@ TEST(SweptFit, BlocksThatFitAsWellWidenTheIntervalsToCoverTheirs) {
   // A held block's fit starts elsewhere and ends within the solver's tolerance of the same point:
   // its interval's ends agree to far better than 1e-6 of the speed.
   for (std::size_t i = 1; i < f.sweep_alternatives.size(); ++i) {
-    response_fit_options held = o;
+    response_fit_options held;
     held.revolutions_per_row = f.sweep_alternatives[i];
-    const response_fit at_block = fit_response(table, parts, held);
+    const response_fit at_block = swept_fit(table, steady_fit, held);
     const auto& g = at_block.modes.front().critical_speed_rpm;
     const auto& c = f.modes.front().critical_speed_rpm;
     EXPECT_LE(c.lo, g.lo + 1e-6 * g.value) << f.sweep_alternatives[i];
@@ -485,11 +475,7 @@ TEST(SweptFit, ASteadyTableIsQuasiSteady) {
   const order_table table = steady_table(0.0);
   const response_fit steady_fit = fit_response(table, {});
   EXPECT_TRUE(steady_fit.consistent_with_noise);
-  response_parts parts;
-  parts.sweep = true;
-  response_fit_options o;
-  o.start = &steady_fit;
-  const response_fit swept = fit_response(table, parts, o);
+  const response_fit swept = swept_fit(table, steady_fit);
   EXPECT_FALSE(swept.sweep_rpm_per_s.determined) << swept.sweep_rpm_per_s.value << " [" << swept.sweep_rpm_per_s.lo << ", " << swept.sweep_rpm_per_s.hi << "]";
 }
 
