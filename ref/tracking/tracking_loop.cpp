@@ -367,6 +367,14 @@ void fit_sweeps(table_run& run, std::vector<std::string>& notes) {
   if (skipped) notes.push_back("combinations whose steady fit leaves a residual within the noise are not fitted swept");
 }
 
+// The noise came down: every steady contact-free fit, weighed again from where it is.
+void weigh_steady_again(table_run& run) {
+  for (const unsigned mask : {0u, 1u, 2u, 4u, 3u, 5u, 6u, 7u}) {
+    const response_fit same = run.fits[mask];
+    run.fits[mask] = fit_response(run.table, table_run::parts_of(mask), run.options(&same, {}, fit_starts::given_only));
+  }
+}
+
 // The noise from the best-fitting plausible swept fit's residual, where that is lower (a ringing
 // table's row-to-row scatter counts the ringing as noise, and no steady fit's residual removes
 // it): every fit, steady and swept, weighed again from where it is, as fit_contact_free does
@@ -378,10 +386,7 @@ void reweigh_by_sweeps(table_run& run, std::vector<std::string>& notes) {
     if (run.swept[mask] && undetermined_sweep(*run.swept[mask], run.rules).empty() && (!best || run.swept[mask]->chi2 < best->chi2)) best = &*run.swept[mask];
   if (!best || !run.noise.lower_to(residual_noise(*best))) return;
   run.say("  noise now " + format_digits(run.noise.noise.front()) + " m (the residual scatter of the best plausible swept model): every fit weighed again");
-  for (const unsigned mask : {0u, 1u, 2u, 4u, 3u, 5u, 6u, 7u}) {
-    const response_fit same = run.fits[mask];
-    run.fits[mask] = fit_response(run.table, table_run::parts_of(mask), run.options(&same, {}, fit_starts::given_only));
-  }
+  weigh_steady_again(run);
   std::vector<unsigned> masks;
   for (unsigned mask = 0; mask < 8; ++mask)
     if (run.swept[mask]) masks.push_back(mask);
@@ -415,13 +420,8 @@ std::vector<double> fit_contact_free(table_run& run) {
   const response_fit first = fit_response(run.table, {}, run.options(nullptr));
   const std::vector<double> first_noise = residual_noise(first);
   run.noise.lower_to(first_noise);
-  const auto fit_all = [&](bool again) {
+  const auto fit_all = [&] {
     for (const unsigned mask : run.masks) {
-      if (again) {  // the noise came down: the same fits, weighed again
-        const response_fit same = run.fits[mask];
-        run.fits[mask] = fit_response(run.table, table_run::parts_of(mask), run.options(&same, {}, fit_starts::given_only));
-        continue;
-      }
       if (mask == 0u) {
         run.fits[0] = fit_response(run.table, {}, run.options(&first));
         continue;
@@ -436,13 +436,13 @@ std::vector<double> fit_contact_free(table_run& run) {
       run.fits[mask] = std::move(*best);
     }
   };
-  fit_all(false);
+  fit_all();
   std::size_t lowest = 0;
   for (const unsigned mask : run.masks)
     if (undetermined_part(run.fits[mask], run.rules).empty() && run.fits[mask].chi2 < run.fits[lowest].chi2) lowest = mask;
   if (run.noise.lower_to(residual_noise(run.fits[lowest]))) {
     run.say("  noise now " + format_digits(run.noise.noise.front()) + " m (the residual scatter of the best plausible model)");
-    fit_all(true);
+    weigh_steady_again(run);
   }
   return first_noise;
 }
