@@ -450,6 +450,35 @@ TEST(SweptLoop, NamesTheSweepOfARingingRunUp) {
   EXPECT_TRUE(plot_data(r)["probes"][0].contains("steady_re"));
 }
 
+// A fast run-up read every revolution (zeta 0.02, eta / zeta^2 = 30, 26 rows): the ringing
+// turns the 1X by a large angle from row to row, so the rows' scatter, and the steady fits'
+// residual, count it as noise (some 400 times the truth's), and the base fit alone looks at the
+// noise.
+swept_truth fast_ringing_run_up() {
+  swept_truth t = ringing_run_up();
+  t.rotor = {150.0, 150.0, 0.02, 0.02, 0.0, 0.0};
+  t.alpha = 30.0 * 0.02 * 0.02 * 150.0 * 150.0;
+  t.revolutions = 1.0;
+  return t;
+}
+
+TEST(SweptLoop, TriesTheSweepWhereTheRingingPassesForNoise) {
+  const order_table table = swept_table(fast_ringing_run_up());
+  // The premise: at the noise the rows' scatter and the steady fit's residual give (the smaller,
+  // as the loop takes it), the base fit fits to it.
+  response_fit_options at_scatter;
+  at_scatter.noise_m = residual_noise(fit_response(table, {}));
+  at_scatter.noise_m.front() = std::min(at_scatter.noise_m.front(), row_scatter_noise(table).front());
+  ASSERT_TRUE(fit_response(table, {}, at_scatter).consistent_with_noise);
+  const tracking_result r = run_tracking_loop(table);
+  std::string trace;
+  for (const auto& m : r.models) trace += m.estimates + ": " + m.summary + "\n";
+  EXPECT_EQ(r.decision.named, std::vector<std::string>{"sweep_transient"}) << trace;
+  EXPECT_EQ(r.decision.claim, "full") << trace;
+  // The noise came down to the swept fit's residual scatter, near the truth's.
+  EXPECT_LT(r.after.noise_m.front(), 2.0 * fast_ringing_run_up().noise) << trace;
+}
+
 // The same rotor's steady response (the sweep infinitely slow), rows every 0.5 % from 75 to 300
 // rad/s, with noise; `runout_step`: the runout steps up by that share above 220 rad/s (a probe
 // recalibrated mid-run), which no model here has.

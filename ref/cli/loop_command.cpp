@@ -100,7 +100,7 @@ void add_loop(CLI::App& app) {
   table->add_option("--scale", st->scale, "probe sensitivity for volt amplitudes [mV/um]")->check(CLI::PositiveNumber);
   table->add_option("--probe-angle", st->probe_angles, "a probe's angle from +x towards +y [deg]: DEG (one probe) or NAME=DEG; repeatable");
   table->add_option("--revolutions-per-row", st->revolutions_per_row,
-                    "revolutions each row's orders were read over (the run-up transient's block); default: fitted among 1, 2, 3, 4, 6, 8")
+                    "revolutions each row's orders were read over (the run-up transient's block); default: fitted among 1 to 8")
       ->check(CLI::Range(1.0, 1e6));
   table->add_option("--sweep-rate", st->sweep_rate,
                     "the run-up's or coast-down's rate [rpm/s], held by the run-up transient's fit; default: from a time_s column, else fitted")

@@ -134,7 +134,7 @@ struct response_fit_options {
 };
 
 // The block sizes (revolutions per row) a sweep fit tries when the table does not declare one.
-inline constexpr double kSweepRevolutions[] = {1.0, 2.0, 3.0, 4.0, 6.0, 8.0};
+inline constexpr double kSweepRevolutions[] = {1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0};
 
 // The direction the table's speed ran in, from its time_s column or else its rows' order in the
 // file, the dwell's rows left out: +1 rising (a run-up), -1 falling (a coast-down), 0 when the

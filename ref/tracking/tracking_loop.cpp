@@ -293,26 +293,87 @@ std::string part_list(unsigned mask) {
   return parts.empty() ? std::string("the base") : parts;
 }
 
-// The sweep (bit 4), where no plausible contact-free combination leaves a residual within the
-// noise: every combination again, the rotor swept through the table's speeds at a constant
-// acceleration (ref/tracking/swept_response.hpp), each from its steady fit (the base at the grid of
-// sweep rates, the others at the swept base's rate, block and direction) and from the swept fits
-// of one effect fewer (as they are); the better kept. A level's
-// combinations are fitted on the machine's threads, each into its own slot, kept in the order one
-// thread meets them. A combination whose swept response cannot be computed from any start is left
-// out, and said so. Where the swept base fit finds no rate (quasi-steady: at the slow end of its
-// range, or its interval spans more than 4x) and a plausible steady combination fits to the
-// noise, the others are not fitted: there is nothing left for a sweep to explain, and each costs a
-// sweep's response per evaluation (a steady campaign table with a cross-coupling took 166 s for
-// eight such fits, against 2 s without). Where no steady combination fits, they are: an effect
-// that dominates the residual (two modes 5 % apart) can hide the sweep from the swept base fit
-// alone (campaign seed 6151, #31).
-void fit_sweeps(table_run& run, std::vector<std::string>& notes) {
-  run.say(std::string(sweep_transient_part) + ": every combination swept through the table's speeds at a constant acceleration ...");
+// The swept fit of `mask` from swept fit `from`'s point (given_only; a part `from` has and `mask`
+// lacks dropped), with the noise `noise`: `from`'s direction kept, and the blocks that fit it as
+// well as its own tried again.
+response_fit swept_from(const table_run& run, unsigned mask, const response_fit& from, const noise_estimate& noise) {
+  const response_fit start = from;  // (a copy: `from` may be the slot this fit goes to)
+  response_fit_options o = run.options(&start, {}, fit_starts::given_only);
+  o.noise_m = noise.noise, o.noise_relative_error = noise.relative_error();
+  o.sweep_direction = start.sweep_direction;
+  for (const double b : start.sweep_alternatives)
+    if ((b > 0.0) == (start.sweep_direction > 0)) o.sweep_blocks.push_back(std::abs(b));
+  response_fit f = fit_response(run.table, table_run::parts_of(mask | kSweep), o);
+  f.sweep_revolutions_fitted = start.sweep_revolutions_fitted;
+  return f;
+}
+
+// A swept fit again from where it is.
+response_fit swept_again(const table_run& run, unsigned mask, const noise_estimate& noise) { return swept_from(run, mask, *run.swept[mask], noise); }
+
+// Each swept combination again from the swept fits of one effect more (their extra part dropped),
+// kept where that fits better, as the rub's fits are: a fit of fewer parts can miss the basin one
+// of more found (seed 6151, #442: two modes swept fast, found with a bow or a cross-coupling
+// beside them, not alone). Only from a fit whose criterion lies more than min_criterion_rise
+// below this one's: otherwise the extra part is not significant whichever basin this one is in,
+// and each such fit costs a sweep's response per evaluation. Fewer effects last, so the base
+// starts from what its supersets found after them.
+void again_from_more(table_run& run) {
+  for (const std::vector<unsigned>& level : {std::vector<unsigned>{3u, 5u, 6u}, {1u, 2u, 4u}, {0u}}) {
+    std::vector<std::optional<response_fit>> better(level.size());
+    parallel_for(level.size(), 0, [&](std::size_t i) {
+      const unsigned mask = level[i];
+      if (!run.swept[mask]) return;
+      for (unsigned k = 0; k < 3; ++k) {
+        const unsigned more = mask | (1u << k);
+        if (more == mask || !run.swept[more] || !(run.criterion(mask | kSweep) - run.criterion(more | kSweep) > run.rules.min_criterion_rise)) continue;
+        try {
+          response_fit f = swept_from(run, mask, *run.swept[more], run.noise);
+          if (f.chi2 < (better[i] ? better[i]->chi2 : run.swept[mask]->chi2)) better[i] = std::move(f);
+        } catch (const numerical_error&) {
+          // (that start reaches no computable point: the fit stands as it is)
+        }
+      }
+    });
+    for (std::size_t i = 0; i < level.size(); ++i)
+      if (better[i]) {
+        run.say("  swept with " + part_list(level[i]) + " again from a fit of one effect more: chi^2/dof " +
+                format_digits(better[i]->chi2 / static_cast<double>(std::max<std::size_t>(better[i]->dof, 1))));
+        run.swept[level[i]] = std::move(better[i]);
+      }
+  }
+}
+
+// The sweep (bit 4): the combinations again, the rotor swept through the table's speeds at a
+// constant acceleration (ref/tracking/swept_response.hpp), each from its steady fit (the base at
+// the grid of sweep rates, the others at the swept base's rate, block and direction) and from the
+// swept fits of one effect fewer (as they are); the better kept; after the others, each again from
+// the swept fits of one effect more (again_from_more). The base alone first (`base`),
+// on every table: a ringing run-up's row-to-row scatter counts the ringing as noise, so its base
+// can look at the noise until a swept fit's residual says otherwise (campaign seed 6151: five
+// tables with the noise read 10-190 times the truth were never tried swept). The others after
+// (`others`), where the base leaves a residual beyond the noise. A level's combinations are fitted
+// on the machine's threads, each into its own slot, kept in the order one thread meets them. A
+// combination whose swept response cannot be computed from any start is left out, and said so.
+// Where the swept base fit finds no rate (quasi-steady: at the slow end of its range, or its
+// interval spans more than 4x) and a plausible steady combination fits to the noise, the others
+// are not fitted: there is nothing left for a sweep to explain, and each costs a sweep's response
+// per evaluation (a steady campaign table with a cross-coupling took 166 s for eight such fits,
+// against 2 s without). Where no steady combination fits, they are: an effect that dominates the
+// residual (two modes 5 % apart) can hide the sweep from the swept base fit alone (campaign seed
+// 6151, #31).
+enum class sweep_levels { base, others };
+void fit_sweeps(table_run& run, std::vector<std::string>& notes, sweep_levels which) {
+  if (which == sweep_levels::base)
+    run.say(std::string(sweep_transient_part) + ": the base swept through the table's speeds at a constant acceleration ...");
+  else
+    run.say(std::string(sweep_transient_part) + ": every other combination swept ...");
   bool skipped = false, steady_at_noise = false;
   for (unsigned mask = 1; mask < 8; ++mask)
     steady_at_noise = steady_at_noise || (undetermined_part(run.fits[mask], run.rules).empty() && run.fits[mask].consistent_with_noise);
-  for (const std::vector<unsigned>& all : {std::vector<unsigned>{0u}, {1u, 2u, 4u}, {3u, 5u, 6u}, {7u}}) {
+  const std::vector<std::vector<unsigned>> levels =
+      which == sweep_levels::base ? std::vector<std::vector<unsigned>>{{0u}} : std::vector<std::vector<unsigned>>{{1u, 2u, 4u}, {3u, 5u, 6u}, {7u}};
+  for (const std::vector<unsigned>& all : levels) {
     if (all.front() != 0u && steady_at_noise && (!run.swept[0] || run.swept[0]->sweep_at_slow_bound || !run.swept[0]->sweep_rpm_per_s.determined)) {
       notes.push_back(std::string("the swept base fit finds no sweep rate (") + (run.swept[0] ? "quasi-steady" : "no response could be computed") +
                       ") and a steady combination fits to the noise: the sweep is not fitted with the other effects");
@@ -365,6 +426,7 @@ void fit_sweeps(table_run& run, std::vector<std::string>& notes) {
     }
   }
   if (skipped) notes.push_back("combinations whose steady fit leaves a residual within the noise are not fitted swept");
+  if (which == sweep_levels::others) again_from_more(run);
 }
 
 // The noise came down: every steady contact-free fit, weighed again from where it is.
@@ -378,12 +440,33 @@ void weigh_steady_again(table_run& run) {
 // The noise from the best-fitting plausible swept fit's residual, where that is lower (a ringing
 // table's row-to-row scatter counts the ringing as noise, and no steady fit's residual removes
 // it): every fit, steady and swept, weighed again from where it is, as fit_contact_free does
-// after its own estimate. A swept fit keeps its direction and tries again the blocks that fit it
-// as well as its own.
+// after its own estimate. Plausible at the noise its own residual gives, where that is lower: at a
+// noise that counts the ringing, a swept fit that finds the truth's rate and mode has intervals
+// hundreds of times too wide, and would never be plausible (a fast run-up read every revolution,
+// tests/swept_response_test.cpp).
 void reweigh_by_sweeps(table_run& run, std::vector<std::string>& notes) {
-  const response_fit* best = nullptr;
+  std::vector<unsigned> by_chi2;
   for (unsigned mask = 0; mask < 8; ++mask)
-    if (run.swept[mask] && undetermined_sweep(*run.swept[mask], run.rules).empty() && (!best || run.swept[mask]->chi2 < best->chi2)) best = &*run.swept[mask];
+    if (run.swept[mask]) by_chi2.push_back(mask);
+  std::stable_sort(by_chi2.begin(), by_chi2.end(), [&](unsigned a, unsigned b) { return run.swept[a]->chi2 < run.swept[b]->chi2; });
+  const response_fit* best = nullptr;
+  for (const unsigned mask : by_chi2) {
+    const response_fit& f = *run.swept[mask];
+    if (undetermined_sweep(f, run.rules).empty()) {
+      best = &f;
+      break;
+    }
+    noise_estimate own = run.noise;
+    if (!own.lower_to(residual_noise(f))) continue;
+    try {
+      if (undetermined_sweep(swept_again(run, mask, own), run.rules).empty()) {
+        best = &f;
+        break;
+      }
+    } catch (const numerical_error&) {
+      // (not plausible at any noise it can be judged at)
+    }
+  }
   if (!best || !run.noise.lower_to(residual_noise(*best))) return;
   run.say("  noise now " + format_digits(run.noise.noise.front()) + " m (the residual scatter of the best plausible swept model): every fit weighed again");
   weigh_steady_again(run);
@@ -392,15 +475,8 @@ void reweigh_by_sweeps(table_run& run, std::vector<std::string>& notes) {
     if (run.swept[mask]) masks.push_back(mask);
   std::vector<std::string> failed(masks.size());
   parallel_for(masks.size(), 0, [&](std::size_t i) {
-    const response_fit same = *run.swept[masks[i]];
-    response_fit_options o = run.options(&same, {}, fit_starts::given_only);
-    o.sweep_direction = same.sweep_direction;
-    for (const double b : same.sweep_alternatives)
-      if ((b > 0.0) == (same.sweep_direction > 0)) o.sweep_blocks.push_back(std::abs(b));
     try {
-      response_fit f = fit_response(run.table, table_run::parts_of(masks[i] | kSweep), o);
-      f.sweep_revolutions_fitted = same.sweep_revolutions_fitted;
-      run.swept[masks[i]] = std::move(f);
+      run.swept[masks[i]] = swept_again(run, masks[i], run.noise);
     } catch (const numerical_error& e) {
       run.swept[masks[i]].reset();
       failed[i] = e.what();
@@ -716,7 +792,7 @@ std::vector<std::string> cannot_see(const tracking_result& r, bool declared) {
       "cross-coupling acts as less damping, which the damping ratio takes (on an anisotropic rotor it shows)",
       "a run-up's transient beyond one constant acceleration: sweep_transient sweeps the rotor through the table's speeds at one rate (a profile that "
       "changes its rate, or a tracking filter in place of blocks of whole revolutions, shows as a residual it leaves; a time_s column "
-      "shows how far the speeds depart from one rate); it is tried wherever the base fit leaves a residual beyond the noise",
+      "shows how far the speeds depart from one rate); the base is tried swept on every table, the other effects wherever the base fit leaves a residual beyond the noise",
   };
   if (!declared)
     out.push_back("a rub, with a probe whose angle is not declared: the stator's direction against the probe is unknown, so the rub fit is not tried");
@@ -827,16 +903,18 @@ tracking_result run_tracking_loop(const order_table& table, const std::function<
   // they are tried, the verdict's check (docs/loop.md, "The verdict's check"; the records' loop's
   // rule) runs them again beside the fit, with every orbit tolerance check_tolerance_scale times
   // the fit's, and judges every model again; an effect the two do not both name is tentative.
-  // The run-up's own transient, wherever the base leaves a residual beyond the noise (closed form,
-  // so the verdict's check, which re-runs the orbits' fits, reuses these): it competes with the
-  // steady effects, not after them (on one probe, two modes 0.3 % apart took a slow sweep's lag
-  // to the noise). The rub, where no plausible combination, steady or swept, fits to the noise.
-  const bool base_at_noise = undetermined_part(run.fits[0], run.rules).empty() && run.fits[0].consistent_with_noise;
-  if (!base_at_noise) {
-    fit_sweeps(run, r.notes);
+  // The run-up's own transient, the base on every table and the others wherever the base leaves a
+  // residual beyond the noise (closed form, so the verdict's check, which re-runs the orbits'
+  // fits, reuses these): it competes with the steady effects, not after them (on one probe, two
+  // modes 0.3 % apart took a slow sweep's lag to the noise). The rub, where no plausible combination, steady or swept, fits to the noise.
+  const auto base_at_noise = [&] { return undetermined_part(run.fits[0], run.rules).empty() && run.fits[0].consistent_with_noise; };
+  fit_sweeps(run, r.notes, sweep_levels::base);
+  reweigh_by_sweeps(run, r.notes);
+  if (!base_at_noise()) {
+    fit_sweeps(run, r.notes, sweep_levels::others);
     reweigh_by_sweeps(run, r.notes);
-    r.before = run.fits[0];  // (weighed again where the noise came down)
   }
+  r.before = run.fits[0];  // (weighed again where the noise came down)
   bool any_noise = false;
   for (unsigned mask = 0; mask < 8; ++mask)
     any_noise = any_noise || (undetermined_part(run.fits[mask], run.rules).empty() && run.fits[mask].consistent_with_noise) ||
