@@ -77,8 +77,11 @@ need judge_need(const part_comparison& c, const evidence_rules& rules) {
   out.on_margin = needed.on_margin;
   const std::string needed_margin = out.on_margin ? " (on the margin: within the statistics' numerical uncertainty)" : "";
   out.reason = out.needed ? "needed (criterion rise " + format_digits(c.criterion_rise, 3) + ", out of sample it gains chi^2 " + format_digits(g, 3) + ")" + needed_margin
-                          : "not needed out of sample: refitted on half of the data it gains chi^2 " + format_digits(g, 3) + " on the other half, against " +
-                                format_digits(c.in_sample_gain, 3) + " on all" + needed_margin;
+                          : "not needed out of sample: " +
+                                (c.holdout_folds == 2 ? "refitted on half of the data it gains chi^2 " + format_digits(g, 3) + " on the other half"
+                                                      : "refitted without each of " + std::to_string(c.holdout_folds) + " folds in turn it gains chi^2 " +
+                                                            format_digits(g, 3) + " on the rows left out") +
+                                ", against " + format_digits(c.in_sample_gain, 3) + " on all" + needed_margin;
   return out;
 }
 

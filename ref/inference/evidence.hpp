@@ -74,6 +74,7 @@ struct part_comparison {
   // Out of sample: chi^2 gained on data the models were not refitted on, and the gain on all data
   // (absent: not tested).
   std::optional<double> holdout_gain;
+  std::size_t holdout_folds = 2;  // the folds each left out in turn (2: halves)
   double in_sample_gain = 0.0;
   double holdout_gain_uncertainty = 0.0, in_sample_gain_uncertainty = 0.0;
 };
