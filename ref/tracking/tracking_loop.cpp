@@ -356,7 +356,7 @@ void again_from_more(table_run& run) {
 
 // The sweep (bit 4): the combinations again, the rotor swept through the table's speeds at a
 // constant acceleration (ref/tracking/swept_response.hpp), each from its steady fit (the base at
-// the grid of sweep rates, the others at the swept base's rate, block and direction) and from the
+// the grid of sweep rates, the others at the instrument's rate, block and direction) and from the
 // swept fits of one effect fewer (as they are); the better kept; after the others, each again from
 // the swept fits of one effect more (again_from_more). The base alone first (`base`),
 // on every table: a ringing run-up's row-to-row scatter counts the ringing as noise, so its base
@@ -420,8 +420,8 @@ void fit_sweeps(table_run& run, std::vector<std::string>& notes, sweep_levels wh
     // Every combination, the ones whose steady fit leaves noise too: the criterion, not the noise
     // test, decides what the sweep gains, and it does not depend on the noise estimate's scale. A
     // slow sweep's steady fit sits within the noise estimate's own uncertainty of the noise while
-    // the sweep takes a quarter of its chi^2 (seed 3319, #121, #152, #206, #464: anisotropy named,
-    // its swept fit never made).
+    // the sweep takes a quarter of its chi^2 (seed 3319, #121: anisotropy named, its swept fit
+    // never made).
     const std::vector<unsigned>& level = all;
     std::vector<std::optional<response_fit>> fitted(level.size());
     std::vector<std::string> failed(level.size());
@@ -434,9 +434,10 @@ void fit_sweeps(table_run& run, std::vector<std::string>& notes, sweep_levels wh
       for (const response_fit* start : from) try {
           response_fit_options o = run.options(start);
           // The block and the direction are the instrument's and the run's, not the rotor's: found
-          // by the swept base fit (the blocks that fit it as well as its own, in the run's
-          // direction), and kept for every combination after it, whose steady starts start at its
-          // rate (the rate is set by the beats' spacing, which the effects move little).
+          // by the swept base fit, or the probe's where the base finds no rate (the blocks that fit
+          // it as well as its own, in the run's direction), and kept for every combination after
+          // it, whose steady starts start at its rate (the rate is set by the beats' spacing, which
+          // the effects move little).
           if (mask != 0u && instrument) {
             o.sweep_direction = instrument->sweep_direction;
             for (const double b : instrument->sweep_alternatives)
