@@ -391,7 +391,9 @@ std::optional<std::pair<unsigned, response_fit>> sweep_of_the_best_steady(const 
   }
 }
 
+// A swept fit that tells its rate from steady (not quasi-steady).
 bool finds_a_rate(const response_fit& f) { return !f.sweep_at_slow_bound && f.sweep_rpm_per_s.determined; }
+
 void fit_sweeps(table_run& run, std::vector<std::string>& notes, sweep_levels which) {
   if (which == sweep_levels::base)
     run.say(std::string(sweep_transient_part) + ": the base swept through the table's speeds at a constant acceleration ...");
@@ -946,7 +948,8 @@ tracking_result run_tracking_loop(const order_table& table, const std::function<
   // The run-up's own transient, the base on every table and the others wherever the base leaves a
   // residual beyond the noise (closed form, so the verdict's check, which re-runs the orbits'
   // fits, reuses these): it competes with the steady effects, not after them (on one probe, two
-  // modes 0.3 % apart took a slow sweep's lag to the noise). The rub, where no plausible combination, steady or swept, fits to the noise.
+  // modes 0.3 % apart took a slow sweep's lag to the noise). The rub, where no plausible
+  // combination, steady or swept, fits to the noise.
   const auto base_at_noise = [&] { return undetermined_part(run.fits[0], run.rules).empty() && run.fits[0].consistent_with_noise; };
   fit_sweeps(run, r.notes, sweep_levels::base);
   reweigh_by_sweeps(run, r.notes);
