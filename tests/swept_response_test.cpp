@@ -517,9 +517,17 @@ TEST(SweptLoop, FindsASlowSweepBesideTheEffectThatHidesItFromTheBase) {
   const auto model = [&](std::vector<std::string> effects) {
     return std::find_if(r.models.begin(), r.models.end(), [&](const tracked_model& m) { return m.effects == effects; });
   };
-  // The premise: the swept base fit alone finds no rate.
+  // The premise: the swept base fit alone finds no rate, and the anisotropic steady fit passes for
+  // noise at the noise a table read without sweeps gives (the smaller of the rows' scatter and its
+  // own residual's), so nothing looks left for a sweep to explain.
   ASSERT_NE(model({"sweep_transient"}), r.models.end());
   EXPECT_FALSE(model({"sweep_transient"})->undetermined.empty()) << trace;
+  response_parts anisotropic;
+  anisotropic.anisotropy = true;
+  response_fit_options steady_noise;
+  steady_noise.noise_m = residual_noise(fit_response(table, anisotropic));
+  steady_noise.noise_m.front() = std::min(steady_noise.noise_m.front(), row_scatter_noise(table).front());
+  EXPECT_TRUE(fit_response(table, anisotropic, steady_noise).consistent_with_noise) << trace;
   EXPECT_EQ(r.decision.named, (std::vector<std::string>{"anisotropy", "sweep_transient"})) << trace;
 }
 

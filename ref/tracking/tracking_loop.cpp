@@ -418,13 +418,12 @@ void fit_sweeps(table_run& run, std::vector<std::string>& notes, sweep_levels wh
   }
   const std::vector<std::vector<unsigned>> levels =
       which == sweep_levels::base ? std::vector<std::vector<unsigned>>{{0u}} : std::vector<std::vector<unsigned>>{{1u, 2u, 4u}, {3u, 5u, 6u}, {7u}};
-  for (const std::vector<unsigned>& all : levels) {
-    // Every combination, the ones whose steady fit leaves noise too: the criterion, not the noise
-    // test, decides what the sweep gains, and it does not depend on the noise estimate's scale. A
-    // slow sweep's steady fit sits within the noise estimate's own uncertainty of the noise while
-    // the sweep takes a quarter of its chi^2 (seed 3319, #121: anisotropy named, its swept fit
-    // never made).
-    const std::vector<unsigned>& level = all;
+  // Every combination, the ones whose steady fit leaves noise too: the criterion, not the noise
+  // test, decides what the sweep gains, and it does not depend on the noise estimate's scale. A
+  // slow sweep's steady fit sits within the noise estimate's own uncertainty of the noise while
+  // the sweep takes a quarter of its chi^2 (seed 3319, #121: anisotropy named, its swept fit
+  // never made).
+  for (const std::vector<unsigned>& level : levels) {
     std::vector<std::optional<response_fit>> fitted(level.size());
     std::vector<std::string> failed(level.size());
     parallel_for(level.size(), 0, [&](std::size_t i) {
