@@ -11,19 +11,8 @@
 // for them calc_state re-takes one step of the same method from ta to t, which is the method's own
 // continuous extension: the event found is where the discrete solution crosses, at full order.
 
-// odeint's steppers hold stage buffers that a default-constructed stepper leaves unset, and
-// controlled_runge_kutta copies such a stepper in its constructor: GCC 12 reports the copy of
-// the not-yet-written buffers as (maybe-)uninitialized at odeint's own lines. They are written
-// before they are read, so those two warnings are silenced for odeint's headers only.
-#if defined(__GNUC__) && !defined(__clang__)
-#pragma GCC diagnostic push
-#pragma GCC diagnostic ignored "-Wuninitialized"
-#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
-#endif
-#include <boost/numeric/odeint.hpp>
-#if defined(__GNUC__) && !defined(__clang__)
-#pragma GCC diagnostic pop
-#endif
+#include "ref/integrate/odeint.hpp"
+
 #include <cmath>
 #include <concepts>
 #include <limits>
