@@ -4,12 +4,14 @@
 #include <cmath>
 #include <limits>
 #include <numbers>
+#include <numeric>
 
 #include <Eigen/Dense>
 #include <boost/math/distributions/chi_squared.hpp>
 
 #include "ref/base/errors.hpp"
 #include "ref/base/number_text.hpp"
+#include "ref/base/parallel.hpp"
 #include "ref/inference/evidence.hpp"
 #include "ref/inference/least_squares.hpp"
 #include "ref/tracking/swept_response.hpp"
@@ -57,6 +59,26 @@ constexpr double kSplits[] = {1.02, 1.05, 1.1, 1.2};
 // period of where they are, inside the solver's basin.
 constexpr double kSweepSlowest = 1e-12;
 constexpr double kSweepStartLo = 0.01, kSweepStartHi = 100.0, kSweepStartStep = 1.15;
+// A fast sweep's ringing shows in a few rows above the critical speed, and from one row to the
+// next its phase against the 1X, (Omega - w)^2 / (2 alpha), turns several times over: the swept
+// chi^2 is aliased in rate and critical speed together, and the starts above (ranked at the
+// steady fit's modes) can all miss the truth's basin (campaign seed 2718: #453, #490, #526 stopped
+// short of their noise, each named in full with the truth's rate declared). Nor is the steady
+// fit's damping a guide there: the ringing drags it anywhere (to its lower bound on a table like
+// #490's). Where the fit from those starts leaves more than the noise (found rate or not),
+// chi^2 itself is scanned: eta = alpha / w^2 of the lightest damped mode from kRescueEtaLo (a
+// passage with eta / zeta^2 = 1 at zeta = 0.001) to the fastest rate the block allows, in steps of
+// 5 %; at each, the damping that puts the passage at eta / zeta^2 = 2, 8 and 32 (the ringing
+// visible for a few rows to a few tens); the critical speed moved back from the steady fit's by
+// -1 to 2 times the fast passage's lag sqrt(2 pi alpha), in steps of a tenth of it. The best
+// kRescueStarts points at least kRescueApart steps from each other in rate or speed are fitted by
+// the solver. (On a table like #490's, tests/swept_response_test.cpp, a grid twice as coarse in
+// both still finds the basin: the steps keep that margin.)
+constexpr double kRescueEtaLo = 1e-6, kRescueRateStep = 1.05;
+constexpr double kRescueRegimes[] = {2.0, 8.0, 32.0};
+constexpr double kRescueLagLo = -1.0, kRescueLagHi = 2.0, kRescueLagStep = 0.1;
+constexpr std::size_t kRescueStarts = 8;
+constexpr int kRescueApart = 3;
 
 // The standard deviation of Gaussian values from their absolute values, robust to a minority of
 // outliers: 1.4826 times the median, then three times again over the values within 3 of those
@@ -300,6 +322,14 @@ struct problem {
     std::vector<cplx> amp;
     const Eigen::VectorXd r = residuals(q, amp);
     const double c = r.squaredNorm();
+    return std::isfinite(c) ? c : std::numeric_limits<double>::infinity();
+  }
+
+  // chi^2 of a swept fit at q, not counted in `evaluations` (the rescue scan's threads share the
+  // problem; they count theirs together).
+  double swept_cost(const std::vector<double>& q) const {
+    std::vector<cplx> amp;
+    const double c = swept_residuals(full(q), amp, nullptr).squaredNorm();
     return std::isfinite(c) ? c : std::numeric_limits<double>::infinity();
   }
 
@@ -797,6 +827,62 @@ fitted_point best_from(problem& pr, const std::vector<std::vector<double>>& star
   return best;
 }
 
+// The rescue scan (kRescue* above) of the swept fit at pr's direction and block, about the steady
+// fit `steady`: the best distinct points of the grid, each fitted by the solver (on the machine's
+// threads, each on its own copy of the problem); the best of those fits.
+fitted_point aliased_rate_scan(problem& pr, const std::vector<double>& steady) {
+  const bool x_lighter = steady[ln_zx] <= steady[ln_zy] || !pr.parts.anisotropy;
+  const std::size_t ws = x_lighter ? ln_wx : ln_wy, zs = x_lighter ? ln_zx : ln_zy;
+  const double w = std::exp(steady[ws]);
+  std::vector<double> rates;
+  for (double eta = kRescueEtaLo; std::log(eta * w * w / (pr.sweep_ref * pr.sweep_ref)) <= pr.sweep_fastest(); eta *= kRescueRateStep) rates.push_back(eta * w * w);
+  const std::size_t regimes = std::size(kRescueRegimes);
+  const std::size_t lags = static_cast<std::size_t>(std::lround((kRescueLagHi - kRescueLagLo) / kRescueLagStep)) + 1;
+  // Point (i, j, k): rate i, regime j, lag k.
+  std::vector<double> cost(rates.size() * regimes * lags, std::numeric_limits<double>::infinity());
+  std::vector<std::vector<double>> point(cost.size());
+  parallel_for(rates.size(), 0, [&](std::size_t i) {
+    for (std::size_t j = 0; j < regimes; ++j)
+      for (std::size_t k = 0; k < lags; ++k) {
+        std::vector<double> f = swept_start(pr, steady, rates[i]);  // (the other mode moved back by its own lag)
+        const double lag = (kRescueLagLo + kRescueLagStep * static_cast<double>(k)) * std::sqrt(2.0 * kPi * rates[i]);
+        f[ws] = std::log(std::max(w - pr.direction * lag, 0.5 * w));
+        f[zs] = 0.5 * std::log(rates[i] / (w * w * kRescueRegimes[j]));
+        const std::size_t at = (i * regimes + j) * lags + k;
+        point[at] = pr.clamp(pr.reduce(f));
+        cost[at] = pr.swept_cost(point[at]);
+      }
+  });
+  pr.evaluations += static_cast<int>(cost.size());
+  std::vector<std::size_t> order(cost.size());
+  std::iota(order.begin(), order.end(), std::size_t{0});
+  std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return cost[a] < cost[b]; });
+  std::vector<std::size_t> picked;
+  const auto apart = [&](std::size_t a, std::size_t b) {
+    const auto d = [](std::size_t x, std::size_t y) { return x > y ? x - y : y - x; };
+    const std::size_t n = regimes * lags;  // (the regimes are one basin's: only rate and speed set a point apart)
+    return d(a / n, b / n) >= static_cast<std::size_t>(kRescueApart) || d(a % lags, b % lags) >= static_cast<std::size_t>(kRescueApart);
+  };
+  for (const std::size_t i : order) {
+    if (!std::isfinite(cost[i]) || picked.size() == kRescueStarts) break;
+    if (std::all_of(picked.begin(), picked.end(), [&](std::size_t j) { return apart(i, j); })) picked.push_back(i);
+  }
+  std::vector<fitted_point> fits(picked.size());
+  std::vector<int> evaluations(picked.size(), 0);
+  parallel_for(picked.size(), 0, [&](std::size_t j) {
+    problem own = pr;
+    own.evaluations = 0;
+    fits[j] = best_from(own, {point[picked[j]]});
+    evaluations[j] = own.evaluations;
+  });
+  fitted_point best;
+  for (std::size_t j = 0; j < fits.size(); ++j) {
+    pr.evaluations += evaluations[j];
+    if (fits[j].cost < best.cost) best = fits[j];
+  }
+  return best;
+}
+
 // The fit at its best point: the amplitudes, the canonical frame, the covariance, the estimates
 // and the quality.
 response_fit finish(problem& pr, const fitted_point& at, const response_fit_options& options) {
@@ -980,6 +1066,35 @@ response_fit fit_response(const order_table& table, const response_parts& parts,
                       format_digits(blocks.front()) + (blocks.size() > 1 ? " or more" : "") + " revolutions at the table's lowest speed (a block would reach zero speed)");
   if (!kept) throw numerical_error(table.source + ": the swept 1X response fit found no finite residual from any start");
   response_fit f = finish(*kept, best, options);
+  // Where the rate was searched from the steady fit (neither held nor started at another fit's)
+  // and the fit leaves more than the noise, whether or not it found a rate (its starts may all end
+  // at the slow bound, as one compiler's round-off took tests/swept_response_test.cpp's sparse fast
+  // sweep): the rescue scan at its block and direction, and where that fits better, every block of
+  // that direction from its point.
+  const bool rate_searched = !(options.sweep_rate > 0.0) && !(options.sweep_rate_start > 0.0) && start && !start->parts.sweep && !start->theta.empty();
+  if (rate_searched && !f.consistent_with_noise) {
+    const int direction = kept->direction;
+    const double scanned = kept->revolutions;
+    problem pr = set_up(table, parts, options);
+    pr.direction = direction, pr.revolutions = scanned;
+    const fitted_point rescued = aliased_rate_scan(pr, start->theta);
+    evaluations += pr.evaluations;
+    if (rescued.cost < best.cost) {
+      for (const double revolutions : blocks) {
+        problem at = set_up(table, parts, options);
+        at.direction = direction, at.revolutions = revolutions;
+        if (at.held_rate > 0.0 && at.held_ln_sweep() > at.sweep_fastest()) continue;
+        const fitted_point here = revolutions == scanned ? rescued : best_from(at, {at.clamp(rescued.q)});
+        evaluations += at.evaluations;
+        if (!std::isfinite(here.cost)) continue;
+        const auto same = std::find_if(tried.begin(), tried.end(), [&](const tried_block& t) { return t.direction == direction && t.revolutions == revolutions; });
+        if (same == tried.end()) tried.push_back({direction, revolutions, here});
+        else if (here.cost < same->at.cost) same->at = here;
+        if (here.cost < best.cost) best = here, kept.emplace(std::move(at));
+      }
+      f = finish(*kept, best, options);
+    }
+  }
   // The block and direction are fitted among a few values: where another fits as well (its chi^2
   // within the 95 % point of one coordinate's, 3.84, scaled as the covariance is; within it too
   // where its unfinished descent may reach it, so that no round-off decides), the estimates take
