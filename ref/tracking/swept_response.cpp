@@ -1,6 +1,7 @@
 #include "ref/tracking/swept_response.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <numbers>
@@ -211,8 +212,9 @@ std::vector<std::array<cplx, 2>> block_read(const swept_response& s, double t_mi
         const double dt = r.since_mid + tau;  // since the crossing (0 before it: a block may hold the crossing)
         if (!(dt > 0.0)) continue;
         const double turned = (r.crossing_speed + 0.5 * alpha * dt) * dt;  // theta(t) - theta(t*)
-        ring_a[r.channel] += r.ring * std::exp(r.lambda * dt - kJ * turned);                                // e^{-j theta} R
-        ring_b[r.channel] += back * back * std::conj(r.ring) * std::exp(std::conj(r.lambda) * dt + kJ * turned);  // e^{-j theta} conj(R)
+        const cplx e = std::exp(r.lambda * dt - kJ * turned);  // (its conjugate is the conjugate term's: one exp for both)
+        ring_a[r.channel] += r.ring * e;                                      // e^{-j theta} R
+        ring_b[r.channel] += back * back * std::conj(r.ring) * std::conj(e);  // e^{-j theta} conj(R)
       }
       for (std::size_t c = 0; c < n; ++c) {
         a[c] += wt * (sums[c] + ring_a[c]);
@@ -352,11 +354,25 @@ class adiabatic_spans {
     }
   }
 
+  // The rule's cosines, cos(pi m (j + 1/2) / kPoints) (row 1: the nodes), made once: they were
+  // most of a swept fit's time, made anew at every span.
+  using cosine_table = std::array<std::array<double, kPoints>, kPoints>;
+  static const cosine_table& cosines() {
+    static const cosine_table table = [] {
+      cosine_table c{};
+      for (int m = 0; m < kPoints; ++m)
+        for (int j = 0; j < kPoints; ++j) c[static_cast<std::size_t>(m)][static_cast<std::size_t>(j)] = std::cos(kPi * m * (j + 0.5) / kPoints);
+      return c;
+    }();
+    return table;
+  }
+
   bool fit(span& sp) const {
     const double mid = 0.5 * (sp.lo + sp.hi), half = 0.5 * (sp.hi - sp.lo);
+    const cosine_table& cs = cosines();
     std::vector<std::vector<cplx>> values(channels_.size(), std::vector<cplx>(kPoints, 0.0));
     for (int j = 0; j < kPoints; ++j) {
-      const double t = mid + half * std::cos(kPi * (j + 0.5) / kPoints);
+      const double t = mid + half * cs[1][static_cast<std::size_t>(j)];
       for (std::size_t k = 0; k < s_.modes().size(); ++k) {
         const std::array<cplx, 2> both = s_.adiabatic_both(k, t);
         for (std::size_t c = 0; c < channels_.size(); ++c)
@@ -367,7 +383,7 @@ class adiabatic_spans {
       std::vector<cplx> a(kPoints, 0.0);
       double size = 0.0;
       for (int m = 0; m < kPoints; ++m) {
-        for (int j = 0; j < kPoints; ++j) a[static_cast<std::size_t>(m)] += v[static_cast<std::size_t>(j)] * std::cos(kPi * m * (j + 0.5) / kPoints);
+        for (int j = 0; j < kPoints; ++j) a[static_cast<std::size_t>(m)] += v[static_cast<std::size_t>(j)] * cs[static_cast<std::size_t>(m)][static_cast<std::size_t>(j)];
         a[static_cast<std::size_t>(m)] *= (m == 0 ? 1.0 : 2.0) / kPoints;
         size += std::abs(a[static_cast<std::size_t>(m)]);
       }
