@@ -354,8 +354,8 @@ class adiabatic_spans {
     }
   }
 
-  // The rule's cosines, cos(pi m (j + 1/2) / kPoints) (row 1: the nodes), made once: they were
-  // most of a swept fit's time, made anew at every span.
+  // The rule's cosines, cos(pi m (j + 1/2) / kPoints) (row 1: the nodes), made once: made anew at
+  // every span, they were about a fifth of a swept fit's time (perf, 2026-12-02).
   using cosine_table = std::array<std::array<double, kPoints>, kPoints>;
   static const cosine_table& cosines() {
     static const cosine_table table = [] {
