@@ -73,12 +73,16 @@ constexpr double kSweepStartLo = 0.01, kSweepStartHi = 100.0, kSweepStartStep = 
 // -1 to 2 times the fast passage's lag sqrt(2 pi alpha), in steps of a tenth of it. The best
 // kRescueStarts points at least kRescueApart steps from each other in rate or speed are fitted by
 // the solver. (On a table like #490's, tests/swept_response_test.cpp, a grid twice as coarse in
-// both still finds the basin: the steps keep that margin.)
+// both still finds the basin: the steps keep that margin.) So the grid is evaluated coarse to fine:
+// every kRescueCoarse-th rate and lag first, then every point around the kRescueRefined best of
+// those (four for each start picked), where the picks come from: a third of the evaluations of the
+// whole grid, which was nearly all of a swept fit's time where it ran.
 constexpr double kRescueEtaLo = 1e-6, kRescueRateStep = 1.05;
 constexpr double kRescueRegimes[] = {2.0, 8.0, 32.0};
 constexpr double kRescueLagLo = -1.0, kRescueLagHi = 2.0, kRescueLagStep = 0.1;
 constexpr std::size_t kRescueStarts = 8;
 constexpr int kRescueApart = 3;
+constexpr std::size_t kRescueCoarse = 2, kRescueRefined = 4 * kRescueStarts;
 
 // The standard deviation of Gaussian values from their absolute values, robust to a minority of
 // outliers: 1.4826 times the median, then three times again over the values within 3 of those
@@ -838,12 +842,13 @@ fitted_point aliased_rate_scan(problem& pr, const std::vector<double>& steady) {
   for (double eta = kRescueEtaLo; std::log(eta * w * w / (pr.sweep_ref * pr.sweep_ref)) <= pr.sweep_fastest(); eta *= kRescueRateStep) rates.push_back(eta * w * w);
   const std::size_t regimes = std::size(kRescueRegimes);
   const std::size_t lags = static_cast<std::size_t>(std::lround((kRescueLagHi - kRescueLagLo) / kRescueLagStep)) + 1;
-  // Point (i, j, k): rate i, regime j, lag k.
+  // Point (i, j, k): rate i, regime j, lag k; a point not evaluated keeps an infinite cost.
   std::vector<double> cost(rates.size() * regimes * lags, std::numeric_limits<double>::infinity());
   std::vector<std::vector<double>> point(cost.size());
-  parallel_for(rates.size(), 0, [&](std::size_t i) {
-    for (std::size_t j = 0; j < regimes; ++j)
-      for (std::size_t k = 0; k < lags; ++k) {
+  const auto evaluate = [&](const std::vector<std::size_t>& cells) {  // cells i * lags + k, every regime
+    parallel_for(cells.size(), 0, [&](std::size_t c) {
+      const std::size_t i = cells[c] / lags, k = cells[c] % lags;
+      for (std::size_t j = 0; j < regimes; ++j) {
         std::vector<double> f = swept_start(pr, steady, rates[i]);  // (the other mode moved back by its own lag)
         const double lag = (kRescueLagLo + kRescueLagStep * static_cast<double>(k)) * std::sqrt(2.0 * kPi * rates[i]);
         f[ws] = std::log(std::max(w - pr.direction * lag, 0.5 * w));
@@ -852,8 +857,36 @@ fitted_point aliased_rate_scan(problem& pr, const std::vector<double>& steady) {
         point[at] = pr.clamp(pr.reduce(f));
         cost[at] = pr.swept_cost(point[at]);
       }
-  });
-  pr.evaluations += static_cast<int>(cost.size());
+    });
+    pr.evaluations += static_cast<int>(cells.size() * regimes);
+  };
+  // Coarse to fine (above): the cells (rate, lag) within kRescueCoarse - 1 steps of the best
+  // coarse ones, every regime of each.
+  std::vector<std::size_t> coarse;
+  for (std::size_t i = 0; i < rates.size(); i += kRescueCoarse)
+    for (std::size_t k = 0; k < lags; k += kRescueCoarse) coarse.push_back(i * lags + k);
+  evaluate(coarse);
+  const auto cell_cost = [&](std::size_t cell) {
+    double best = std::numeric_limits<double>::infinity();
+    for (std::size_t j = 0; j < regimes; ++j) best = std::min(best, cost[((cell / lags) * regimes + j) * lags + cell % lags]);
+    return best;
+  };
+  std::stable_sort(coarse.begin(), coarse.end(), [&](std::size_t a, std::size_t b) { return cell_cost(a) < cell_cost(b); });
+  std::vector<bool> done(rates.size() * lags, false);
+  for (const std::size_t cell : coarse) done[cell] = true;
+  std::vector<std::size_t> fine;
+  const auto reach = static_cast<std::ptrdiff_t>(kRescueCoarse) - 1;
+  for (std::size_t c = 0; c < std::min(coarse.size(), kRescueRefined); ++c) {
+    if (!std::isfinite(cell_cost(coarse[c]))) break;
+    const auto i0 = static_cast<std::ptrdiff_t>(coarse[c] / lags), k0 = static_cast<std::ptrdiff_t>(coarse[c] % lags);
+    for (std::ptrdiff_t i = std::max<std::ptrdiff_t>(0, i0 - reach); i <= std::min<std::ptrdiff_t>(static_cast<std::ptrdiff_t>(rates.size()) - 1, i0 + reach); ++i)
+      for (std::ptrdiff_t k = std::max<std::ptrdiff_t>(0, k0 - reach); k <= std::min<std::ptrdiff_t>(static_cast<std::ptrdiff_t>(lags) - 1, k0 + reach); ++k) {
+        const std::size_t cell = static_cast<std::size_t>(i) * lags + static_cast<std::size_t>(k);
+        if (!done[cell]) done[cell] = true, fine.push_back(cell);
+      }
+  }
+  std::sort(fine.begin(), fine.end());
+  evaluate(fine);
   std::vector<std::size_t> order(cost.size());
   std::iota(order.begin(), order.end(), std::size_t{0});
   std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return cost[a] < cost[b]; });
