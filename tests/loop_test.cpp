@@ -234,7 +234,18 @@ TEST_P(loop, scenario) {
   for (const auto& n : r.notes)
     if (n.find("margin") != std::string::npos) std::printf("  %s\n", n.c_str());
 
-  std::vector<std::string> expected = sc.expected, got = named;
+  // Where the verdict's check (the loop again at 0.1 times the orbit tolerances) names other
+  // effects, the orbits' round-off chose between them, and it differs from machine to machine
+  // (libm's code paths): the loop then claims nothing and keeps both choices tentative (docs/loop.md,
+  // "The verdict's check"), and the expected effects must be among those (contact_angle_of_14_degrees
+  // on an AMD EPYC: the check names nothing, the fit the contact angle).
+  const bool on_round_off = r.decision.claim == "tentative" && r.check && !r.check->agrees;
+  if (on_round_off) {
+    std::printf("  decided by the orbits' round-off on this machine: tentative");
+    for (const auto& e : r.decision.tentative) std::printf(" %s", e.c_str());
+    std::printf("\n");
+  }
+  std::vector<std::string> expected = sc.expected, got = on_round_off ? r.decision.tentative : named;
   std::sort(expected.begin(), expected.end());
   std::sort(got.begin(), got.end());
   EXPECT_EQ(got, expected);
