@@ -235,10 +235,11 @@ TEST_P(loop, scenario) {
     if (n.find("margin") != std::string::npos) std::printf("  %s\n", n.c_str());
 
   // Where the verdict's check (the loop again at 0.1 times the orbit tolerances) names other
-  // effects, the orbits' round-off chose between them, and it differs from machine to machine
-  // (libm's code paths): the loop then claims nothing and keeps both choices tentative (docs/loop.md,
-  // "The verdict's check"), and the expected effects must be among those (contact_angle_of_14_degrees
-  // on an AMD EPYC: the check names nothing, the fit the contact angle).
+  // effects, the orbits' round-off chose between them, and round-off differs from machine to
+  // machine: the loop then claims nothing and keeps every effect either chose tentative
+  // (docs/loop.md, "The verdict's check"), and those must be the expected ones
+  // (contact_angle_of_14_degrees: named on the machine of cdb261f's run, on an AMD EPYC the check
+  // names nothing and the fit the contact angle).
   const bool on_round_off = r.decision.claim == "tentative" && r.check && !r.check->agrees;
   if (on_round_off) {
     std::printf("  decided by the orbits' round-off on this machine: tentative");
