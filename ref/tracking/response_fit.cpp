@@ -391,10 +391,10 @@ std::pair<estimate, estimate> polar_estimate(cplx c, const Eigen::Matrix2d& cov)
     const double v = g.dot(cov * g);
     return std::isfinite(v) ? std::sqrt(std::max(0.0, v)) : std::numeric_limits<double>::infinity();
   };
-  const double sa = sd_along(ga), sp = sd_along(gp) * 180.0 / kPi;
+  const double sa = sd_along(ga);
   estimate amp{a, std::max(0.0, a - kZ95 * sa), a + kZ95 * sa, std::isfinite(sa) && a > kZ95 * sa};
-  const double deg = std::arg(c) * 180.0 / kPi;
-  estimate phase{deg, deg - kZ95 * sp, deg + kZ95 * sp, amp.determined && kZ95 * sp < 45.0};
+  estimate phase = angle_estimate(std::arg(c), sd_along(gp));
+  phase.determined = phase.determined && amp.determined;
   return {amp, phase};
 }
 
@@ -406,6 +406,12 @@ estimate log_estimate(double chart, double sd, double unit, double max_ratio) {
   e.lo = std::exp(chart - kZ95 * sd) / unit, e.hi = std::exp(chart + kZ95 * sd) / unit;
   e.determined = std::isfinite(sd) && e.hi / e.lo < max_ratio;
   return e;
+}
+
+estimate angle_estimate(double rad, double sd) {
+  constexpr double kDeterminedWithinDeg = 45.0;
+  const double deg = rad * 180.0 / kPi, s = sd * 180.0 / kPi;
+  return {deg, deg - kZ95 * s, deg + kZ95 * s, std::isfinite(s) && kZ95 * s < kDeterminedWithinDeg};
 }
 
 std::pair<estimate, estimate> polar_estimate(std::complex<double> c, double var_re, double var_im, double cov_re_im) {
@@ -736,8 +742,7 @@ void estimates_into(response_fit& f, const problem& pr, const std::vector<double
       const double deg = *pr.beta[p] * 180.0 / kPi;
       f.probe_angle_deg.push_back({deg, deg, deg, true});
     } else if (pr.beta_fitted) {
-      const double deg = best[probe_beta] * 180.0 / kPi, s = sd_of(probe_beta) * 180.0 / kPi;
-      f.probe_angle_deg.push_back({deg, deg - kZ95 * s, deg + kZ95 * s, std::isfinite(s) && kZ95 * s < 45.0});
+      f.probe_angle_deg.push_back(angle_estimate(best[probe_beta], sd_of(probe_beta)));
     } else {  // an isotropic rotor, one probe: every angle reads alike (the unbalance phase takes it)
       f.probe_angle_deg.push_back({0.0, 0.0, 180.0, false});
     }

@@ -183,6 +183,10 @@ estimate log_estimate(double chart, double sd, double unit, double max_ratio);
 // degrees (determined when within +-45 degrees), from the covariance of (Re c, Im c).
 std::pair<estimate, estimate> polar_estimate(std::complex<double> c, double var_re, double var_im, double cov_re_im);
 double row_scatter_of(const std::vector<std::complex<double>>& vectors);
+// An angle fitted in radians with standard deviation sd, in degrees with its 95 % interval,
+// determined when that reaches less than 45 degrees either side (a phase's, a probe's or the
+// stator's direction alike).
+estimate angle_estimate(double rad, double sd);
 
 // The reading of probe `probe` at frequency w (rad/s) per unit forward force per unit mass,
 // (cos wt, sin wt) = Re((1, -j) e^{j w t}), through the fit's modes (a misalignment's 2X is one

@@ -7,6 +7,7 @@
 #include <limits>
 #include <memory>
 #include <numbers>
+#include <numeric>
 #include <optional>
 
 #include <Eigen/Dense>
@@ -27,7 +28,7 @@ namespace {
 
 using cplx = std::complex<double>;
 using state6 = std::array<double, 6>;
-using model = rotor_with_effects<identified>;  // k3 = c2 = 0: the piecewise-linear law k1 z with the effects' terms
+using model = rotor_with_effects<identified>;  // Eq. 5's law (k3 = c2 = 0 unless the form has them) with the effects' terms
 using namespace response_slots;
 constexpr double kPi = std::numbers::pi;
 constexpr double kRpmToRadS = 2.0 * kPi / 60.0;
@@ -35,8 +36,8 @@ constexpr double kZ95 = 1.959963984540054;
 
 // The rub fit's coordinates beyond the response fit's: the unbalance and the bow (over a
 // reference size, so every coordinate is of order 1 for the finite differences), ln delta,
-// ln (k1/m), mu.
-enum rub_slot : std::size_t { re_a = kSlots, im_a, re_b, im_b, ln_delta, ln_kappa, friction_mu, kRubSlots };
+// ln (k1/m), mu; the form's ln (k3/m), ln (c2/m) and the contact angle theta.
+enum rub_slot : std::size_t { re_a = kSlots, im_a, re_b, im_b, ln_delta, ln_kappa, friction_mu, ln_cubic, ln_velocity_squared, contact_theta, kRubSlots };
 
 // One period read at this many samples: a contact's harmonics above the 127th would alias onto the
 // 1X and 2X, and a stiff contact's fall far below the noise by then.
@@ -67,10 +68,20 @@ constexpr double kRankLoosening = 1e3;
 // reads alike), mu in [0, 1].
 constexpr double kClearanceLo = 0.05, kClearanceHi = 2.0;
 constexpr double kStiffnessHi = 1e4;
+// The form's terms start where each is this share of k1 z at the start's largest penetration
+// (k3 z^2 / k1; c2 z_dot^2 / (k1 z) at its largest approach speed): below and above parity, the
+// better fitted (a term the table does not show ends small either way). Their box: 1e-6 to 1e6
+// of parity (a term beyond either end reads as none or as a wall). The stator's direction starts
+// at the start's and this far either side of it (one undeclared probe: around the circle).
+constexpr double kTermShares[] = {0.3, 3.0};
+constexpr double kTermBox = 1e6;
+constexpr double kAngleSteps[] = {-kPi / 6.0, kPi / 6.0};
+constexpr double kAngleStepsAround[] = {-2.0 * kPi / 3.0, -kPi / 3.0, kPi / 3.0, 2.0 * kPi / 3.0, kPi};
 
 struct row_orbit {
   cplx x1{}, y1{}, x2{}, y2{};
   bool contact = false, periodic = true;
+  double penetration = 0.0, approach = 0.0;  // the largest penetration and its rate while in contact
   bool circled = false;         // read from an unstable orbit the motion circles (circled_orbit)
   bool closed_form = false;     // the contact-free response in closed form (not shot)
   std::optional<state6> state;  // the orbit's state at t = 0 (rows shot to an orbit, stable or circled): the next speed's start
@@ -113,6 +124,7 @@ struct sample_recorder {
 };
 
 struct rub_problem {
+  rub_problem(const order_table& t, const response_parts& p) : table(t), parts(p) {}
   const order_table& table;
   response_parts parts;
   std::vector<std::size_t> orders;  // the 1X column of each probe
@@ -121,6 +133,15 @@ struct rub_problem {
   std::vector<std::size_t> rows;    // fitted
   std::vector<std::size_t> free;
   double w_lo = 1.0, w_hi = 1.0, ref_m = 1.0, peak_m = 1.0;
+  rub_form form;
+  bool undeclared = false;           // one probe, its angle not declared: the stator's direction fitted against it
+  // Its angle fitted too where the supports differ (they have directions then); where they are
+  // alike only the angle between probe and stator is seen, and the probe's stays at the 1X fit's.
+  bool beta_fitted() const { return undeclared && parts.anisotropy; }
+  double beta_of(const std::vector<double>& f, std::size_t p) const { return beta_fitted() ? f[probe_beta] : beta[p]; }
+  row_path path;                     // the rows in the order the rig ran them
+  std::vector<std::size_t> previous; // each row's predecessor on the path (rows(): none)
+  double cubic_parity = 1.0, velocity_squared_parity = 1.0;  // k3/m and c2/m at parity with k1 z (the form's starts and box)
   // Evaluations (every row's orbit at a point) and shootings, counted by the tasks that make them
   // (starts' costs, fits and a Jacobian's rows run on the machine's threads).
   shared_count evaluations, shots;
@@ -128,10 +149,14 @@ struct rub_problem {
   void lay_out() {
     free = {ln_wx, ln_zx};
     if (parts.anisotropy) free.push_back(ln_wy), free.push_back(ln_zy);
+    if (beta_fitted()) free.push_back(probe_beta);
     if (parts.cross_coupling) free.push_back(k_xy), free.push_back(k_yx);
     free.push_back(re_a), free.push_back(im_a);
     if (parts.shaft_bow) free.push_back(re_b), free.push_back(im_b);
     free.push_back(ln_delta), free.push_back(ln_kappa), free.push_back(friction_mu);
+    if (form.cubic) free.push_back(ln_cubic);
+    if (form.velocity_squared) free.push_back(ln_velocity_squared);
+    if (form.contact_angle) free.push_back(contact_theta);
   }
   std::vector<double> full(const std::vector<double>& q, std::vector<double> f) const {
     for (std::size_t k = 0; k < free.size(); ++k) f[free[k]] = q[k];
@@ -168,6 +193,10 @@ struct rub_problem {
     f[ln_delta] = std::clamp(f[ln_delta], std::log(kClearanceLo * peak_m), std::log(kClearanceHi * peak_m));
     f[ln_kappa] = std::clamp(f[ln_kappa], 2.0 * std::log(w_lo), std::log(kStiffnessHi * w_hi * w_hi));
     f[friction_mu] = std::clamp(f[friction_mu], 0.0, 1.0);
+    f[ln_cubic] = std::clamp(f[ln_cubic], std::log(cubic_parity / kTermBox), std::log(cubic_parity * kTermBox));
+    f[ln_velocity_squared] = std::clamp(f[ln_velocity_squared], std::log(velocity_squared_parity / kTermBox), std::log(velocity_squared_parity * kTermBox));
+    f[contact_theta] = std::clamp(f[contact_theta], -kPi, kPi);
+    f[probe_beta] = std::clamp(f[probe_beta], -kPi, kPi);
     return reduce(f);
   }
 
@@ -188,8 +217,10 @@ struct rub_problem {
     p.m = 1.0, p.k_x = wx * wx, p.k_y = wy * wy, p.c_x = 2.0 * std::exp(f[ln_zx]) * wx, p.c_y = 2.0 * std::exp(f[ln_zy]) * wy;
     const cplx a = cplx(f[re_a], f[im_a]) * ref_m;
     p.e = std::abs(a), p.unbalance_phase = std::arg(a);
-    p.clearance = std::exp(f[ln_delta]), p.k1 = std::exp(f[ln_kappa]), p.k3 = 0.0, p.c2 = 0.0, p.mu = f[friction_mu];
+    p.clearance = std::exp(f[ln_delta]), p.k1 = std::exp(f[ln_kappa]), p.mu = f[friction_mu];
+    p.k3 = form.cubic ? std::exp(f[ln_cubic]) : 0.0, p.c2 = form.velocity_squared ? std::exp(f[ln_velocity_squared]) : 0.0;
     effect_parameters fx;
+    fx.contact_angle = form.contact_angle ? f[contact_theta] : 0.0;
     if (parts.shaft_bow) {
       const cplx b = cplx(f[re_b], f[im_b]) * ref_m;
       fx.bow = std::abs(b), fx.bow_phase = std::arg(b);
@@ -230,13 +261,17 @@ struct rub_problem {
     if (on) o.state = *on;
     if (samples.size() != kReadSamples) throw numerical_error("rub fit: a period read " + std::to_string(samples.size()) + " samples");
     double top = -std::numeric_limits<double>::infinity();
+    const double nx = std::sin(fx.contact_angle), ny = std::cos(fx.contact_angle);
     for (std::size_t k = 0; k < kReadSamples; ++k) {
       const double t = period * static_cast<double>(k) / static_cast<double>(kReadSamples);
       const cplx e1 = std::polar(2.0 / kReadSamples, -w * t), e2 = std::polar(2.0 / kReadSamples, -2.0 * w * t);
       o.x1 += samples[k][0] * e1, o.y1 += samples[k][1] * e1, o.x2 += samples[k][0] * e2, o.y2 += samples[k][1] * e2;
-      top = std::max(top, samples[k][1]);
+      const double z = nx * samples[k][idx::x] + ny * samples[k][idx::y] - p.clearance;
+      top = std::max(top, z);
+      if (z > 0.0) o.approach = std::max(o.approach, nx * samples[k][idx::vx] + ny * samples[k][idx::vy]);
     }
-    o.contact = top > p.clearance;
+    o.contact = top > 0.0;
+    o.penetration = std::max(top, 0.0);
     return o;
   }
 
@@ -248,27 +283,33 @@ struct rub_problem {
     return {x.real(), y.real(), (j * w * x).real(), (j * w * y).real(), 0.0, 0.0};
   }
 
-  // Every row's steady orbit, in rising speed: closed form while the contact-free response stays
-  // inside the clearance and the previous speed did not touch; else shot (shot_row) from `warm`'s
-  // orbit at that row (a finite difference stays on the branch its base point followed), the
-  // previous speed's, or the contact-free response.
+  // Whether the contact-free response (x, y) stays off the stator: its largest reach along the
+  // stator's normal, |n . (x, y)|, within the clearance.
+  static bool off_stator(const parameters& p, const effect_parameters& fx, cplx x, cplx y) {
+    return std::abs(std::sin(fx.contact_angle) * x + std::cos(fx.contact_angle) * y) <= p.clearance;
+  }
+
+  // Every row's steady orbit, along the rows' path (the order the rig ran them): closed form while
+  // the contact-free response stays off the stator and the previous row on the path did not touch;
+  // else shot (shot_row) from `warm`'s orbit at that row (a finite difference stays on the branch
+  // its base point followed), the previous row's, or the contact-free response.
   std::vector<row_orbit> orbits(const std::vector<double>& f, const std::vector<row_orbit>* warm) {
     evaluations.add();
     const auto [p, fx] = rotor(f);
     std::vector<row_orbit> out(table.rows());
-    bool previous_contact = false;
-    for (std::size_t i = 0; i < table.rows(); ++i) {
+    for (const std::size_t i : path.order) {
       const double w = table.rpm[i] * kRpmToRadS;
       const auto [x, y] = linear_xy(f, w);
       const bool warm_shot = warm && (*warm)[i].state;
-      if (!warm_shot && !previous_contact && std::abs(y) <= p.clearance) {
+      const std::size_t before = previous[i];
+      const bool previous_contact = before < table.rows() && out[before].contact;
+      if (!warm_shot && !previous_contact && off_stator(p, fx, x, y)) {
         out[i].x1 = x, out[i].y1 = y;
         out[i].closed_form = true;
         continue;
       }
-      const state6 guess = warm_shot ? *(*warm)[i].state : i > 0 && out[i - 1].state ? *out[i - 1].state : contact_free_state(x, y, w);
+      const state6 guess = warm_shot ? *(*warm)[i].state : before < table.rows() && out[before].state ? *out[before].state : contact_free_state(x, y, w);
       out[i] = shot_row(p, fx, w, guess);
-      previous_contact = out[i].contact;
     }
     return out;
   }
@@ -279,15 +320,17 @@ struct rub_problem {
   std::optional<Eigen::VectorXd> residuals(const std::vector<double>& q, const std::vector<row_orbit>* warm, std::vector<row_orbit>* read,
                                            std::vector<cplx>& runout, const std::vector<cplx>* fixed) {
     std::vector<row_orbit> o;
+    const std::vector<double> f = full(q, base);
     try {
-      o = orbits(full(q, base), warm);
+      o = orbits(f, warm);
     } catch (const numerical_error&) {
       return std::nullopt;
     }
     Eigen::VectorXd r(static_cast<Eigen::Index>(2 * rows.size() * orders.size()));
     runout.assign(orders.size(), 0.0);
     for (std::size_t p = 0; p < orders.size(); ++p) {
-      const auto reading = [&](std::size_t i) { return std::cos(beta[p]) * o[i].x1 + std::sin(beta[p]) * o[i].y1; };
+      const double b = beta_of(f, p);
+      const auto reading = [&](std::size_t i) { return std::cos(b) * o[i].x1 + std::sin(b) * o[i].y1; };
       if (fixed) {
         runout[p] = (*fixed)[p];
       } else {
@@ -341,9 +384,10 @@ struct rub_problem {
       const double w = table.rpm[i] * kRpmToRadS;
       const auto [pg, fg] = rotor(g);
       const auto [x, y] = linear_xy(g, w);
-      const bool previous_contact = i > 0 && at[i - 1].contact;
-      if (!at[i].state && !previous_contact && std::abs(y) <= pg.clearance) return std::pair{x, y};
-      const state6 guess = at[i].state ? *at[i].state : i > 0 && at[i - 1].state ? *at[i - 1].state : contact_free_state(x, y, w);
+      const std::size_t before = previous[i];
+      const bool previous_contact = before < table.rows() && at[before].contact;
+      if (!at[i].state && !previous_contact && off_stator(pg, fg, x, y)) return std::pair{x, y};
+      const state6 guess = at[i].state ? *at[i].state : before < table.rows() && at[before].state ? *at[before].state : contact_free_state(x, y, w);
       try {
         const row_orbit o = shot_row(pg, fg, w, guess);
         return std::pair{o.x1, o.y1};
@@ -424,20 +468,25 @@ struct rub_problem {
     });
     if (std::find(lacking.begin(), lacking.end(), 1) != lacking.end()) return std::nullopt;
     // Residual (data - reading - runout) / sigma: the reading's derivative, less its mean over the
-    // fitted rows where the runout is solved (the mean of data - reading).
+    // fitted rows where the runout is solved (the mean of data - reading); a fitted probe angle's
+    // column the reading's own turn (the orbits do not move with it).
     Eigen::MatrixXd J(static_cast<Eigen::Index>(2 * rows.size() * orders.size()), static_cast<Eigen::Index>(n));
+    const auto beta_column = static_cast<std::size_t>(std::find(free.begin(), free.end(), probe_beta) - free.begin());
     for (std::size_t pr = 0; pr < orders.size(); ++pr) {
-      const double c = std::cos(beta[pr]), s = std::sin(beta[pr]);
+      const double c = std::cos(beta_of(f, pr)), s = std::sin(beta_of(f, pr));
       for (std::size_t k = 0; k < n; ++k) {
         const auto col = static_cast<Eigen::Index>(k);
+        const auto d_reading = [&](std::size_t i) {
+          const auto r = static_cast<Eigen::Index>(i);
+          return c * dX(r, col) + s * dY(r, col) + (k == beta_column ? -s * at[i].x1 + c * at[i].y1 : cplx(0.0));
+        };
         cplx mean = 0.0;
         if (!fixed) {
-          for (const std::size_t i : rows) mean += c * dX(static_cast<Eigen::Index>(i), col) + s * dY(static_cast<Eigen::Index>(i), col);
+          for (const std::size_t i : rows) mean += d_reading(i);
           mean /= static_cast<double>(rows.size());
         }
         for (std::size_t m = 0; m < rows.size(); ++m) {
-          const auto i = static_cast<Eigen::Index>(rows[m]);
-          const cplx e = -(c * dX(i, col) + s * dY(i, col) - mean) / sigma[pr];
+          const cplx e = -(d_reading(rows[m]) - mean) / sigma[pr];
           const auto row = static_cast<Eigen::Index>(2 * (pr * rows.size() + m));
           J(row, col) = e.real(), J(row + 1, col) = e.imag();
         }
@@ -507,6 +556,10 @@ struct rub_problem {
     lo[ln_delta] = std::log(kClearanceLo * peak_m), hi[ln_delta] = std::log(kClearanceHi * peak_m);
     lo[ln_kappa] = 2.0 * std::log(w_lo), hi[ln_kappa] = std::log(kStiffnessHi * w_hi * w_hi);
     lo[friction_mu] = 0.0, hi[friction_mu] = 1.0;
+    lo[ln_cubic] = std::log(cubic_parity / kTermBox), hi[ln_cubic] = std::log(cubic_parity * kTermBox);
+    lo[ln_velocity_squared] = std::log(velocity_squared_parity / kTermBox), hi[ln_velocity_squared] = std::log(velocity_squared_parity * kTermBox);
+    lo[contact_theta] = -kPi, hi[contact_theta] = kPi;
+    lo[probe_beta] = -kPi, hi[probe_beta] = kPi;
     const std::vector<double> l = reduce(lo), h = reduce(hi);
     lsq.lower = Eigen::Map<const Eigen::VectorXd>(l.data(), static_cast<Eigen::Index>(l.size()));
     lsq.upper = Eigen::Map<const Eigen::VectorXd>(h.data(), static_cast<Eigen::Index>(h.size()));
@@ -518,15 +571,24 @@ struct rub_problem {
 
 namespace {
 
-// The fit's problem: every probe's declared angle (the stator is at +y of them), the rows and
-// noise, the table's speed range, the coordinates the linear fit's parts free, and the linear fit's
-// coordinates and amplitudes as the start f0 (pr.base).
+// The fit's problem: every probe's declared angle (the stator is at +y of them, or at its fitted
+// angle), the rows and their path, the noise, the table's speed range, the form, the coordinates
+// the linear fit's parts free, and the linear fit's coordinates and amplitudes as the start f0
+// (pr.base).
 rub_problem set_up(const order_table& table, const response_fit& linear, const rub_fit_options& options) {
   if (linear.probes.empty() || linear.theta.empty()) throw input_error("fit_rub: the 1X fit it starts from has no probes");
-  rub_problem pr{table, linear.parts, {}, {}, {}, options.rows, {}, 1.0, 1.0, 1.0, 1.0, {}, {}, {}};
+  rub_problem pr(table, linear.parts);
+  pr.rows = options.rows;
+  pr.form = options.form ? *options.form : options.start ? options.start->form : rub_form{};
+  // One probe whose angle is not declared: fitted by the 1X fit (anisotropic) or any (isotropic).
+  pr.undeclared = linear.probes.size() == 1 && (linear.probe_angle_fitted[0] || !(linear.probe_angle_deg[0].hi - linear.probe_angle_deg[0].lo < 1e-9));
+  if (pr.undeclared) pr.form.contact_angle = true;  // the stator's direction against the probe is unknown
+  pr.path = rows_as_run(table);
+  pr.previous.assign(table.rows(), table.rows());
+  for (std::size_t k = 1; k < pr.path.order.size(); ++k) pr.previous[pr.path.order[k]] = pr.path.order[k - 1];
   for (std::size_t p = 0; p < linear.probes.size(); ++p) {
-    if (linear.probe_angle_fitted[p] || !(linear.probe_angle_deg[p].hi - linear.probe_angle_deg[p].lo < 1e-9))
-      throw input_error(table.source + ": the rub fit needs every probe's angle declared (the stator is at +y of those angles)");
+    if (!pr.undeclared && (linear.probe_angle_fitted[p] || !(linear.probe_angle_deg[p].hi - linear.probe_angle_deg[p].lo < 1e-9)))
+      throw input_error(table.source + ": the rub fit needs every probe's angle declared where there are two (the stator is at +y of those angles)");
     const auto at = std::find_if(table.orders.begin(), table.orders.end(), [&](const tracked_order& o) { return o.order == 1 && o.probe == linear.probes[p]; });
     pr.orders.push_back(static_cast<std::size_t>(at - table.orders.begin()));
     pr.beta.push_back(linear.probe_angle_deg[p].value * kPi / 180.0);
@@ -548,27 +610,115 @@ rub_problem set_up(const order_table& table, const response_fit& linear, const r
   return pr;
 }
 
-// The starts, best first by their residual (the best kFittedStarts of them), or the given fit's
-// point alone. The clearance's scales: the linear fit's largest vertical amplitude over the
-// table's speeds and the table's largest 1X reading (a hardening branch carried past the critical
-// speed reads larger than any contact-free fit); the clearance's bounds from the larger.
+// Each start's cost (its squared residuals, infinite where some orbit cannot be computed) on the
+// machine's threads, into its own slot, from orbits at kRankLoosening times the fit's tolerances
+// (counted as the fit's evaluations and shots); the best kFittedStarts of them, best first, the
+// last of them the best whose orbits touch where none of the others does: a start that touches
+// nowhere gives the contact's coordinates no gradient, and its fit ends where it began (a
+// coast-down's lower branch read contact-free fits better than a contact on the wrong branch).
+// With `distinct_directions`, no two of the stator's direction: the grid's turns around the
+// circle (one undeclared probe) rank nearly alike in pairs, and the best two alone are one basin.
+std::vector<std::vector<double>> ranked(rub_problem& pr, const std::vector<std::vector<double>>& starts, bool distinct_directions = false) {
+  rub_problem ranking = pr.loosened(kRankLoosening);
+  const long long evaluations = ranking.evaluations.value(), shots = ranking.shots.value();
+  std::vector<double> cost(starts.size());
+  std::vector<char> touches(starts.size(), 0);
+  parallel_for(starts.size(), 0, [&](std::size_t i) {
+    std::vector<cplx> runout;
+    std::vector<row_orbit> orbits;
+    const auto r = ranking.residuals(starts[i], nullptr, &orbits, runout, nullptr);
+    cost[i] = r && r->allFinite() ? r->squaredNorm() : std::numeric_limits<double>::infinity();
+    touches[i] = r && std::any_of(orbits.begin(), orbits.end(), [](const row_orbit& o) { return o.contact; });
+  });
+  pr.evaluations.add(ranking.evaluations.value() - evaluations), pr.shots.add(ranking.shots.value() - shots);
+  std::vector<std::size_t> order(starts.size());
+  std::iota(order.begin(), order.end(), std::size_t{0});
+  std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return cost[a] < cost[b]; });
+  std::vector<std::size_t> picked;
+  const auto direction = [&](std::size_t i) { return pr.full(starts[i], pr.base)[contact_theta]; };
+  for (std::size_t k = 0; k < order.size() && picked.size() < kFittedStarts; ++k)
+    if (std::isfinite(cost[order[k]]) &&
+        (!distinct_directions || std::none_of(picked.begin(), picked.end(), [&](std::size_t i) { return direction(i) == direction(order[k]); })))
+      picked.push_back(order[k]);
+  const auto touching = [&](std::size_t i) { return touches[i] != 0; };
+  if (!picked.empty() && std::none_of(picked.begin(), picked.end(), touching))
+    for (const std::size_t i : order)
+      if (touching(i) && std::isfinite(cost[i])) {
+        if (picked.size() == kFittedStarts) picked.back() = i;
+        else picked.push_back(i);
+        break;
+      }
+  std::vector<std::vector<double>> from;
+  for (const std::size_t i : picked) from.push_back(starts[i]);
+  return from;
+}
+
+// The form's terms at parity with k1 z at a fit's largest penetration z and approach speed v
+// (k3 z^2 = k1; c2 v^2 = k1 z); where it does not touch, at a thousandth of the peak and the
+// highest speed's rate through it.
+void parities_from(rub_problem& pr, const std::vector<double>& f, double penetration, double approach) {
+  const double kappa = std::exp(f[ln_kappa]);
+  const double z = penetration > 0.0 ? penetration : 1e-3 * pr.peak_m;
+  const double v = approach > 0.0 ? approach : pr.w_hi * z;
+  pr.cubic_parity = kappa / (z * z), pr.velocity_squared_parity = kappa * z / (v * v);
+}
+
+// A fit's point with the form's terms it lacks (`had`) laid in: each at `share` of parity, the
+// stator turned by `turn` from where it was (0: at the top).
+std::vector<double> with_terms(const rub_problem& pr, std::vector<double> f, const rub_form& had, double share, double turn) {
+  if (pr.form.cubic && !had.cubic) f[ln_cubic] = std::log(share * pr.cubic_parity);
+  if (pr.form.velocity_squared && !had.velocity_squared) f[ln_velocity_squared] = std::log(share * pr.velocity_squared_parity);
+  if (pr.form.contact_angle) f[contact_theta] = std::remainder((had.contact_angle ? f[contact_theta] : 0.0) + turn, 2.0 * kPi);
+  return f;
+}
+
+// From a fit of a smaller form: its point with each new term at each share, the stator (where new)
+// at the top and turned either side, and `form_from`'s terms where given; ranked. From one of the same form: its point alone.
+std::vector<std::vector<double>> starts_from_fit(rub_problem& pr, const rub_fit& start, const rub_fit* form_from) {
+  pr.base = start.q;
+  pr.ref_m = start.ref_m;
+  parities_from(pr, start.q, start.penetration_m, start.approach_speed_m_s);
+  const rub_form& had = start.form;
+  const bool new_terms = (pr.form.cubic && !had.cubic) || (pr.form.velocity_squared && !had.velocity_squared);
+  const bool new_angle = pr.form.contact_angle && !had.contact_angle;
+  if (!new_terms && !new_angle) return {pr.clamp(pr.reduce(start.q))};
+  std::vector<double> turns{0.0};
+  if (new_angle) turns.insert(turns.end(), std::begin(kAngleSteps), std::end(kAngleSteps));
+  std::vector<std::vector<double>> starts;
+  for (const double share : new_terms ? std::vector<double>(std::begin(kTermShares), std::end(kTermShares)) : std::vector<double>{1.0})
+    for (const double turn : turns) starts.push_back(pr.clamp(pr.reduce(with_terms(pr, start.q, had, share, turn))));
+  if (form_from) {
+    std::vector<double> f = start.q;
+    for (const std::size_t k : {ln_cubic, ln_velocity_squared, contact_theta}) f[k] = form_from->q[k];
+    starts.push_back(pr.clamp(pr.reduce(with_terms(pr, f, form_from->form, kTermShares[0], 0.0))));
+  }
+  return ranked(pr, starts);
+}
+
+// The starts, best first by their residual (the best kFittedStarts of them), or those from the
+// given fit (starts_from_fit). The clearance's scales: the linear fit's largest amplitude along
+// the stator's normal (every direction where the stator's is fitted) over the table's speeds and
+// the table's largest 1X reading (a hardening branch carried past the critical speed reads larger
+// than any contact-free fit); the clearance's bounds from the larger.
 std::vector<std::vector<double>> starts_of(rub_problem& pr, const rub_fit_options& options) {
   const std::vector<double> f0 = pr.base;
   double linear_peak = 0.0, data_peak = 0.0;
+  constexpr int kDirections = 36;  // 5 degrees apart: the ellipse's reach to within 0.4 %
   for (std::size_t i = 0; i < pr.table.rows(); ++i) {
-    linear_peak = std::max(linear_peak, std::abs(pr.linear_xy(f0, pr.table.rpm[i] * kRpmToRadS).second));
+    const auto [x, y] = pr.linear_xy(f0, pr.table.rpm[i] * kRpmToRadS);
+    linear_peak = std::max(linear_peak, std::abs(y));
+    if (pr.form.contact_angle)
+      for (int d = 0; d < kDirections; ++d) linear_peak = std::max(linear_peak, std::abs(std::sin(d * kPi / kDirections) * x + std::cos(d * kPi / kDirections) * y));
     for (const std::size_t o : pr.orders) data_peak = std::max(data_peak, std::abs(pr.table.orders[o].vector[i]));
   }
   pr.peak_m = std::max(linear_peak, data_peak);
-  if (!(pr.peak_m > 0.0)) throw numerical_error(pr.table.source + ": the 1X fit it starts from has no vertical response");
-  std::vector<std::vector<double>> from;
-  if (options.start) {
-    pr.base = options.start->q;
-    pr.ref_m = options.start->ref_m;
-    from.push_back(pr.clamp(pr.reduce(options.start->q)));
-    return from;
-  }
-  std::vector<std::pair<double, std::vector<double>>> starts;  // (cost, q): the costs below
+  if (!(pr.peak_m > 0.0)) throw numerical_error(pr.table.source + ": the 1X fit it starts from has no response");
+  if (options.start) return starts_from_fit(pr, *options.start, options.form_from);
+  parities_from(pr, f0, 0.0, 0.0);
+  // The stator's direction where it is fitted from the grid (one undeclared probe): around the circle.
+  std::vector<double> turns{0.0};
+  if (pr.form.contact_angle) turns.insert(turns.end(), std::begin(kAngleStepsAround), std::end(kAngleStepsAround));
+  std::vector<std::vector<double>> starts;
   for (const double scale : {linear_peak, data_peak})
     for (const double share : kClearanceShares)
       for (const double ratio : kStiffnessRatios)
@@ -577,7 +727,7 @@ std::vector<std::vector<double>> starts_of(rub_problem& pr, const rub_fit_option
           std::vector<double> f = f0;
           f[ln_delta] = std::log(share * scale), f[ln_kappa] = std::log(ratio) + 2.0 * f0[ln_wx], f[friction_mu] = kFrictionStart;
           f[ln_zx] += std::log(damping), f[ln_zy] += std::log(damping);
-          starts.emplace_back(0.0, pr.clamp(pr.reduce(f)));
+          for (const double turn : turns) starts.push_back(pr.clamp(pr.reduce(with_terms(pr, f, rub_form{}, kTermShares[0], turn))));
         }
   // A fit of other parts: of fewer, with this fit's extra parts off (equal modes, no bow, no
   // cross-coupling); of more, with its extra parts dropped (an isotropic fit keeps x's mode); its
@@ -586,22 +736,9 @@ std::vector<std::vector<double>> starts_of(rub_problem& pr, const rub_fit_option
     std::vector<double> f = other->q;
     const double rescale = other->ref_m / pr.ref_m;
     for (const std::size_t k : {re_a, im_a, re_b, im_b}) f[k] *= rescale;
-    starts.emplace_back(0.0, pr.clamp(pr.reduce(f)));
+    starts.push_back(pr.clamp(pr.reduce(with_terms(pr, f, other->form, kTermShares[0], 0.0))));
   }
-  // Each start's cost on the machine's threads, into its own slot, from orbits at kRankLoosening
-  // times the fit's tolerances (counted as the fit's evaluations and shots).
-  rub_problem ranking = pr.loosened(kRankLoosening);
-  const long long evaluations = ranking.evaluations.value(), shots = ranking.shots.value();
-  parallel_for(starts.size(), 0, [&](std::size_t i) {
-    std::vector<cplx> runout;
-    const auto r = ranking.residuals(starts[i].second, nullptr, nullptr, runout, nullptr);
-    starts[i].first = r && r->allFinite() ? r->squaredNorm() : std::numeric_limits<double>::infinity();
-  });
-  pr.evaluations.add(ranking.evaluations.value() - evaluations), pr.shots.add(ranking.shots.value() - shots);
-  std::stable_sort(starts.begin(), starts.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
-  for (std::size_t i = 0; i < std::min(kFittedStarts, starts.size()); ++i)
-    if (std::isfinite(starts[i].first)) from.push_back(starts[i].second);
-  return from;
+  return ranked(pr, starts, pr.form.contact_angle);
 }
 
 // The best fit from the starts, by the one solver, and how much lower its minimum may lie (chi^2).
@@ -667,10 +804,20 @@ void linear_estimates_into(rub_fit& f, const rub_problem& pr, const std::vector<
   f.contact_stiffness_over_m = log_estimate(best[ln_kappa], sd_of(ln_kappa), 1.0, rules.max_interval_ratio);
   const double mu = best[friction_mu], s = sd_of(friction_mu);
   f.friction = {mu, std::max(0.0, mu - kZ95 * s), mu + kZ95 * s, std::isfinite(s) && mu > kZ95 * s};
+  // The form's terms as the clearance (their interval's span), the stator's direction as an angle.
+  if (pr.form.cubic) f.cubic_stiffness_over_m = log_estimate(best[ln_cubic], sd_of(ln_cubic), 1.0, rules.max_interval_ratio);
+  if (pr.form.velocity_squared) f.velocity_squared_over_m = log_estimate(best[ln_velocity_squared], sd_of(ln_velocity_squared), 1.0, rules.max_interval_ratio);
+  f.contact_angle_deg = pr.form.contact_angle ? angle_estimate(best[contact_theta], sd_of(contact_theta)) : estimate{0.0, 0.0, 0.0, true};
+  if (pr.beta_fitted()) f.probe_angle_deg = angle_estimate(best[probe_beta], sd_of(probe_beta));
+  else {
+    const double deg = pr.beta.front() * 180.0 / kPi;
+    f.probe_angle_deg = {deg, deg, deg, true};
+  }
 }
 
 // The model, its own 2X and the residual at every row, the noise test and the RMS residual.
-void rows_into(rub_fit& f, const rub_problem& pr, const std::vector<row_orbit>& orbits, const std::vector<cplx>& runout, double noise_relative_error) {
+void rows_into(rub_fit& f, const rub_problem& pr, const std::vector<double>& best, const std::vector<row_orbit>& orbits, const std::vector<cplx>& runout,
+               double noise_relative_error) {
   const std::size_t probes = pr.orders.size();
   const double ratio = f.chi2 / static_cast<double>(f.dof);
   const double chi2_bound = boost::math::quantile(boost::math::chi_squared(static_cast<double>(f.dof)), 0.999) / static_cast<double>(f.dof) - 1.0;
@@ -680,7 +827,7 @@ void rows_into(rub_fit& f, const rub_problem& pr, const std::vector<row_orbit>& 
   f.model.assign(probes, {}), f.residual.assign(probes, {}), f.model_2x.assign(probes, {});
   for (std::size_t p = 0; p < probes; ++p)
     for (std::size_t i = 0; i < pr.table.rows(); ++i) {
-      const double c = std::cos(pr.beta[p]), s = std::sin(pr.beta[p]);
+      const double c = std::cos(pr.beta_of(best, p)), s = std::sin(pr.beta_of(best, p));
       f.model[p].push_back(c * orbits[i].x1 + s * orbits[i].y1 + runout[p]);
       f.residual[p].push_back(pr.table.orders[pr.orders[p]].vector[i] - f.model[p].back());
       f.model_2x[p].push_back(c * orbits[i].x2 + s * orbits[i].y2);
@@ -718,6 +865,8 @@ rub_fit fit_rub(const order_table& table, const response_fit& linear, const rub_
   const fit_covariance cc = covariance_of(jf, r, 1.0, series);
   rub_fit f;
   f.parts = linear.parts;
+  f.form = pr.form;
+  f.probe_angle_fitted = pr.undeclared;
   f.chi2 = r.squaredNorm();
   // Its numerical uncertainty: the solver's unfinished descent, and the orbits' error per reading
   // over the smallest noise (the residuals are whitened).
@@ -728,6 +877,7 @@ rub_fit fit_rub(const order_table& table, const response_fit& linear, const rub_
     if (orbits[i].contact) {
       if (f.rows_in_contact == 0) f.contact_from_rpm = table.rpm[i];
       f.contact_to_rpm = table.rpm[i], ++f.rows_in_contact;
+      f.penetration_m = std::max(f.penetration_m, orbits[i].penetration), f.approach_speed_m_s = std::max(f.approach_speed_m_s, orbits[i].approach);
     }
   for (const std::size_t i : pr.rows) f.rows_not_periodic += orbits[i].periodic ? 0 : 1, f.rows_circled += orbits[i].circled ? 1 : 0;
   const std::vector<double> best = pr.full(best_q, pr.base);
@@ -741,13 +891,42 @@ rub_fit fit_rub(const order_table& table, const response_fit& linear, const rub_
     f.runout_m.push_back(ra), f.runout_phase_deg.push_back(rp);
   }
   f.noise_m = pr.sigma;
-  rows_into(f, pr, orbits, runout, options.noise_relative_error);
+  rows_into(f, pr, best, orbits, runout, options.noise_relative_error);
   f.q = best;
   f.ref_m = pr.ref_m;
   f.rows = pr.rows;
   f.evaluations = static_cast<int>(pr.evaluations.value());
   f.shots = static_cast<std::size_t>(pr.shots.value());
   return f;
+}
+
+std::string law_text(const rub_form& form) {
+  std::string out = "k1 z";
+  if (form.cubic) out += " + k3 z^3";
+  if (form.velocity_squared) out += " + c2 z_dot^2";
+  return out + (form.contact_angle ? ", stator's direction fitted" : ", stator at the top");
+}
+
+row_path rows_as_run(const order_table& table) {
+  // More turns than a run-up, a coast-down and a run-up again: rows in no rig's order (shuffled, or
+  // a speed column that wanders), followed in rising speed as the reader sorted them.
+  constexpr std::size_t kMaxTurns = 2;
+  row_path out;
+  out.order.resize(table.rows());
+  std::iota(out.order.begin(), out.order.end(), std::size_t{0});
+  std::vector<std::size_t> by_line = out.order;
+  std::stable_sort(by_line.begin(), by_line.end(), [&](std::size_t a, std::size_t b) { return table.line[a] < table.line[b]; });
+  int direction = 0;  // of the last change of speed along the file: +1 rising, -1 falling
+  for (std::size_t k = 1; k < by_line.size(); ++k) {
+    const double step = table.rpm[by_line[k]] - table.rpm[by_line[k - 1]];
+    const int d = step > 0.0 ? 1 : step < 0.0 ? -1 : 0;
+    if (d == 0) continue;
+    if (direction != 0 && d != direction) ++out.turns;
+    direction = d;
+  }
+  out.as_run = out.turns <= kMaxTurns;
+  if (out.as_run) out.order = by_line;
+  return out;
 }
 
 rub_fit_jacobians rub_fit_jacobians_at(const order_table& table, const response_fit& linear, const rub_fit& fit, double step) {

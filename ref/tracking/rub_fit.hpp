@@ -10,13 +10,19 @@
 // The model per unit mass (an order-tracked table cannot see the mass): the linear part of the
 // 1X fit it starts from (one or two critical speeds and damping ratios, cross-coupling, bow,
 // unbalance, each probe's runout), and the paper's contact at the top (Eq. 2): the stator at +y
-// of the declared probe angles, a clearance delta, a contact stiffness k1/m (the piecewise-linear
-// law k1 z: a 1X table cannot tell the laws apart) and Coulomb friction mu. Every coordinate is
-// fitted by rubref's one least-squares solver (ref/inference/least_squares.hpp); the runouts by
+// of the declared probe angles, a clearance delta, a contact stiffness k1/m and Coulomb friction
+// mu; and, where the form asks (rub_form), the law's stiffening and velocity-squared terms (Eq. 5:
+// k3/m, c2/m) and the stator's direction (the effect library's contact angle). Every coordinate
+// is fitted by rubref's one least-squares solver (ref/inference/least_squares.hpp); the runouts by
 // least squares at every step.
+//
+// The rows are followed as the rig ran them (the table's file order, kept by the reader as
+// order_table::line): a run-up in rising speed, a coast-down in falling speed (so it jumps at the
+// other fold), a run-up then a coast-down as both; rows in no such order in rising speed.
 
 #include <Eigen/Dense>
 #include <complex>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -26,8 +32,30 @@
 
 namespace rubref {
 
+// The contact's form beyond the piecewise-linear law with the stator at +y: each an optional
+// coordinate, chosen by the evidence rules like an effect (tracking_loop.cpp, "the rub's form").
+struct rub_form {
+  bool cubic = false;             // k3 z^3 (Eq. 5): k3/m
+  bool velocity_squared = false;  // c2 z_dot^2 (Eq. 5): c2/m
+  bool contact_angle = false;     // the stator at angle theta from +y towards +x (the model's frame)
+  friend bool operator==(const rub_form&, const rub_form&) = default;
+};
+// "k1 z", "k1 z + k3 z^3", ... and ", stator at theta": the form in words.
+std::string law_text(const rub_form& form);
+
+// The order the rig ran the table's rows in: the file's order where it is a run-up, a coast-down
+// or a few such runs one after the other (its direction turns at most kMaxTurns times), else
+// rising speed (`as_run` false).
+struct row_path {
+  std::vector<std::size_t> order;  // table rows, in the order followed
+  bool as_run = true;
+  std::size_t turns = 0;           // the direction's turns along the file
+};
+row_path rows_as_run(const order_table& table);
+
 struct rub_fit {
-  response_parts parts;               // the linear parts carried (those of the fit it started from)
+  response_parts parts;
+  rub_form form;               // the linear parts carried (those of the fit it started from)
   std::vector<response_mode> modes;   // lower critical speed first
   estimate unbalance_m, unbalance_phase_deg;
   estimate bow_m, bow_phase_deg;      // shaft_bow only
@@ -35,6 +63,13 @@ struct rub_fit {
   estimate clearance_m;               // delta, from the contact-free orbit's centre
   estimate contact_stiffness_over_m;  // k1/m, 1/s^2
   estimate friction;                  // mu
+  estimate cubic_stiffness_over_m;    // k3/m, 1/(s^2 m^2) (form.cubic)
+  estimate velocity_squared_over_m;   // c2/m, 1/m (form.velocity_squared)
+  estimate contact_angle_deg;         // theta (form.contact_angle; else 0 as assumed)
+  double penetration_m = 0.0;         // the largest penetration over the fitted rows' orbits
+  double approach_speed_m_s = 0.0;    // the largest rate of penetration while in contact
+  bool probe_angle_fitted = false;    // one undeclared probe: the stator's direction fitted against it
+  estimate probe_angle_deg;           // the first probe's: declared; the 1X fit's (supports alike); or fitted (supports differ)
   std::vector<std::string> probes;
   std::vector<estimate> runout_m, runout_phase_deg;  // per probe
   std::vector<double> noise_m;        // per probe (as given)
@@ -66,6 +101,10 @@ struct rub_fit_options {
   std::vector<double> noise_m;        // per probe
   double noise_relative_error = 0.0;
   const rub_fit* start = nullptr;     // a previous rub fit: start there alone (a fold's refit)
+  // The form fitted (absent: the start's, else the piecewise-linear law at the top). Terms the start
+  // lacks start at a few sizes against its contact (and from `form_from`'s values where given).
+  std::optional<rub_form> form;
+  const rub_fit* form_from = nullptr;
   // Rub fits of other parts (fewer: this fit's extra parts off; more: theirs dropped, x's mode
   // kept): starts ranked with the grid's.
   std::vector<const rub_fit*> also_from;
@@ -73,8 +112,10 @@ struct rub_fit_options {
   fit_orbit_options orbits = {};      // the orbits' tolerances (the verdict's check tightens them)
 };
 
-// input_error when a probe's angle was not declared (the stator's direction is then unknown
-// against the probes) or `linear` has no probes.
+// input_error when `linear` has no probes, or more than one whose angle is not declared. With one
+// undeclared probe the stator's direction is fitted (the form's contact angle is always on): the
+// probe's angle is the 1X fit's, and only the angle between probe and stator is seen where the
+// supports are isotropic.
 rub_fit fit_rub(const order_table& table, const response_fit& linear, const rub_fit_options& options);
 
 // A rub fit's Jacobian at its end (its residuals in its free coordinates, the runouts solved): from

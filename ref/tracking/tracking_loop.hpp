@@ -73,6 +73,7 @@ struct rub_result {
   rub_fit fit;
   std::string undetermined;              // "" when its clearance and modes are determined
   tracked_model::need need;              // the rub against the chosen contact-free model
+  std::vector<tracked_model::need> form_needs;  // the rub's form's terms tried (law's k3, c2, the stator's direction), each against the form without it
   bool named = false;
   std::string summary;                   // one line
 };

@@ -79,9 +79,16 @@ json rub_json(const rub_result& t) {
   const rub_fit& f = t.fit;
   json j;
   j["named"] = t.named;
-  j["law"] = "piecewise-linear k1 z at the top (+y of the declared probe angles), Coulomb friction, per unit mass";
+  j["law"] = "f_N/m = " + law_text(f.form) + ", Coulomb friction, per unit mass (the stator at +y of the probes' frame, turned by the contact angle)";
+  j["form"] = {{"cubic", f.form.cubic}, {"velocity_squared", f.form.velocity_squared}, {"contact_angle", f.form.contact_angle}};
+  j["form_needs"] = json::array();
+  for (const auto& n : t.form_needs) j["form_needs"].push_back(need_json(n, true));
+  j["path"] = "the rows followed as the rig ran them where the file's order is a run-up, a coast-down or a few such runs, else in rising speed";
   j["clearance_m"] = quantity(f.clearance_m);
   j["contact_stiffness_over_m_1_s2"] = quantity(f.contact_stiffness_over_m);
+  if (f.form.cubic) j["cubic_stiffness_over_m_1_s2_m2"] = quantity(f.cubic_stiffness_over_m);
+  if (f.form.velocity_squared) j["velocity_squared_over_m_1_m"] = quantity(f.velocity_squared_over_m);
+  if (f.form.contact_angle) j["contact_angle_deg"] = quantity(f.contact_angle_deg), j["probe_angle_fitted"] = f.probe_angle_fitted;
   j["friction"] = quantity(f.friction);
   j["modes"] = modes_json(f.modes);
   j["unbalance"] = {{"e_m", quantity(f.unbalance_m)}, {"phase_deg", quantity(f.unbalance_phase_deg)}};
@@ -242,7 +249,8 @@ std::string to_markdown(const tracking_result& r) {
        format_digits(r.before.chi2 / static_cast<double>(r.before.dof), 3) + " → " + format_digits(chi2_after, 3) + ")\n";
   if (r.rub) {
     const rub_fit& g = r.rub->fit;
-    s += "- rub (the chosen model with the paper's contact at the top, piecewise-linear law, shot at every speed): " + r.rub->summary + "\n";
+    s += "- rub (the chosen model with the paper's contact, f_N/m = " + law_text(g.form) + ", shot at every speed): " + r.rub->summary + "\n";
+    for (const auto& n : r.rub->form_needs) s += "  - its form, " + n.effect + ": " + n.reason + "\n";
     if (r.rub->named) {
       s += "  - its modes: ";
       for (std::size_t m = 0; m < g.modes.size(); ++m)
