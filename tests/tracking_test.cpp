@@ -15,6 +15,9 @@
 
 #include "ref/base/parallel.hpp"
 #include "ref/format/order_table.hpp"
+#include "ref/integrate/hybrid_integrator.hpp"
+#include "ref/model/rotor_model.hpp"
+#include "ref/orbits/fit_orbits.hpp"
 #include "ref/model/closed_form.hpp"
 #include "ref/rig/rig.hpp"
 #include "ref/tracking/order_tracking.hpp"
@@ -22,6 +25,7 @@
 #include "ref/tracking/rub_fit.hpp"
 #include "ref/tracking/tracking_loop.hpp"
 #include "ref/tracking/tracking_report.hpp"
+#include "variants/identified.hpp"
 
 namespace rubref {
 namespace {
@@ -432,10 +436,12 @@ TEST(RubFit, ACoastDownIsFollowedInFallingSpeedAndJumpsAtTheLowerFold) {
   EXPECT_EQ(path.turns, 0u);
   EXPECT_DOUBLE_EQ(down.rpm[path.order.front()], req.speeds_rpm.front()) << "the coast-down is followed from its highest speed";
   const response_fit linear = fit_response(down, with_anisotropy());
-  // The hysteresis is in the data: the two tables differ by many times the noise (measured: 26x).
-  double most = 0.0;
-  for (std::size_t i = 0; i < up.rows(); ++i) most = std::max(most, std::abs(up.orders[1].vector[i] - down.orders[1].vector[i]));
-  EXPECT_GT(most, 10.0 * linear.noise_m[1]);
+  // The hysteresis is in the data: where the two tables differ most they differ by many times what
+  // they differ by at a typical row (both off the stator: the noise; measured: over 100 times).
+  std::vector<double> differences;
+  for (std::size_t i = 0; i < up.rows(); ++i) differences.push_back(std::abs(up.orders[1].vector[i] - down.orders[1].vector[i]));
+  std::sort(differences.begin(), differences.end());
+  EXPECT_GT(differences.back(), 10.0 * differences[differences.size() / 2]);
   rub_fit_options o;
   o.noise_m = linear.noise_m;
   const rub_fit rub = fit_rub(down, linear, o);
@@ -525,10 +531,65 @@ TEST(RubFit, TheStatorsDirectionIsRecoveredWithinItsInterval) {
   EXPECT_FALSE(base.consistent_with_noise) << "the stator at the top fits a stator 20 degrees off";
 }
 
+// Why the stator's direction is reported within 90 degrees of the top: the model with the stator at
+// the bottom is the model at the top turned half a turn about the shaft (the unbalance with it),
+// i.e. the same model half a revolution later. Its steady orbit's 1X at each probe is the same
+// phasor; its 2X the opposite. The paper's rotor (supports unlike) rubbing, stator 20 degrees off.
+struct orbit_samples {
+  std::vector<std::array<double, 6>>* out;
+  template <class System>
+  void on_sample(double, const std::array<double, 6>& s, const System&) {
+    out->push_back(s);
+  }
+  void on_event(const basic_contact_event<std::array<double, 6>>&) {}
+};
+TEST(RubFit, AOneXTableReadsAStatorHalfATurnAwayAlike) {
+  parameters p;
+  p.clearance = 50e-6, p.e = 5e-6;
+  const double w = 1600.0 * 2.0 * kPi / 60.0;
+  constexpr std::size_t kSamples = 256;
+  const auto harmonics = [&](double angle) {
+    effect_parameters fx;
+    fx.contact_angle = angle;
+    const rotor_with_effects<identified> sys(p, fx, w);
+    const double period = sys.period();
+    const unbalance_response u(p, w);  // the contact-free orbit as the guess, turned with the stator
+    const double turn = angle == 0.0 ? 1.0 : -1.0;
+    const cplx j(0.0, 1.0);
+    const std::array<double, 6> guess{turn * u.x_phasor.real(), turn * u.y_phasor.real(), turn * (j * w * u.x_phasor).real(), turn * (j * w * u.y_phasor).real(), 0.0, 0.0};
+    null_observer none;  // settled first: the contact-free orbit lies deep in the stator
+    const auto settled = integrate_hybrid(sys, start_state(sys, guess, 0.0), 200.0 * period, fit_settling(200), sample_grid{}, none).s;
+    const auto orbit = shoot_fit_orbit(sys, settled, 0.0);
+    EXPECT_TRUE(orbit.converged);
+    std::vector<std::array<double, 6>> samples;
+    orbit_samples rec{&samples};
+    integrate_hybrid(sys, start_state(sys, orbit.state, 0.0), period, fit_sampling(), sample_grid(0.0, period / kSamples, kSamples), rec);
+    std::array<cplx, 4> h{};  // x 1X, y 1X, x 2X, y 2X
+    bool touches = false;
+    for (std::size_t k = 0; k < kSamples; ++k) {
+      const double t = period * static_cast<double>(k) / kSamples;
+      const cplx e1 = std::polar(2.0 / kSamples, -w * t), e2 = std::polar(2.0 / kSamples, -2.0 * w * t);
+      h[0] += samples[k][0] * e1, h[1] += samples[k][1] * e1, h[2] += samples[k][0] * e2, h[3] += samples[k][1] * e2;
+      touches = touches || std::sin(angle) * samples[k][0] + std::cos(angle) * samples[k][1] > p.clearance;
+    }
+    EXPECT_TRUE(touches);
+    return h;
+  };
+  const double angle = 0.35;
+  const auto top = harmonics(angle), bottom = harmonics(angle + kPi);
+  // Ten times the orbits' tolerance (1e-12 m), against a 1X of ~40 µm and a 2X of ~1 µm
+  // (measured: 3e-13 m).
+  constexpr double kSame = 1e-11;
+  for (int k = 0; k < 2; ++k) EXPECT_LT(std::abs(top[k] - bottom[k]), kSame) << "1X " << k;
+  for (int k = 2; k < 4; ++k) EXPECT_LT(std::abs(top[k] + bottom[k]), kSame) << "2X " << k;
+  EXPECT_GT(std::abs(top[3]), 1e-3 * std::abs(top[1])) << "the contact's 2X is there to change sign";
+}
+
 // One probe whose angle is not declared, on a rotor whose supports are alike: the stator's
 // direction is fitted against the probe (only their angle apart is seen), from the grid's turns
 // around the circle; the clearance, stiffness and friction land as with two probes.
 TEST(RubFit, WithOneUndeclaredProbeTheStatorsDirectionIsFittedAgainstIt) {
+  if (kSanitized) GTEST_SKIP() << "release builds only: 30 s sanitized, and the loop does not try it yet";
   rig_request req = rub_run_up(kSanitized ? 100.0 : 50.0);
   req.params.k_y = req.params.k_x, req.params.c_y = req.params.c_x;
   order_table table = track_orders(run_rig(req).measurement, "rig");
@@ -542,7 +603,8 @@ TEST(RubFit, WithOneUndeclaredProbeTheStatorsDirectionIsFittedAgainstIt) {
   EXPECT_TRUE(rub.probe_angle_fitted);
   ASSERT_TRUE(rub.form.contact_angle) << "the stator's direction against an undeclared probe is always fitted";
   EXPECT_TRUE(rub.consistent_with_noise) << rub.chi2 / static_cast<double>(rub.dof);
-  // The probe is the rig's x probe (at 0, as the 1X fit puts it) and the stator is at the top.
+  // The probe is the rig's x probe (at 0, as the 1X fit puts it) and the stator is at the top (or
+  // the bottom: a 1X table reads both alike, and the fit reports the one within 90 degrees of the top).
   expect_within(rub.contact_angle_deg, 0.0, 0.0, "contact angle");
   expect_within(rub.clearance_m, 50e-6, 1e-2, "clearance");  // 1 %: one probe's reading of the two probes' 0.5 %
   expect_within(rub.friction, req.params.mu, 0.05, "mu");

@@ -72,11 +72,12 @@ constexpr double kStiffnessHi = 1e4;
 // (k3 z^2 / k1; c2 z_dot^2 / (k1 z) at its largest approach speed): below and above parity, the
 // better fitted (a term the table does not show ends small either way). Their box: 1e-6 to 1e6
 // of parity (a term beyond either end reads as none or as a wall). The stator's direction starts
-// at the start's and this far either side of it (one undeclared probe: around the circle).
+// at the start's and this far either side of it (one undeclared probe: 60 degrees apart over the
+// half circle a 1X table tells apart, fit_rub's contact angle).
 constexpr double kTermShares[] = {0.3, 3.0};
 constexpr double kTermBox = 1e6;
 constexpr double kAngleSteps[] = {-kPi / 6.0, kPi / 6.0};
-constexpr double kAngleStepsAround[] = {-2.0 * kPi / 3.0, -kPi / 3.0, kPi / 3.0, 2.0 * kPi / 3.0, kPi};
+constexpr double kAngleStepsAround[] = {-kPi / 3.0, kPi / 3.0};
 
 struct row_orbit {
   cplx x1{}, y1{}, x2{}, y2{};
@@ -715,7 +716,7 @@ std::vector<std::vector<double>> starts_of(rub_problem& pr, const rub_fit_option
   if (!(pr.peak_m > 0.0)) throw numerical_error(pr.table.source + ": the 1X fit it starts from has no response");
   if (options.start) return starts_from_fit(pr, *options.start, options.form_from);
   parities_from(pr, f0, 0.0, 0.0);
-  // The stator's direction where it is fitted from the grid (one undeclared probe): around the circle.
+  // The stator's direction where it is fitted from the grid (one undeclared probe): over the half circle.
   std::vector<double> turns{0.0};
   if (pr.form.contact_angle) turns.insert(turns.end(), std::begin(kAngleStepsAround), std::end(kAngleStepsAround));
   std::vector<std::vector<double>> starts;
@@ -807,7 +808,15 @@ void linear_estimates_into(rub_fit& f, const rub_problem& pr, const std::vector<
   // The form's terms as the clearance (their interval's span), the stator's direction as an angle.
   if (pr.form.cubic) f.cubic_stiffness_over_m = log_estimate(best[ln_cubic], sd_of(ln_cubic), 1.0, rules.max_interval_ratio);
   if (pr.form.velocity_squared) f.velocity_squared_over_m = log_estimate(best[ln_velocity_squared], sd_of(ln_velocity_squared), 1.0, rules.max_interval_ratio);
-  f.contact_angle_deg = pr.form.contact_angle ? angle_estimate(best[contact_theta], sd_of(contact_theta)) : estimate{0.0, 0.0, 0.0, true};
+  // A 1X table reads a stator at theta and at theta + 180 degrees alike (the model turned half a
+  // turn about the shaft, the unbalance and bow with it, is the same model half a revolution later:
+  // every 1X phasor turned twice by pi; its 2X changes sign): the one within 90 degrees of the top.
+  f.contact_angle_deg = estimate{0.0, 0.0, 0.0, true};
+  if (pr.form.contact_angle) {
+    f.contact_angle_deg = angle_estimate(best[contact_theta], sd_of(contact_theta));
+    const double turn = std::round(f.contact_angle_deg.value / 180.0) * 180.0;
+    f.contact_angle_deg.value -= turn, f.contact_angle_deg.lo -= turn, f.contact_angle_deg.hi -= turn;
+  }
   if (pr.beta_fitted()) f.probe_angle_deg = angle_estimate(best[probe_beta], sd_of(probe_beta));
   else {
     const double deg = pr.beta.front() * 180.0 / kPi;

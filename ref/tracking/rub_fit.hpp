@@ -65,7 +65,7 @@ struct rub_fit {
   estimate friction;                  // mu
   estimate cubic_stiffness_over_m;    // k3/m, 1/(s^2 m^2) (form.cubic)
   estimate velocity_squared_over_m;   // c2/m, 1/m (form.velocity_squared)
-  estimate contact_angle_deg;         // theta (form.contact_angle; else 0 as assumed)
+  estimate contact_angle_deg;         // theta within 90 degrees of the top (form.contact_angle; else 0 as assumed): a 1X table reads theta + 180 alike
   double penetration_m = 0.0;         // the largest penetration over the fitted rows' orbits
   double approach_speed_m_s = 0.0;    // the largest rate of penetration while in contact
   bool probe_angle_fitted = false;    // one undeclared probe: the stator's direction fitted against it

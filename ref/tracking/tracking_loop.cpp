@@ -994,6 +994,8 @@ std::vector<std::string> cannot_see(const tracking_result& r, bool declared, boo
       "where the keyphasor's notch sits on the shaft: the unbalance phase is measured from it",
       "the contact law's form beyond what its 1X shows: the rub fit takes k1 z and adds Eq. 5's k3 z^3 and c2 z_dot^2 only where the evidence rules "
       "need them; a Hertz or Hunt-Crossley contact, or the restitution law's impacts, is read as the nearest of these forms",
+      "the stator's side: a 1X table reads a stator at an angle and at that angle plus 180 degrees alike (the rotor turned half a turn with its "
+      "unbalance is the same rotor half a revolution later); the rub's contact angle is given within 90 degrees of the top, and only the 2X tells the sides apart",
       "anything that shows only in orders above the 2X, sub-harmonics or the waveform (a rub's half-order whirl, chatter): the fits read the 1X and 2X",
       "slow-roll runout against a shaft bow away from the critical speeds: both are 1X and turn with the shaft; a bow is amplified near a critical speed and "
       "runout is not",
