@@ -626,6 +626,28 @@ TEST(TrackingLoop, ARubRunUpsReportIsTheSameOnOneAndTwoThreads) {
   EXPECT_EQ(one, two);
 }
 
+// The same run-up under the identified law with three times the paper's c2 (Table 2: its
+// c2 z_dot^2 then about k1 z at the deepest rows, its k3 z^3 1e-4 of it): the loop names the rub
+// with the law's velocity-squared term, its interval holding the truth, and no contact-free effect
+// beside it. (At the paper's own c2, a quarter of k1 z here, the term's interval spans more than
+// the rules' 4x: not plausible, and the rub is named under k1 z; measured.)
+TEST(TrackingLoop, ARubRunUpUnderTheIdentifiedLawIsNamedWithItsVelocitySquaredTerm) {
+  if (kSanitized) GTEST_SKIP() << "release builds only: the rub fit runs sanitized above";
+  rig_request req = rub_run_up(40.0);
+  req.variant = "identified";
+  req.params.c2 *= 3.0;
+  const order_table table = track_orders(run_rig(req).measurement, "rig");
+  const tracking_result r = run_tracking_loop(table);
+  ASSERT_TRUE(r.rub.has_value()) << trace(r);
+  EXPECT_EQ(r.named(), (std::vector<std::string>{"anisotropy", "rub"})) << trace(r);
+  const rub_fit& rub = r.rub->fit;
+  std::string tried;
+  for (const auto& n : r.rub->form_needs) tried += n.effect + ": " + n.reason + "\n";
+  EXPECT_TRUE(rub.form.velocity_squared) << law_text(rub.form) << "\n" << tried;
+  if (rub.form.velocity_squared) expect_within(rub.velocity_squared_over_m, req.params.c2 / req.params.m, 0.0, "c2/m");
+  expect_within(rub.clearance_m, 50e-6, 5e-3, "clearance");
+}
+
 // A rub run-up: the rig's rotor touches a stator 50 µm above its centre near its critical speeds
 // (the contact-free peak is ~80 µm), under the piecewise-linear law with the paper's friction,
 // run up with each speed starting where the last ended, order tracked by rubref. The loop's rub
@@ -645,6 +667,9 @@ TEST(TrackingLoop, ARubRunUpIsNamedWithItsClearanceContactStiffnessAndFriction) 
   EXPECT_TRUE(r.check->agrees) << to_markdown(*r.check);
   EXPECT_DOUBLE_EQ(r.check->tolerance_scale, default_of("loop", "check_tolerance_scale"));
   const rub_fit& rub = r.rub->fit;
+  // Its form: every term tried, none kept (the truth's law is k1 z, its stator at the top).
+  EXPECT_EQ(r.rub->form_needs.size(), 3u);
+  EXPECT_EQ(rub.form, rub_form{}) << law_text(rub.form);
   // 0.5 %: as the contact-free run-up's (the rig's quantisation and the tracker's finite dwells);
   // the rub's own orbits are shot to 1e-12 m.
   expect_within(rub.clearance_m, 50e-6, 5e-3, "clearance");

@@ -648,18 +648,28 @@ void judge_part(const table_run& run, const fit_stats& without, const fit_stats&
 }
 
 // The rub's form (rub_form): the law's stiffening and velocity-squared terms (Eq. 5: k3 z^3,
-// c2 z_dot^2) and the stator's direction, each tried on the rub combination whose orbits touch
-// with the lowest criterion, from the form so far, and kept as an effect is (plausible: the term
+// c2 z_dot^2) and the stator's direction, each tried on the plausible rub combination whose orbits
+// touch with the lowest criterion (the lowest of those that touch where none is plausible), from
+// the form so far, and kept as an effect is (plausible: the term
 // determined; needed against the form without it by the evidence rules, out of sample on the
 // same folds), the largest criterion rise first, until none is. A grown form is then fitted on
 // every rub combination from its own fit (and the candidate's terms), so that the contact-free
 // effects are judged beside the rub's form and cannot stand in for it (issue 65: a stiffening
 // law was named as a bow beside the rub).
 void fit_rub_form(table_run& run, std::vector<std::string>& notes) {
+  // The candidate: of the plausible rub fits that touch, the lowest criterion; where none is
+  // plausible (a law or a direction it lacks can leave its clearance or a mode undetermined), of
+  // those that touch.
   std::optional<unsigned> candidate;
-  for (unsigned mask = 0; mask < 8; ++mask)
-    if (run.rubs[mask | kRub] && run.rubs[mask | kRub]->rows_in_contact > 0 && (!candidate || run.criterion(mask | kRub) < run.criterion(*candidate | kRub)))
-      candidate = mask;
+  for (const bool plausible_only : {true, false}) {
+    for (unsigned mask = 0; mask < 8; ++mask) {
+      const auto& f = run.rubs[mask | kRub];
+      if (f && f->rows_in_contact > 0 && (!plausible_only || undetermined_rub(*f).empty()) &&
+          (!candidate || run.criterion(mask | kRub) < run.criterion(*candidate | kRub)))
+        candidate = mask;
+    }
+    if (candidate) break;
+  }
   if (!candidate) return;
   const unsigned at = *candidate;
   rub_fit current = *run.rubs[at | kRub];
