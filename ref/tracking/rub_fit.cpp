@@ -330,8 +330,8 @@ struct rub_problem {
     Eigen::VectorXd r(static_cast<Eigen::Index>(2 * rows.size() * orders.size()));
     runout.assign(orders.size(), 0.0);
     for (std::size_t p = 0; p < orders.size(); ++p) {
-      const double b = beta_of(f, p);
-      const auto reading = [&](std::size_t i) { return std::cos(b) * o[i].x1 + std::sin(b) * o[i].y1; };
+      const double c = std::cos(beta_of(f, p)), s = std::sin(beta_of(f, p));
+      const auto reading = [&](std::size_t i) { return c * o[i].x1 + s * o[i].y1; };
       if (fixed) {
         runout[p] = (*fixed)[p];
       } else {
@@ -834,13 +834,14 @@ void rows_into(rub_fit& f, const rub_problem& pr, const std::vector<double>& bes
   f.consistent_with_noise = ratio <= f.chi2_bound;
   double sum2 = 0.0;
   f.model.assign(probes, {}), f.residual.assign(probes, {}), f.model_2x.assign(probes, {});
-  for (std::size_t p = 0; p < probes; ++p)
+  for (std::size_t p = 0; p < probes; ++p) {
+    const double c = std::cos(pr.beta_of(best, p)), s = std::sin(pr.beta_of(best, p));
     for (std::size_t i = 0; i < pr.table.rows(); ++i) {
-      const double c = std::cos(pr.beta_of(best, p)), s = std::sin(pr.beta_of(best, p));
       f.model[p].push_back(c * orbits[i].x1 + s * orbits[i].y1 + runout[p]);
       f.residual[p].push_back(pr.table.orders[pr.orders[p]].vector[i] - f.model[p].back());
       f.model_2x[p].push_back(c * orbits[i].x2 + s * orbits[i].y2);
     }
+  }
   for (std::size_t p = 0; p < probes; ++p)
     for (const std::size_t i : pr.rows) sum2 += std::norm(f.residual[p][i]);
   f.rms_residual_m = std::sqrt(sum2 / static_cast<double>(2 * probes * pr.rows.size()));
