@@ -37,7 +37,7 @@ constexpr double kZ95 = 1.959963984540054;
 // The rub fit's coordinates beyond the response fit's: the unbalance and the bow (over a
 // reference size, so every coordinate is of order 1 for the finite differences), ln delta,
 // ln (k1/m), mu; the form's ln (k3/m), ln (c2/m) and the contact angle theta.
-enum rub_slot : std::size_t { re_a = kSlots, im_a, re_b, im_b, ln_delta, ln_kappa, friction_mu, ln_cubic, ln_velocity_squared, contact_theta, kRubSlots };
+enum rub_slot : std::size_t { re_a = kSlots, im_a, re_b, im_b, ln_delta, ln_kappa, friction_mu, ln_cubic, ln_velocity_squared, contact_theta, ln_hertz, ln_hunt, hunt_exponent, kRubSlots };
 
 // One period read at this many samples: a contact's harmonics above the 127th would alias onto the
 // 1X and 2X, and a stiff contact's fall far below the noise by then.
@@ -76,6 +76,17 @@ constexpr double kStiffnessHi = 1e4;
 // half circle a 1X table tells apart, fit_rub's contact angle).
 constexpr double kTermShares[] = {0.3, 3.0};
 constexpr double kTermBox = 1e6;
+// And always from the start's own point with its new terms all but off (this share of parity, the
+// stator where it was): a grown form contains the one it grows, so its fit must not end above it
+// (from the shares above alone a k3 try ended with chi^2 1.7e3 above the fit it grew, campaign seed
+// 6464, scenario 249, and the term was refused for it).
+constexpr double kTermNullShare = 1e-3;
+// The Hunt-Crossley term is fitted as its size at a reference penetration and its exponent (lambda
+// and p trade along a fit's path otherwise): a hundredth of the table's largest 1X reading, the
+// scale of a rub's penetration (fixed per table, so every fit of it shares the coordinate). Its
+// exponent in the effect library's range, from the library's typical value.
+constexpr double kHuntReferenceShare = 1e-2;
+constexpr double kHuntExponentLo = 1.0, kHuntExponentHi = 2.0, kHuntExponentStart = 1.5;
 constexpr double kAngleSteps[] = {-kPi / 6.0, kPi / 6.0};
 constexpr double kAngleStepsAround[] = {-kPi / 3.0, kPi / 3.0};
 
@@ -142,7 +153,9 @@ struct rub_problem {
   double beta_of(const std::vector<double>& f, std::size_t p) const { return beta_fitted() ? f[probe_beta] : beta[p]; }
   row_path path;                     // the rows in the order the rig ran them
   std::vector<std::size_t> previous; // each row's predecessor on the path (rows(): none)
-  double cubic_parity = 1.0, velocity_squared_parity = 1.0;  // k3/m and c2/m at parity with k1 z (the form's starts and box)
+  // k3/m, c2/m, k_h/m and the Hunt-Crossley term at its reference at parity with k1 z (the form's starts and box)
+  double cubic_parity = 1.0, velocity_squared_parity = 1.0, hertz_parity = 1.0, hunt_parity = 1.0;
+  double hunt_reference_m = 1.0;
   // Evaluations (every row's orbit at a point) and shootings, counted by the tasks that make them
   // (starts' costs, fits and a Jacobian's rows run on the machine's threads).
   shared_count evaluations, shots;
@@ -158,6 +171,8 @@ struct rub_problem {
     if (form.cubic) free.push_back(ln_cubic);
     if (form.velocity_squared) free.push_back(ln_velocity_squared);
     if (form.contact_angle) free.push_back(contact_theta);
+    if (form.hertz) free.push_back(ln_hertz);
+    if (form.hunt_crossley) free.push_back(ln_hunt), free.push_back(hunt_exponent);
   }
   std::vector<double> full(const std::vector<double>& q, std::vector<double> f) const {
     for (std::size_t k = 0; k < free.size(); ++k) f[free[k]] = q[k];
@@ -196,6 +211,9 @@ struct rub_problem {
     f[friction_mu] = std::clamp(f[friction_mu], 0.0, 1.0);
     f[ln_cubic] = std::clamp(f[ln_cubic], std::log(cubic_parity / kTermBox), std::log(cubic_parity * kTermBox));
     f[ln_velocity_squared] = std::clamp(f[ln_velocity_squared], std::log(velocity_squared_parity / kTermBox), std::log(velocity_squared_parity * kTermBox));
+    f[ln_hertz] = std::clamp(f[ln_hertz], std::log(hertz_parity / kTermBox), std::log(hertz_parity * kTermBox));
+    f[ln_hunt] = std::clamp(f[ln_hunt], std::log(hunt_parity / kTermBox), std::log(hunt_parity * kTermBox));
+    f[hunt_exponent] = std::clamp(f[hunt_exponent], kHuntExponentLo, kHuntExponentHi);
     f[contact_theta] = std::clamp(f[contact_theta], -kPi, kPi);
     f[probe_beta] = std::clamp(f[probe_beta], -kPi, kPi);
     return reduce(f);
@@ -222,6 +240,8 @@ struct rub_problem {
     p.k3 = form.cubic ? std::exp(f[ln_cubic]) : 0.0, p.c2 = form.velocity_squared ? std::exp(f[ln_velocity_squared]) : 0.0;
     effect_parameters fx;
     fx.contact_angle = form.contact_angle ? f[contact_theta] : 0.0;
+    if (form.hertz) fx.hertz_k = std::exp(f[ln_hertz]);
+    if (form.hunt_crossley) fx.hc_exponent = f[hunt_exponent], fx.hc_lambda = std::exp(f[ln_hunt]) / std::pow(hunt_reference_m, f[hunt_exponent]);
     if (parts.shaft_bow) {
       const cplx b = cplx(f[re_b], f[im_b]) * ref_m;
       fx.bow = std::abs(b), fx.bow_phase = std::arg(b);
@@ -559,6 +579,9 @@ struct rub_problem {
     lo[friction_mu] = 0.0, hi[friction_mu] = 1.0;
     lo[ln_cubic] = std::log(cubic_parity / kTermBox), hi[ln_cubic] = std::log(cubic_parity * kTermBox);
     lo[ln_velocity_squared] = std::log(velocity_squared_parity / kTermBox), hi[ln_velocity_squared] = std::log(velocity_squared_parity * kTermBox);
+    lo[ln_hertz] = std::log(hertz_parity / kTermBox), hi[ln_hertz] = std::log(hertz_parity * kTermBox);
+    lo[ln_hunt] = std::log(hunt_parity / kTermBox), hi[ln_hunt] = std::log(hunt_parity * kTermBox);
+    lo[hunt_exponent] = kHuntExponentLo, hi[hunt_exponent] = kHuntExponentHi;
     lo[contact_theta] = -kPi, hi[contact_theta] = kPi;
     lo[probe_beta] = -kPi, hi[probe_beta] = kPi;
     const std::vector<double> l = reduce(lo), h = reduce(hi);
@@ -607,6 +630,10 @@ rub_problem set_up(const order_table& table, const response_fit& linear, const r
   f0[re_a] = linear.amplitudes[0].real() / pr.ref_m, f0[im_a] = linear.amplitudes[0].imag() / pr.ref_m;
   if (linear.parts.shaft_bow) f0[re_b] = linear.amplitudes.back().real() / pr.ref_m, f0[im_b] = linear.amplitudes.back().imag() / pr.ref_m;
   pr.base = f0;
+  double largest_reading = 0.0;
+  for (const std::size_t o : pr.orders)
+    for (const cplx v : table.orders[o].vector) largest_reading = std::max(largest_reading, std::abs(v));
+  pr.hunt_reference_m = kHuntReferenceShare * std::max(largest_reading, 1e-12);
   pr.use(options.orbits);
   return pr;
 }
@@ -662,6 +689,9 @@ void parities_from(rub_problem& pr, const std::vector<double>& f, double penetra
   const double z = penetration > 0.0 ? penetration : 1e-3 * pr.peak_m;
   const double v = approach > 0.0 ? approach : pr.w_hi * z;
   pr.cubic_parity = kappa / (z * z), pr.velocity_squared_parity = kappa * z / (v * v);
+  // k_h z^1.5 = k1 z; lambda z^p v = k1 z, as its size at the reference: (lambda z_ref^p) v (z/z_ref)^p = k1 z
+  pr.hertz_parity = kappa / std::sqrt(z);
+  pr.hunt_parity = kappa * z / v * std::pow(pr.hunt_reference_m / z, kHuntExponentStart);
 }
 
 // A fit's point with the form's terms it lacks (`had`) laid in: each at `share` of parity, the
@@ -669,20 +699,38 @@ void parities_from(rub_problem& pr, const std::vector<double>& f, double penetra
 std::vector<double> with_terms(const rub_problem& pr, std::vector<double> f, const rub_form& had, double share, double turn) {
   if (pr.form.cubic && !had.cubic) f[ln_cubic] = std::log(share * pr.cubic_parity);
   if (pr.form.velocity_squared && !had.velocity_squared) f[ln_velocity_squared] = std::log(share * pr.velocity_squared_parity);
+  if (pr.form.hertz && !had.hertz) f[ln_hertz] = std::log(share * pr.hertz_parity);
+  if (pr.form.hunt_crossley && !had.hunt_crossley) f[ln_hunt] = std::log(share * pr.hunt_parity), f[hunt_exponent] = kHuntExponentStart;
   if (pr.form.contact_angle) f[contact_theta] = std::remainder((had.contact_angle ? f[contact_theta] : 0.0) + turn, 2.0 * kPi);
   return f;
 }
 
+// A fit of other parts as a start: of fewer, with this fit's extra parts off (equal modes, no bow,
+// no cross-coupling); of more, with its extra parts dropped (an isotropic fit keeps x's mode); its
+// unbalance and bow rescaled to this fit's reference size, and the terms this form has and it
+// lacks laid in at the first share.
+std::vector<double> other_fit_start(const rub_problem& pr, const rub_fit& other) {
+  std::vector<double> f = other.q;
+  const double rescale = other.ref_m / pr.ref_m;
+  for (const std::size_t k : {re_a, im_a, re_b, im_b}) f[k] *= rescale;
+  return pr.clamp(pr.reduce(with_terms(pr, f, other.form, kTermShares[0], 0.0)));
+}
+
 // From a fit of a smaller form: its point with each new term at each share, the stator (where new)
-// at the top and turned either side, and `form_from`'s terms where given; ranked. From one of the same form: its point alone.
-std::vector<std::vector<double>> starts_from_fit(rub_problem& pr, const rub_fit& start, const rub_fit* form_from) {
+// at the top and turned either side, `form_from`'s terms where given, and the fits of other parts
+// (`also`, with their terms); ranked, and its point with the new terms all but off fitted too.
+// From one of the same form and no others: its point alone.
+std::vector<std::vector<double>> starts_from_fit(rub_problem& pr, const rub_fit& start, const rub_fit* form_from,
+                                                 const std::vector<const rub_fit*>& also) {
   pr.base = start.q;
   pr.ref_m = start.ref_m;
   parities_from(pr, start.q, start.penetration_m, start.approach_speed_m_s);
   const rub_form& had = start.form;
-  const bool new_terms = (pr.form.cubic && !had.cubic) || (pr.form.velocity_squared && !had.velocity_squared);
+  const bool new_terms = (pr.form.cubic && !had.cubic) || (pr.form.velocity_squared && !had.velocity_squared) || (pr.form.hertz && !had.hertz) ||
+                         (pr.form.hunt_crossley && !had.hunt_crossley);
   const bool new_angle = pr.form.contact_angle && !had.contact_angle;
-  if (!new_terms && !new_angle) return {pr.clamp(pr.reduce(start.q))};
+  const std::vector<double> nested = pr.clamp(pr.reduce(with_terms(pr, start.q, had, kTermNullShare, 0.0)));
+  if (!new_terms && !new_angle && also.empty()) return {nested};
   std::vector<double> turns{0.0};
   if (new_angle) turns.insert(turns.end(), std::begin(kAngleSteps), std::end(kAngleSteps));
   std::vector<std::vector<double>> starts;
@@ -690,10 +738,13 @@ std::vector<std::vector<double>> starts_from_fit(rub_problem& pr, const rub_fit&
     for (const double turn : turns) starts.push_back(pr.clamp(pr.reduce(with_terms(pr, start.q, had, share, turn))));
   if (form_from) {
     std::vector<double> f = start.q;
-    for (const std::size_t k : {ln_cubic, ln_velocity_squared, contact_theta}) f[k] = form_from->q[k];
+    for (const std::size_t k : {ln_cubic, ln_velocity_squared, contact_theta, ln_hertz, ln_hunt, hunt_exponent}) f[k] = form_from->q[k];
     starts.push_back(pr.clamp(pr.reduce(with_terms(pr, f, form_from->form, kTermShares[0], 0.0))));
   }
-  return ranked(pr, starts);
+  for (const rub_fit* other : also) starts.push_back(other_fit_start(pr, *other));
+  auto picked = ranked(pr, starts);
+  if (std::find(picked.begin(), picked.end(), nested) == picked.end()) picked.push_back(nested);
+  return picked;
 }
 
 // The starts, best first by their residual (the best kFittedStarts of them), or those from the
@@ -714,7 +765,7 @@ std::vector<std::vector<double>> starts_of(rub_problem& pr, const rub_fit_option
   }
   pr.peak_m = std::max(linear_peak, data_peak);
   if (!(pr.peak_m > 0.0)) throw numerical_error(pr.table.source + ": the 1X fit it starts from has no response");
-  if (options.start) return starts_from_fit(pr, *options.start, options.form_from);
+  if (options.start) return starts_from_fit(pr, *options.start, options.form_from, options.also_from);
   parities_from(pr, f0, 0.0, 0.0);
   // The stator's direction where it is fitted from the grid (one undeclared probe): over the half circle.
   std::vector<double> turns{0.0};
@@ -730,15 +781,7 @@ std::vector<std::vector<double>> starts_of(rub_problem& pr, const rub_fit_option
           f[ln_zx] += std::log(damping), f[ln_zy] += std::log(damping);
           for (const double turn : turns) starts.push_back(pr.clamp(pr.reduce(with_terms(pr, f, rub_form{}, kTermShares[0], turn))));
         }
-  // A fit of other parts: of fewer, with this fit's extra parts off (equal modes, no bow, no
-  // cross-coupling); of more, with its extra parts dropped (an isotropic fit keeps x's mode); its
-  // unbalance and bow rescaled to this fit's reference size.
-  for (const rub_fit* other : options.also_from) {
-    std::vector<double> f = other->q;
-    const double rescale = other->ref_m / pr.ref_m;
-    for (const std::size_t k : {re_a, im_a, re_b, im_b}) f[k] *= rescale;
-    starts.push_back(pr.clamp(pr.reduce(with_terms(pr, f, other->form, kTermShares[0], 0.0))));
-  }
+  for (const rub_fit* other : options.also_from) starts.push_back(other_fit_start(pr, *other));
   return ranked(pr, starts, pr.form.contact_angle);
 }
 
@@ -808,6 +851,20 @@ void linear_estimates_into(rub_fit& f, const rub_problem& pr, const std::vector<
   // The form's terms as the clearance (their interval's span), the stator's direction as an angle.
   if (pr.form.cubic) f.cubic_stiffness_over_m = log_estimate(best[ln_cubic], sd_of(ln_cubic), 1.0, rules.max_interval_ratio);
   if (pr.form.velocity_squared) f.velocity_squared_over_m = log_estimate(best[ln_velocity_squared], sd_of(ln_velocity_squared), 1.0, rules.max_interval_ratio);
+  if (pr.form.hertz) f.hertz_over_m = log_estimate(best[ln_hertz], sd_of(ln_hertz), 1.0, rules.max_interval_ratio);
+  if (pr.form.hunt_crossley) {
+    // Its size at the reference decides (the coordinate fitted); lambda = that / z_ref^p, its
+    // interval from the covariance of both (ln lambda = ln size - p ln z_ref).
+    const double p = best[hunt_exponent], ln_ref = std::log(pr.hunt_reference_m);
+    f.hunt_crossley_reference_m = pr.hunt_reference_m;
+    f.hunt_crossley_at_reference = log_estimate(best[ln_hunt], sd_of(ln_hunt), 1.0, rules.max_interval_ratio);
+    Eigen::VectorXd along = Eigen::VectorXd::Zero(cc.cov.rows());
+    along(static_cast<Eigen::Index>(index_of(ln_hunt))) = 1.0, along(static_cast<Eigen::Index>(index_of(hunt_exponent))) = -ln_ref;
+    f.hunt_crossley_over_m = log_estimate(best[ln_hunt] - p * ln_ref, cc.standard_deviation_along(along), 1.0, rules.max_interval_ratio);
+    // The exponent is determined where the table pins it inside the library's range.
+    const double sp = sd_of(hunt_exponent);
+    f.hunt_crossley_exponent = {p, p - kZ95 * sp, p + kZ95 * sp, std::isfinite(sp) && p - kZ95 * sp >= kHuntExponentLo && p + kZ95 * sp <= kHuntExponentHi};
+  }
   // A 1X table reads a stator at theta and at theta + 180 degrees alike (the model turned half a
   // turn about the shaft, the unbalance and bow with it, is the same model half a revolution later:
   // every 1X phasor turned twice by pi; its 2X changes sign): the one within 90 degrees of the top.
@@ -914,6 +971,8 @@ std::string law_text(const rub_form& form) {
   std::string out = "k1 z";
   if (form.cubic) out += " + k3 z^3";
   if (form.velocity_squared) out += " + c2 z_dot^2";
+  if (form.hertz) out += " + k_h z^1.5";
+  if (form.hunt_crossley) out += " + lambda z^p z_dot";
   return out + (form.contact_angle ? ", stator's direction fitted" : ", stator at the top");
 }
 

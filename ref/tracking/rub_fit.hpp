@@ -38,6 +38,8 @@ struct rub_form {
   bool cubic = false;             // k3 z^3 (Eq. 5): k3/m
   bool velocity_squared = false;  // c2 z_dot^2 (Eq. 5): c2/m
   bool contact_angle = false;     // the stator at angle theta from +y towards +x (the model's frame)
+  bool hertz = false;             // k_h z^1.5 (the effect library's hertz_contact): k_h/m
+  bool hunt_crossley = false;     // lambda z^p z_dot (hunt_crossley_damping): lambda/m and p in [1, 2]
   friend bool operator==(const rub_form&, const rub_form&) = default;
 };
 // "k1 z", "k1 z + k3 z^3", ... and ", stator at theta": the form in words.
@@ -65,6 +67,13 @@ struct rub_fit {
   estimate friction;                  // mu
   estimate cubic_stiffness_over_m;    // k3/m, 1/(s^2 m^2) (form.cubic)
   estimate velocity_squared_over_m;   // c2/m, 1/m (form.velocity_squared)
+  estimate hertz_over_m;               // k_h/m, 1/(s^2 m^0.5) (form.hertz)
+  estimate hunt_crossley_over_m;       // lambda/m, 1/(s m^p) (form.hunt_crossley)
+  estimate hunt_crossley_exponent;     // p (form.hunt_crossley; the library's range [1, 2])
+  // The Hunt-Crossley term's size: lambda/m times z^p at hunt_crossley_reference_m (the coordinate
+  // fitted, so lambda and p do not trade along the fit's path); determined as the other terms.
+  estimate hunt_crossley_at_reference;
+  double hunt_crossley_reference_m = 0.0;
   estimate contact_angle_deg;         // theta within 90 degrees of the top (form.contact_angle; else 0 as assumed): a 1X table reads theta + 180 alike
   double penetration_m = 0.0;         // the largest penetration over the fitted rows' orbits
   double approach_speed_m_s = 0.0;    // the largest rate of penetration while in contact
@@ -106,7 +115,7 @@ struct rub_fit_options {
   std::optional<rub_form> form;
   const rub_fit* form_from = nullptr;
   // Rub fits of other parts (fewer: this fit's extra parts off; more: theirs dropped, x's mode
-  // kept): starts ranked with the grid's.
+  // kept): starts ranked with the grid's, or with `start`'s.
   std::vector<const rub_fit*> also_from;
   bool grid = true;                   // the grid of starts from the contact-free fit (else also_from alone)
   fit_orbit_options orbits = {};      // the orbits' tolerances (the verdict's check tightens them)

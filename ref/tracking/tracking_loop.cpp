@@ -134,6 +134,8 @@ std::string undetermined_rub(const rub_fit& f) {
                                 : "",
                             f.form.cubic && !f.cubic_stiffness_over_m.determined ? "the law's k3's 95 % interval spans more than 4x" : "",
                             f.form.velocity_squared && !f.velocity_squared_over_m.determined ? "the law's c2's 95 % interval spans more than 4x" : "",
+                            f.form.hertz && !f.hertz_over_m.determined ? "the law's k_h's 95 % interval spans more than 4x" : "",
+                            f.form.hunt_crossley && !f.hunt_crossley_at_reference.determined ? "the law's lambda z^p's 95 % interval spans more than 4x" : "",
                             f.form.contact_angle && !f.contact_angle_deg.determined ? "the stator's direction's 95 % interval reaches 45 degrees either side" : ""});
 }
 
@@ -178,6 +180,8 @@ std::string rub_estimates(const rub_fit& f) {
   return "rub: " + law_text(f.form) + ": clearance " + interval_text(f.clearance_m, 1e6, " µm") + ", k1/m " + interval_text(f.contact_stiffness_over_m, 1.0, " 1/s^2") +
          (f.form.cubic ? ", k3/m " + interval_text(f.cubic_stiffness_over_m, 1.0, " 1/(s^2 m^2)") : "") +
          (f.form.velocity_squared ? ", c2/m " + interval_text(f.velocity_squared_over_m, 1.0, " 1/m") : "") +
+         (f.form.hertz ? ", k_h/m " + interval_text(f.hertz_over_m, 1.0, " 1/(s^2 m^0.5)") : "") +
+         (f.form.hunt_crossley ? ", lambda/m " + interval_text(f.hunt_crossley_over_m, 1.0, " 1/(s m^p)") + " with p " + interval_text(f.hunt_crossley_exponent, 1.0, "") : "") +
          (f.form.contact_angle ? ", stator at " + interval_text(f.contact_angle_deg, 1.0, " deg") + " from +y towards +x" : "") + ", mu " +
          interval_text(f.friction, 1.0, "") + ", " + std::to_string(f.rows_in_contact) + " rows touch" +
          (f.rows_in_contact ? " (" + format_fixed(f.contact_from_rpm, 0) + "–" + format_fixed(f.contact_to_rpm, 0) + " rpm)" : "") +
@@ -686,9 +690,16 @@ void fit_rub_form(table_run& run, std::vector<std::string>& notes) {
   for (;;) {
     std::vector<std::pair<std::string, rub_form>> tries;
     const rub_form& f = current.form;
-    if (!f.cubic) tries.push_back({"the law's k3 z^3", {true, f.velocity_squared, f.contact_angle}});
-    if (!f.velocity_squared) tries.push_back({"the law's c2 z_dot^2", {f.cubic, true, f.contact_angle}});
-    if (!f.contact_angle) tries.push_back({"the stator's direction", {f.cubic, f.velocity_squared, true}});
+    const auto with = [&f](bool rub_form::*term) {
+      rub_form g = f;
+      g.*term = true;
+      return g;
+    };
+    if (!f.cubic) tries.push_back({"the law's k3 z^3", with(&rub_form::cubic)});
+    if (!f.velocity_squared) tries.push_back({"the law's c2 z_dot^2", with(&rub_form::velocity_squared)});
+    if (!f.hertz) tries.push_back({"the law's k_h z^1.5", with(&rub_form::hertz)});
+    if (!f.hunt_crossley) tries.push_back({"the law's lambda z^p z_dot", with(&rub_form::hunt_crossley)});
+    if (!f.contact_angle) tries.push_back({"the stator's direction", with(&rub_form::contact_angle)});
     if (tries.empty()) break;
     std::vector<std::optional<rub_fit>> fitted(tries.size());
     parallel_for(tries.size(), 0, [&](std::size_t i) {
@@ -736,6 +747,7 @@ void fit_rub_form(table_run& run, std::vector<std::string>& notes) {
   parallel_for(others.size(), 0, [&](std::size_t i) {
     rub_fit_options o = run.rub_options({}, &*run.rubs[others[i] | kRub]);
     o.form = current.form, o.form_from = &current;
+    o.also_from = {&current};  // the candidate itself, its parts off or dropped: a superset of it fits at least as well
     try {
       refitted[i] = fit_rub(run.table, run.fits[others[i]], o);
     } catch (const numerical_error& e) {
@@ -1002,8 +1014,8 @@ std::vector<std::string> cannot_see(const tracking_result& r, bool declared, boo
       "a static offset such as a preload's deflection: an order-tracked table holds no DC, and AC-coupled probes lose it anyway",
       "the rotor's mass: every force scales with it, so stiffness, damping and cross-coupling are per unit mass",
       "where the keyphasor's notch sits on the shaft: the unbalance phase is measured from it",
-      "the contact law's form beyond what its 1X shows: the rub fit takes k1 z and adds Eq. 5's k3 z^3 and c2 z_dot^2 only where the evidence rules "
-      "need them; a Hertz or Hunt-Crossley contact, or the restitution law's impacts, is read as the nearest of these forms",
+      "the contact law's form beyond what its 1X shows: the rub fit takes k1 z and adds Eq. 5's k3 z^3 and c2 z_dot^2, a Hertz k_h z^1.5 and a "
+      "Hunt-Crossley lambda z^p z_dot only where the evidence rules need them; the restitution law's impacts are read as the nearest of these forms",
       "the stator's side: a 1X table reads a stator at an angle and at that angle plus 180 degrees alike (the rotor turned half a turn with its "
       "unbalance is the same rotor half a revolution later); the rub's contact angle is given within 90 degrees of the top, and only the 2X tells the sides apart",
       "anything that shows only in orders above the 2X, sub-harmonics or the waveform (a rub's half-order whirl, chatter): the fits read the 1X and 2X",

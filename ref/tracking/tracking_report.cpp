@@ -80,7 +80,11 @@ json rub_json(const rub_result& t) {
   json j;
   j["named"] = t.named;
   j["law"] = "f_N/m = " + law_text(f.form) + ", Coulomb friction, per unit mass (the stator at +y of the probes' frame, turned by the contact angle)";
-  j["form"] = {{"cubic", f.form.cubic}, {"velocity_squared", f.form.velocity_squared}, {"contact_angle", f.form.contact_angle}};
+  j["form"] = {{"cubic", f.form.cubic},
+               {"velocity_squared", f.form.velocity_squared},
+               {"hertz", f.form.hertz},
+               {"hunt_crossley", f.form.hunt_crossley},
+               {"contact_angle", f.form.contact_angle}};
   j["form_needs"] = json::array();
   for (const auto& n : t.form_needs) j["form_needs"].push_back(need_json(n, true));
   j["path"] = "the rows followed as the rig ran them where the file's order is a run-up, a coast-down or a few such runs, else in rising speed";
@@ -88,6 +92,12 @@ json rub_json(const rub_result& t) {
   j["contact_stiffness_over_m_1_s2"] = quantity(f.contact_stiffness_over_m);
   if (f.form.cubic) j["cubic_stiffness_over_m_1_s2_m2"] = quantity(f.cubic_stiffness_over_m);
   if (f.form.velocity_squared) j["velocity_squared_over_m_1_m"] = quantity(f.velocity_squared_over_m);
+  if (f.form.hertz) j["hertz_over_m_1_s2_m0_5"] = quantity(f.hertz_over_m);
+  if (f.form.hunt_crossley)
+    j["hunt_crossley"] = {{"lambda_over_m_1_s_mp", quantity(f.hunt_crossley_over_m)},
+                          {"exponent", quantity(f.hunt_crossley_exponent)},
+                          {"term_at_reference_over_m_1_s", quantity(f.hunt_crossley_at_reference)},
+                          {"reference_penetration_m", f.hunt_crossley_reference_m}};
   if (f.form.contact_angle) j["contact_angle_deg"] = quantity(f.contact_angle_deg), j["probe_angle_fitted"] = f.probe_angle_fitted;
   j["friction"] = quantity(f.friction);
   j["modes"] = modes_json(f.modes);
