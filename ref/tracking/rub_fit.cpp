@@ -36,7 +36,8 @@ constexpr double kZ95 = 1.959963984540054;
 
 // The rub fit's coordinates beyond the response fit's: the unbalance and the bow (over a
 // reference size, so every coordinate is of order 1 for the finite differences), ln delta,
-// ln (k1/m), mu; the form's ln (k3/m), ln (c2/m) and the contact angle theta.
+// ln (k1/m), mu; the form's ln (k3/m), ln (c2/m), the contact angle theta, ln (k_h/m), and the
+// Hunt-Crossley term's ln size at its reference penetration and its exponent p.
 enum rub_slot : std::size_t { re_a = kSlots, im_a, re_b, im_b, ln_delta, ln_kappa, friction_mu, ln_cubic, ln_velocity_squared, contact_theta, ln_hertz, ln_hunt, hunt_exponent, kRubSlots };
 
 // One period read at this many samples: a contact's harmonics above the 127th would alias onto the

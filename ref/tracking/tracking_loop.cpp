@@ -125,6 +125,16 @@ std::string undetermined_sweep(const response_fit& f, const evidence_rules& rule
 // A rub fit's plausibility, as a contact-free fit's: its clearance determined (some speed's orbit
 // touches, its 95 % interval within max_interval_ratio), its modes determined, a bow's interval
 // away from 0, a cross-coupling term away from 0.
+// The terms of `terms` (a subset of f's form) whose estimate is not determined: a law term's 95 %
+// interval spans more than 4x, the direction's reaches 45 degrees either side.
+std::string undetermined_terms(const rub_fit& f, const rub_form& terms) {
+  return first_implausible({terms.cubic && !f.cubic_stiffness_over_m.determined ? "the law's k3's 95 % interval spans more than 4x" : "",
+                            terms.velocity_squared && !f.velocity_squared_over_m.determined ? "the law's c2's 95 % interval spans more than 4x" : "",
+                            terms.hertz && !f.hertz_over_m.determined ? "the law's k_h's 95 % interval spans more than 4x" : "",
+                            terms.hunt_crossley && !f.hunt_crossley_at_reference.determined ? "the law's lambda z^p's 95 % interval spans more than 4x" : "",
+                            terms.contact_angle && !f.contact_angle_deg.determined ? "the stator's direction's 95 % interval reaches 45 degrees either side" : ""});
+}
+
 std::string undetermined_rub(const rub_fit& f) {
   return first_implausible({f.rows_in_contact == 0 ? "no speed's orbit touches" : "",
                             !f.clearance_m.determined ? "the clearance's 95 % interval spans more than 4x" : "", undetermined_mode(f.modes),
@@ -132,11 +142,7 @@ std::string undetermined_rub(const rub_fit& f) {
                             f.parts.cross_coupling && !f.k_xy_over_m.determined && !f.k_yx_over_m.determined
                                 ? "both cross-coupling terms' 95 % intervals reach 0"
                                 : "",
-                            f.form.cubic && !f.cubic_stiffness_over_m.determined ? "the law's k3's 95 % interval spans more than 4x" : "",
-                            f.form.velocity_squared && !f.velocity_squared_over_m.determined ? "the law's c2's 95 % interval spans more than 4x" : "",
-                            f.form.hertz && !f.hertz_over_m.determined ? "the law's k_h's 95 % interval spans more than 4x" : "",
-                            f.form.hunt_crossley && !f.hunt_crossley_at_reference.determined ? "the law's lambda z^p's 95 % interval spans more than 4x" : "",
-                            f.form.contact_angle && !f.contact_angle_deg.determined ? "the stator's direction's 95 % interval reaches 45 degrees either side" : ""});
+                            undetermined_terms(f, f.form)});
 }
 
 std::string interval_text(const estimate& e, double scale, const std::string& unit) {
@@ -719,7 +725,17 @@ void fit_rub_form(table_run& run, std::vector<std::string>& notes) {
         n.bic_rise = std::numeric_limits<double>::quiet_NaN();
         n.reason = "not shown needed (its orbits cannot be computed)";
       } else {
-        const std::string undetermined = undetermined_rub(*fitted[i]);
+        // Plausible as a term: the rub still touches with its clearance determined, and the term's
+        // own estimate is determined. The candidate's contact-free parts are judged later, beside
+        // the grown form on every combination (a term that leaves a part undetermined stands in
+        // for it there, and the criterion chooses).
+        const rub_fit& g = *fitted[i];
+        const rub_form& had = current.form;
+        const rub_form added{g.form.cubic && !had.cubic, g.form.velocity_squared && !had.velocity_squared, g.form.contact_angle && !had.contact_angle,
+                             g.form.hertz && !had.hertz, g.form.hunt_crossley && !had.hunt_crossley};
+        const std::string undetermined = first_implausible({g.rows_in_contact == 0 ? "no speed's orbit touches" : "",
+                                                            !g.clearance_m.determined ? "the clearance's 95 % interval spans more than 4x" : "",
+                                                            undetermined_terms(g, added)});
         judge_part(run, stats_of(current), stats_of(*fitted[i]), undetermined.empty(),
                    [&] {
                      if (!held_current) held_current = held(current);
@@ -738,35 +754,45 @@ void fit_rub_form(table_run& run, std::vector<std::string>& notes) {
   }
   if (current.form == initial) return;
   // Every other rub combination with the grown form, from its own fit and the candidate's terms,
-  // on the machine's threads, each into its own slot.
-  std::vector<unsigned> others;
-  for (unsigned mask = 0; mask < 8; ++mask)
-    if (mask != at && run.rubs[mask | kRub]) others.push_back(mask);
-  std::vector<std::optional<rub_fit>> refitted(others.size());
-  std::vector<std::string> failed(others.size());
-  parallel_for(others.size(), 0, [&](std::size_t i) {
-    rub_fit_options o = run.rub_options({}, &*run.rubs[others[i] | kRub]);
-    o.form = current.form, o.form_from = &current;
-    o.also_from = {&current};  // the candidate itself, its parts off or dropped: a superset of it fits at least as well
-    try {
-      refitted[i] = fit_rub(run.table, run.fits[others[i]], o);
-    } catch (const numerical_error& e) {
-      failed[i] = e.what();
-    }
-  });
+  // from the candidate itself (its parts off or dropped), and from the grown fits of one effect
+  // fewer: a combination that contains another then fits at least as well (from its own fit alone
+  // an anisotropic rub fit ended above the isotropic one, campaign seed 6464, #249). Level by level
+  // (fewer parts first), a level's combinations on the machine's threads, each into its own slot.
+  std::array<std::optional<rub_fit>, 8> grown;
+  std::array<std::string, 8> failed;
+  grown[at] = current;
+  for (const std::vector<unsigned>& level : std::vector<std::vector<unsigned>>{{0u}, {1u, 2u, 4u}, {3u, 5u, 6u}, {7u}}) {
+    std::vector<unsigned> todo;
+    for (const unsigned mask : level)
+      if (mask != at && run.rubs[mask | kRub]) todo.push_back(mask);
+    parallel_for(todo.size(), 0, [&](std::size_t i) {
+      const unsigned mask = todo[i];
+      rub_fit_options o = run.rub_options({}, &*run.rubs[mask | kRub]);
+      o.form = current.form, o.form_from = &current;
+      o.also_from = {&current};
+      for (unsigned k = 0; k < 3; ++k)
+        if ((mask & (1u << k)) && (mask & ~(1u << k)) != at && grown[mask & ~(1u << k)]) o.also_from.push_back(&*grown[mask & ~(1u << k)]);
+      try {
+        grown[mask] = fit_rub(run.table, run.fits[mask], o);
+      } catch (const numerical_error& e) {
+        failed[mask] = e.what();
+      }
+    });
+  }
   run.say("rub: every combination with the form " + law_text(current.form) + " ...");
-  run.rubs[at | kRub] = std::move(current);
-  for (std::size_t i = 0; i < others.size(); ++i) {
-    const unsigned mask = others[i] | kRub;
-    if (refitted[i]) {
-      run.say("  rub with " + part_list(others[i]) + ": chi^2/dof " + format_digits(refitted[i]->chi2 / static_cast<double>(std::max<std::size_t>(refitted[i]->dof, 1))));
-      run.rubs[mask] = std::move(refitted[i]);
+  for (unsigned m = 0; m < 8; ++m) {
+    const unsigned mask = m | kRub;
+    if (m == at || !run.rubs[mask]) continue;
+    if (grown[m]) {
+      run.say("  rub with " + part_list(m) + ": chi^2/dof " + format_digits(grown[m]->chi2 / static_cast<double>(std::max<std::size_t>(grown[m]->dof, 1))));
+      run.rubs[mask] = std::move(grown[m]);
     } else {
       run.rubs[mask].reset();
       run.masks.erase(std::find(run.masks.begin(), run.masks.end(), mask));
-      notes.push_back("the rub fit with " + part_list(others[i]) + " and the rub's form found no point whose orbits could all be computed: " + failed[i]);
+      notes.push_back("the rub fit with " + part_list(m) + " and the rub's form found no point whose orbits could all be computed: " + failed[m]);
     }
   }
+  run.rubs[at | kRub] = std::move(current);
 }
 
 // The rub (bit 3), where no plausible contact-free combination leaves a residual within the noise
