@@ -718,8 +718,8 @@ std::vector<double> other_fit_start(const rub_problem& pr, const rub_fit& other)
 }
 
 // From a fit of a smaller form: its point with each new term at each share, the stator (where new)
-// at the top and turned either side, `form_from`'s terms where given, and the fits of other parts
-// (`also`, with their terms); ranked, and its point with the new terms all but off fitted too.
+// at the top and turned either side, and `form_from`'s terms where given, ranked; the best of the
+// fits of other parts (`also`, with their terms); and its point with the new terms all but off.
 // From one of the same form and no others: its point alone.
 std::vector<std::vector<double>> starts_from_fit(rub_problem& pr, const rub_fit& start, const rub_fit* form_from,
                                                  const std::vector<const rub_fit*>& also) {
@@ -742,9 +742,18 @@ std::vector<std::vector<double>> starts_from_fit(rub_problem& pr, const rub_fit&
     for (const std::size_t k : {ln_cubic, ln_velocity_squared, contact_theta, ln_hertz, ln_hunt, hunt_exponent}) f[k] = form_from->q[k];
     starts.push_back(pr.clamp(pr.reduce(with_terms(pr, f, form_from->form, kTermShares[0], 0.0))));
   }
-  for (const rub_fit* other : also) starts.push_back(other_fit_start(pr, *other));
+  // Ranked apart, so that they add to the starts the own fit's ranking picks and never displace
+  // one (ranked by their first cost, the other fits' points outranked the start that fitted best,
+  // and the grown fit ended far above it: campaign seed 6464, #186).
   auto picked = ranked(pr, starts);
-  if (std::find(picked.begin(), picked.end(), nested) == picked.end()) picked.push_back(nested);
+  std::vector<std::vector<double>> others;
+  for (const rub_fit* other : also) others.push_back(other_fit_start(pr, *other));
+  const auto add = [&picked](const std::vector<double>& q) {
+    if (std::find(picked.begin(), picked.end(), q) == picked.end()) picked.push_back(q);
+  };
+  if (!others.empty())
+    if (const auto best = ranked(pr, others); !best.empty()) add(best.front());
+  add(nested);
   return picked;
 }
 
