@@ -122,9 +122,6 @@ std::string undetermined_sweep(const response_fit& f, const evidence_rules& rule
                             !f.sweep_rpm_per_s.determined ? "the sweep rate's 95 % interval spans more than 4x (the table is quasi-steady at its noise)" : ""});
 }
 
-// A rub fit's plausibility, as a contact-free fit's: its clearance determined (some speed's orbit
-// touches, its 95 % interval within max_interval_ratio), its modes determined, a bow's interval
-// away from 0, a cross-coupling term away from 0.
 // The terms of `terms` (a subset of f's form) whose estimate is not determined: a law term's 95 %
 // interval spans more than 4x, the direction's reaches 45 degrees either side.
 std::string undetermined_terms(const rub_fit& f, const rub_form& terms) {
@@ -135,6 +132,9 @@ std::string undetermined_terms(const rub_fit& f, const rub_form& terms) {
                             terms.contact_angle && !f.contact_angle_deg.determined ? "the stator's direction's 95 % interval reaches 45 degrees either side" : ""});
 }
 
+// A rub fit's plausibility, as a contact-free fit's: its clearance determined (some speed's orbit
+// touches, its 95 % interval within max_interval_ratio), its modes determined, a bow's interval
+// away from 0, a cross-coupling term away from 0, and its form's terms determined.
 std::string undetermined_rub(const rub_fit& f) {
   return first_implausible({f.rows_in_contact == 0 ? "no speed's orbit touches" : "",
                             !f.clearance_m.determined ? "the clearance's 95 % interval spans more than 4x" : "", undetermined_mode(f.modes),
