@@ -707,7 +707,7 @@ TEST(TrackingLoop, ARubRunUpIsNamedWithItsClearanceContactStiffnessAndFriction) 
   EXPECT_DOUBLE_EQ(r.check->tolerance_scale, default_of("loop", "check_tolerance_scale"));
   const rub_fit& rub = r.rub->fit;
   // Its form: every term tried, none kept (the truth's law is k1 z, its stator at the top).
-  EXPECT_EQ(r.rub->form_needs.size(), 5u);  // k3, c2, k_h, Hunt-Crossley, the direction
+  EXPECT_EQ(r.rub->form_needs.size(), 4u);  // k3, c2, k_h, the direction
   EXPECT_EQ(rub.form, rub_form{}) << law_text(rub.form);
   // 0.5 %: as the contact-free run-up's (the rig's quantisation and the tracker's finite dwells);
   // the rub's own orbits are shot to 1e-12 m.

@@ -77,10 +77,10 @@ constexpr double kStiffnessHi = 1e4;
 // half circle a 1X table tells apart, fit_rub's contact angle).
 constexpr double kTermShares[] = {0.3, 3.0};
 constexpr double kTermBox = 1e6;
-// And always from the start's own point with its new terms all but off (this share of parity, the
-// stator where it was): a grown form contains the one it grows, so its fit must not end above it
-// (from the shares above alone a k3 try ended with chi^2 1.7e3 above the fit it grew, campaign seed
-// 6464, scenario 249, and the term was refused for it).
+// The floor of a grown form's fit (fit_starts_set): the start's own point with its new terms all
+// but off (this share of parity, the stator where it was). From the shares above alone a k3 try
+// ended with chi^2 1.7e3 above the fit it grew (campaign seed 6464, scenario 249), and the term
+// was refused for it.
 constexpr double kTermNullShare = 1e-3;
 // The Hunt-Crossley term is fitted as its size at a reference penetration and its exponent (lambda
 // and p trade along a fit's path otherwise): a hundredth of the table's largest 1X reading, the
@@ -706,6 +706,15 @@ std::vector<double> with_terms(const rub_problem& pr, std::vector<double> f, con
   return f;
 }
 
+// The starts a fit is made from, and a floor: the point of the fit it grows with the new terms all
+// but off, fitted only where every start ends above it (a grown form contains the one it grows, so
+// its fit must not end above it; fitted always, it doubled a form try's cost for nothing on most
+// tables).
+struct fit_starts_set {
+  std::vector<std::vector<double>> fitted;
+  std::optional<std::vector<double>> floor;
+};
+
 // A fit of other parts as a start: of fewer, with this fit's extra parts off (equal modes, no bow,
 // no cross-coupling); of more, with its extra parts dropped (an isotropic fit keeps x's mode); its
 // unbalance and bow rescaled to this fit's reference size, and the terms this form has and it
@@ -719,9 +728,9 @@ std::vector<double> other_fit_start(const rub_problem& pr, const rub_fit& other)
 
 // From a fit of a smaller form: its point with each new term at each share, the stator (where new)
 // at the top and turned either side, and `form_from`'s terms where given, ranked; the best of the
-// fits of other parts (`also`, with their terms); and its point with the new terms all but off.
-// From one of the same form and no others: its point alone.
-std::vector<std::vector<double>> starts_from_fit(rub_problem& pr, const rub_fit& start, const rub_fit* form_from,
+// fits of other parts (`also`, with their terms); and as the floor its point with the new terms
+// all but off. From one of the same form and no others: its point alone.
+fit_starts_set starts_from_fit(rub_problem& pr, const rub_fit& start, const rub_fit* form_from,
                                                  const std::vector<const rub_fit*>& also) {
   pr.base = start.q;
   pr.ref_m = start.ref_m;
@@ -731,7 +740,7 @@ std::vector<std::vector<double>> starts_from_fit(rub_problem& pr, const rub_fit&
                          (pr.form.hunt_crossley && !had.hunt_crossley);
   const bool new_angle = pr.form.contact_angle && !had.contact_angle;
   const std::vector<double> nested = pr.clamp(pr.reduce(with_terms(pr, start.q, had, kTermNullShare, 0.0)));
-  if (!new_terms && !new_angle && also.empty()) return {nested};
+  if (!new_terms && !new_angle && also.empty()) return {{nested}, std::nullopt};
   std::vector<double> turns{0.0};
   if (new_angle) turns.insert(turns.end(), std::begin(kAngleSteps), std::end(kAngleSteps));
   std::vector<std::vector<double>> starts;
@@ -753,8 +762,7 @@ std::vector<std::vector<double>> starts_from_fit(rub_problem& pr, const rub_fit&
   };
   if (!others.empty())
     if (const auto best = ranked(pr, others); !best.empty()) add(best.front());
-  add(nested);
-  return picked;
+  return {picked, nested};
 }
 
 // The starts, best first by their residual (the best kFittedStarts of them), or those from the
@@ -762,7 +770,7 @@ std::vector<std::vector<double>> starts_from_fit(rub_problem& pr, const rub_fit&
 // the stator's normal (every direction where the stator's is fitted) over the table's speeds and
 // the table's largest 1X reading (a hardening branch carried past the critical speed reads larger
 // than any contact-free fit); the clearance's bounds from the larger.
-std::vector<std::vector<double>> starts_of(rub_problem& pr, const rub_fit_options& options) {
+fit_starts_set starts_of(rub_problem& pr, const rub_fit_options& options) {
   const std::vector<double> f0 = pr.base;
   double linear_peak = 0.0, data_peak = 0.0;
   constexpr int kDirections = 36;  // 5 degrees apart: the ellipse's reach to within 0.4 %
@@ -792,11 +800,12 @@ std::vector<std::vector<double>> starts_of(rub_problem& pr, const rub_fit_option
           for (const double turn : turns) starts.push_back(pr.clamp(pr.reduce(with_terms(pr, f, rub_form{}, kTermShares[0], turn))));
         }
   for (const rub_fit* other : options.also_from) starts.push_back(other_fit_start(pr, *other));
-  return ranked(pr, starts, pr.form.contact_angle);
+  return {ranked(pr, starts, pr.form.contact_angle), std::nullopt};
 }
 
 // The best fit from the starts, by the one solver, and how much lower its minimum may lie (chi^2).
-std::pair<std::vector<double>, double> best_fit(rub_problem& pr, const std::vector<std::vector<double>>& from) {
+std::pair<std::vector<double>, double> best_fit(rub_problem& pr, const fit_starts_set& starts) {
+  const std::vector<std::vector<double>>& from = starts.fitted;
   least_squares_options o;
   o.max_jacobians = default_count_of("rub_fit", "max_jacobians");
   o.difference_step = default_of("rub_fit", "difference_step");
@@ -810,6 +819,18 @@ std::pair<std::vector<double>, double> best_fit(rub_problem& pr, const std::vect
   double best_cost = std::numeric_limits<double>::infinity(), best_remaining = 0.0;
   for (const auto& f : fits)
     if (f.ok && f.cost < best_cost) best_cost = f.cost, best_remaining = f.remaining, best_q.assign(f.u.data(), f.u.data() + f.u.size());
+  if (starts.floor) {
+    // The floor where every start ended above it: its own descent (one Jacobian: it starts at the
+    // grown fit's optimum with a term that barely acts), kept where lower.
+    const Eigen::Map<const Eigen::VectorXd> u(starts.floor->data(), static_cast<Eigen::Index>(starts.floor->size()));
+    const auto r = pr.solver_problem().residuals(u);
+    if (r && r->allFinite() && r->squaredNorm() < best_cost) {
+      least_squares_options once = o;
+      once.max_jacobians = 1;
+      const least_squares_result f = solve_least_squares(pr.solver_problem(), u, once);
+      if (f.ok && f.cost < best_cost) best_cost = f.cost, best_remaining = f.remaining, best_q.assign(f.u.data(), f.u.data() + f.u.size());
+    }
+  }
   if (!std::isfinite(best_cost)) throw numerical_error(pr.table.source + ": the rub fit found no point whose every orbit could be computed");
   return {best_q, best_remaining};
 }
