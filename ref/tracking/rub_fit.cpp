@@ -708,8 +708,8 @@ std::vector<double> with_terms(const rub_problem& pr, std::vector<double> f, con
 
 // The starts a fit is made from, and a floor: the point of the fit it grows with the new terms all
 // but off, fitted only where every start ends above it (a grown form contains the one it grows, so
-// its fit must not end above it; fitted always, it doubled a form try's cost for nothing on most
-// tables).
+// its fit must not end above it; fitted always, it would add a fit to every form try, where the
+// starts mostly end below it).
 struct fit_starts_set {
   std::vector<std::vector<double>> fitted;
   std::optional<std::vector<double>> floor;
