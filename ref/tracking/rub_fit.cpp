@@ -97,6 +97,7 @@ struct row_orbit {
   double penetration = 0.0, approach = 0.0;  // the largest penetration and its rate while in contact
   bool circled = false;         // read from an unstable orbit the motion circles (circled_orbit)
   bool closed_form = false;     // the contact-free response in closed form (not shot)
+  double rho = 0.0;             // its largest Floquet multiplier's modulus (shot rows with an orbit; infinite without one)
   std::optional<state6> state;  // the orbit's state at t = 0 (rows shot to an orbit, stable or circled): the next speed's start
 };
 
@@ -144,6 +145,7 @@ struct rub_problem {
   std::vector<double> beta;         // each probe's declared angle
   std::vector<double> sigma;
   std::vector<std::size_t> rows;    // fitted
+  std::vector<std::size_t> freed;   // freed (rub_fit_options::freed_rows): shot on the path, not fitted
   std::vector<std::size_t> free;
   double w_lo = 1.0, w_hi = 1.0, ref_m = 1.0, peak_m = 1.0;
   rub_form form;
@@ -230,6 +232,19 @@ struct rub_problem {
     return {(dyy * fx - kxy * fy) / det, (dxx * fy - kyx * fx) / det};
   }
 
+  // The largest Floquet multiplier's modulus of the contact-free model at speed w: exp(max Re
+  // lambda T) over the linear state matrix's eigenvalues lambda (the stiffness matrix of linear_xy,
+  // cross-coupling included), T one revolution.
+  double contact_free_rho(const std::vector<double>& f, double w) const {
+    const double wx = std::exp(f[ln_wx]), wy = std::exp(f[ln_wy]);
+    Eigen::Matrix4d a = Eigen::Matrix4d::Zero();
+    a(0, 2) = a(1, 3) = 1.0;
+    a(2, 0) = -wx * wx, a(2, 1) = -f[k_xy] * wx * wy, a(3, 0) = -f[k_yx] * wx * wy, a(3, 1) = -wy * wy;
+    a(2, 2) = -2.0 * std::exp(f[ln_zx]) * wx, a(3, 3) = -2.0 * std::exp(f[ln_zy]) * wy;
+    const double growth = Eigen::EigenSolver<Eigen::Matrix4d>(a, false).eigenvalues().real().maxCoeff();
+    return std::exp(growth * 2.0 * kPi / w);
+  }
+
   // The model per unit mass at coordinates f.
   std::pair<parameters, effect_parameters> rotor(const std::vector<double>& f) const {
     parameters p;
@@ -261,11 +276,17 @@ struct rub_problem {
     const model sys(p, fx, w);
     const double period = sys.period();
     std::optional<state6> on, circled;  // a stable orbit; an unstable one the motion circles
+    double rho_on = 0.0, rho_circled = 0.0;
+    const auto largest = [](const periodic_orbit<6>& orbit) {
+      double m = 0.0;
+      for (const auto& mu : orbit.multipliers) m = std::max(m, std::abs(mu));
+      return m;
+    };
     const auto shoot = [&](const state6& g) {
       shots.add();
       const auto orbit = shoot_fit_orbit(sys, g, 0.0, 1, orbit_options);
-      if (orbit.stable()) on = orbit.state;
-      else if (circled_orbit(orbit)) circled = orbit.state;
+      if (orbit.stable()) on = orbit.state, rho_on = largest(orbit);
+      else if (circled_orbit(orbit)) circled = orbit.state, rho_circled = largest(orbit);
     };
     shoot(guess);
     state6 start = guess;
@@ -276,6 +297,7 @@ struct rub_problem {
     }
     if (!on && circled) on = circled, o.circled = true;
     o.periodic = on.has_value() && !o.circled;
+    o.rho = o.periodic ? rho_on : o.circled ? rho_circled : std::numeric_limits<double>::infinity();
     std::vector<state6> samples;
     sample_recorder rec{&samples};
     integrate_hybrid(sys, start_state(sys, on ? *on : start, 0.0), period, read, sample_grid(0.0, period / static_cast<double>(kReadSamples), kReadSamples),
@@ -621,6 +643,13 @@ rub_problem set_up(const order_table& table, const response_fit& linear, const r
   pr.sigma = options.noise_m.empty() ? linear.noise_m : options.noise_m;
   if (pr.rows.empty())
     for (std::size_t i = 0; i < table.rows(); ++i) pr.rows.push_back(i);
+  for (const std::size_t i : options.freed_rows) {
+    if (i >= table.rows()) throw input_error(table.source + ": the rub fit was asked to free row " + std::to_string(i) + " of " + std::to_string(table.rows()));
+    const auto at = std::find(pr.rows.begin(), pr.rows.end(), i);
+    if (at != pr.rows.end()) pr.rows.erase(at), pr.freed.push_back(i);
+  }
+  std::sort(pr.freed.begin(), pr.freed.end());
+  if (pr.rows.empty()) throw input_error(table.source + ": the rub fit has no rows left to fit");
   double lo = std::numeric_limits<double>::infinity(), hi = 0.0;
   for (const std::size_t i : pr.rows) lo = std::min(lo, table.rpm[i]), hi = std::max(hi, table.rpm[i]);
   pr.w_lo = lo * kRpmToRadS, pr.w_hi = hi * kRpmToRadS;
@@ -935,6 +964,27 @@ void rows_into(rub_fit& f, const rub_problem& pr, const std::vector<double>& bes
   f.rms_residual_m = std::sqrt(sum2 / static_cast<double>(2 * probes * pr.rows.size()));
 }
 
+// The revolutions each row's motion takes to settle (rub_fit::settling_revolutions), from the
+// fit's orbits at every row.
+std::vector<double> settling_revolutions(const rub_problem& pr, const std::vector<double>& best, const std::vector<row_orbit>& orbits) {
+  const std::size_t rows = pr.table.rows();
+  std::vector<double> out(rows, 0.0);
+  for (std::size_t i = 0; i < rows; ++i) {
+    const std::size_t before = pr.previous[i];
+    if (before >= rows) continue;
+    double step = 0.0;  // over the noise
+    for (std::size_t p = 0; p < pr.orders.size(); ++p) {
+      const double c = std::cos(pr.beta_of(best, p)), s = std::sin(pr.beta_of(best, p));
+      const cplx change = c * (orbits[i].x1 - orbits[before].x1) + s * (orbits[i].y1 - orbits[before].y1);
+      step = std::max(step, std::abs(change) / pr.sigma[p]);
+    }
+    if (!(step > 1.0)) continue;
+    const double rho = orbits[i].closed_form ? pr.contact_free_rho(best, pr.table.rpm[i] * kRpmToRadS) : orbits[i].rho;
+    out[i] = rho < 1.0 ? std::log(step) / -std::log(rho) : std::numeric_limits<double>::infinity();
+  }
+  return out;
+}
+
 }  // namespace
 
 rub_fit fit_rub(const order_table& table, const response_fit& linear, const rub_fit_options& options) {
@@ -969,7 +1019,8 @@ rub_fit fit_rub(const order_table& table, const response_fit& linear, const rub_
   // Its numerical uncertainty: the solver's unfinished descent, and the orbits' error per reading
   // over the smallest noise (the residuals are whitened).
   f.chi2_uncertainty = cost_uncertainty(r, remaining, options.orbits.orbit_error() / *std::min_element(pr.sigma.begin(), pr.sigma.end()));
-  f.parameters = n + 2 * probes;
+  // A freed row's 1X is two coordinates per probe (a mean shift that takes its residual whole).
+  f.parameters = n + 2 * probes + 2 * probes * pr.freed.size();
   f.dof = cc.dof;
   for (const std::size_t i : pr.rows)
     if (orbits[i].contact) {
@@ -990,6 +1041,8 @@ rub_fit fit_rub(const order_table& table, const response_fit& linear, const rub_
   }
   f.noise_m = pr.sigma;
   rows_into(f, pr, best, orbits, runout, options.noise_relative_error);
+  f.settling_revolutions = settling_revolutions(pr, best, orbits);
+  for (const std::size_t i : pr.freed) f.rows_freed.push_back({i, table.rpm[i], f.settling_revolutions[i]});
   f.q = best;
   f.ref_m = pr.ref_m;
   f.rows = pr.rows;

@@ -87,6 +87,22 @@ struct rub_fit {
   double contact_from_rpm = 0.0, contact_to_rpm = 0.0;  // the lowest and highest such row
   std::size_t rows_not_periodic = 0;  // rows where no stable periodic orbit was found
   std::size_t rows_circled = 0;       // of those, rows read from an unstable orbit the motion circles (a flip's or a torus's); the rest a transient's last revolution
+  // Per row: the revolutions the model's motion takes, from the orbit of the row before it on the
+  // path, to come within the noise of its own orbit: ln(|step| / sigma) / -ln(rho), the step the
+  // 1X change between the two rows' orbits over the probe's noise (the largest probe's), rho the
+  // row's largest Floquet multiplier's modulus (the linear state matrix's over a revolution where
+  // the row is in closed form). 0 where the step is within the noise (or the path's first row);
+  // infinite where the row has no stable orbit. The rows the rig may have read before they settled
+  // rank first (issue 65, item 4; rows_freed).
+  std::vector<double> settling_revolutions;
+  // Rows fitted as mean-shift outliers (rub_fit_options::freed_rows): their 1X free, two coordinates
+  // per probe counted in `parameters`, their residuals outside chi^2 (shown, not fitted).
+  struct freed_row {
+    std::size_t row = 0;
+    double rpm = 0.0;
+    double settling_revolutions = 0.0;
+  };
+  std::vector<freed_row> rows_freed;
 
   double chi2 = 0.0;
   double chi2_uncertainty = 0.0;  // its numerical uncertainty (the solver's unfinished descent and the orbits' error)
@@ -118,6 +134,9 @@ struct rub_fit_options {
   // kept): starts ranked with the grid's, or with `start`'s.
   std::vector<const rub_fit*> also_from;
   bool grid = true;                   // the grid of starts from the contact-free fit (else also_from alone)
+  // Rows fitted as mean-shift outliers (read before they settled: the loop frees them, tracking_loop.cpp):
+  // left out of `rows` (or of every row), each counted as two coordinates per probe.
+  std::vector<std::size_t> freed_rows;
   fit_orbit_options orbits = {};      // the orbits' tolerances (the verdict's check tightens them)
 };
 

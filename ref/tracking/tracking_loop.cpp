@@ -182,6 +182,18 @@ std::string estimates_of(const std::string& name, const response_fit& f) {
   return "k_xy/m " + interval_text(f.k_xy_over_m, 1.0, " 1/s^2") + ", k_yx/m " + interval_text(f.k_yx_over_m, 1.0, " 1/s^2");
 }
 
+// The rows read before they settled (free_unsettled_rows), in words ("" for none).
+std::string freed_text(const rub_fit& f) {
+  if (f.rows_freed.empty()) return "";
+  std::string out = ", rows read before they settled (left free): ";
+  for (std::size_t k = 0; k < f.rows_freed.size(); ++k) {
+    const auto& r = f.rows_freed[k];
+    out += (k ? ", " : "") + format_fixed(r.rpm, 0) + " rpm (" +
+           (std::isfinite(r.settling_revolutions) ? "the model settles there in " + format_fixed(r.settling_revolutions, 0) + " revolutions" : "no stable orbit there") + ")";
+  }
+  return out;
+}
+
 std::string rub_estimates(const rub_fit& f) {
   return "rub: " + law_text(f.form) + ": clearance " + interval_text(f.clearance_m, 1e6, " µm") + ", k1/m " + interval_text(f.contact_stiffness_over_m, 1.0, " 1/s^2") +
          (f.form.cubic ? ", k3/m " + interval_text(f.cubic_stiffness_over_m, 1.0, " 1/(s^2 m^2)") : "") +
@@ -195,7 +207,7 @@ std::string rub_estimates(const rub_fit& f) {
          (f.rows_not_periodic ? ", " + std::to_string(f.rows_not_periodic) + " rows without a stable orbit (" + std::to_string(f.rows_circled) +
                                     " read from the unstable orbit the motion circles, the rest a transient's last revolution)"
                               : "") +
-         ", " + std::to_string(f.shots) + " orbits shot";
+         freed_text(f) + ", " + std::to_string(f.shots) + " orbits shot";
 }
 
 // The folds: rows dealt in speed order, row i to fold i mod K, as the waveform loop alternates
@@ -273,6 +285,10 @@ struct table_run {
     o.rows = std::move(rows), o.noise_m = noise.noise, o.start = start;
     o.noise_relative_error = noise.relative_error();
     o.orbits = orbits;
+    // A fit from a start frees the rows its start freed (free_unsettled_rows): its refits (out of
+    // sample, the verdict's noise) are of the same model.
+    if (start)
+      for (const auto& r : start->rows_freed) o.freed_rows.push_back(r.row);
     return o;
   }
   static response_parts parts_of(unsigned mask) {
@@ -657,19 +673,10 @@ void judge_part(const table_run& run, const fit_stats& without, const fit_stats&
   n.reason = judged.reason;
 }
 
-// The rub's form (rub_form): the law's stiffening and velocity-squared terms (Eq. 5: k3 z^3,
-// c2 z_dot^2) and the stator's direction, each tried on the plausible rub combination whose orbits
-// touch with the lowest criterion (the lowest of those that touch where none is plausible), from
-// the form so far, and kept as an effect is (plausible: the term
-// determined; needed against the form without it by the evidence rules, out of sample on the
-// same folds), the largest criterion rise first, until none is. A grown form is then fitted on
-// every rub combination from its own fit (and the candidate's terms), so that the contact-free
-// effects are judged beside the rub's form and cannot stand in for it (issue 65: a stiffening
-// law was named as a bow beside the rub).
-void fit_rub_form(table_run& run, std::vector<std::string>& notes) {
-  // The candidate: of the plausible rub fits that touch, the lowest criterion; where none is
-  // plausible (a law or a direction it lacks can leave its clearance or a mode undetermined), of
-  // those that touch.
+// The rub combination the rub's form and its rows are judged on: of the plausible rub fits that
+// touch, the lowest criterion; where none is plausible (a law or a direction it lacks can leave
+// its clearance or a mode undetermined), of those that touch.
+std::optional<unsigned> rub_candidate(const table_run& run) {
   std::optional<unsigned> candidate;
   for (const bool plausible_only : {true, false}) {
     for (unsigned mask = 0; mask < 8; ++mask) {
@@ -680,6 +687,91 @@ void fit_rub_form(table_run& run, std::vector<std::string>& notes) {
     }
     if (candidate) break;
   }
+  return candidate;
+}
+
+// Rows the rig read before they settled (issue 65, item 4): a run-up's row next to a jump, or near
+// a lightly damped peak, where the dwell ended before the motion reached the row's orbit. No
+// steady orbit fits such a row, and a fit's other parts bend to it (a cross-coupling named beside
+// the rub on campaign seed 6464, scenario 249, for one row read at 21 sigma). Every rub
+// combination, with its form, frees them as a model of its own: its rows ranked by its own
+// settling count (rub_fit::settling_revolutions, the slowest first) and freed one at a time as
+// mean-shift outliers (two coordinates per probe) while the criterion rises decisively, stopping
+// at the first that does not. The rig's dwell is the same for every row, so the rows it cut short
+// are the model's slowest to settle; a row whose residual is larger than its own step from the row
+// before (beyond the noise) cannot be a transient between the two orbits and is never freed, so a
+// misfit is not hidden as a transient. Each combination frees its own (a bent fit has none to
+// free), and the criterion, which counts the freed coordinates, compares them as before.
+rub_fit free_unsettled_rows(const table_run& run, unsigned mask, rub_fit current, std::vector<std::string>& said) {
+  const row_path path = rows_as_run(run.table);
+  std::vector<std::size_t> previous(run.table.rows(), run.table.rows());
+  for (std::size_t k = 1; k < path.order.size(); ++k) previous[path.order[k]] = path.order[k - 1];
+  // A transient between two orbits reads within the step between them; the noise's allowance (3.29
+  // sigma: the 99.9 % two-sided normal quantile, the noise test's level) on top.
+  constexpr double kNoiseAllowance = 3.29;
+  std::vector<std::size_t> ranked;
+  for (const std::size_t i : current.rows) {
+    if (!(current.settling_revolutions[i] > 0.0) || previous[i] >= run.table.rows()) continue;
+    bool within = true;
+    for (std::size_t p = 0; p < current.probes.size(); ++p) {
+      const double step = std::abs(current.model[p][i] - current.model[p][previous[i]]);
+      within = within && std::abs(current.residual[p][i]) <= step + kNoiseAllowance * current.noise_m[p];
+    }
+    if (within) ranked.push_back(i);
+  }
+  std::stable_sort(ranked.begin(), ranked.end(), [&](std::size_t a, std::size_t b) { return current.settling_revolutions[a] > current.settling_revolutions[b]; });
+  const double n = static_cast<double>(run.observations);
+  for (const std::size_t i : ranked) {
+    rub_fit_options o = run.rub_options({}, &current);
+    o.freed_rows.push_back(i);
+    std::optional<rub_fit> trial;
+    try {
+      trial = fit_rub(run.table, run.fits[mask], o);
+    } catch (const numerical_error&) {
+      break;  // its orbits cannot be computed with the row free: not shown unsettled
+    }
+    const statistic rise{information_criterion(current.chi2, n, current.parameters) - information_criterion(trial->chi2, n, trial->parameters),
+                         criterion_change_uncertainty(n, current.chi2, current.chi2_uncertainty, trial->chi2, trial->chi2_uncertainty)};
+    const decision d = exceeds(rise, run.rules.min_criterion_rise);
+    const bool freed = d.yes && !d.on_margin;
+    said.push_back("  rub with " + part_list(mask) + ", " + format_fixed(run.table.rpm[i], 0) + " rpm (settles in " +
+                   (std::isfinite(current.settling_revolutions[i]) ? format_fixed(current.settling_revolutions[i], 0) + " revolutions" : "none: no stable orbit") +
+                   "): criterion rise " + format_digits(rise.value, 3) + (freed ? ", freed" : d.on_margin ? ", on the margin: kept" : ", kept"));
+    if (!freed) break;
+    current = std::move(*trial);
+  }
+  return current;
+}
+
+void free_unsettled_rows(table_run& run) {
+  std::vector<unsigned> masks;
+  for (unsigned mask = 0; mask < 8; ++mask)
+    if (run.rubs[mask | kRub] && run.rubs[mask | kRub]->rows_in_contact > 0) masks.push_back(mask);
+  if (masks.empty()) return;
+  run.say("rub: rows each combination's model may have been read before they settled, the slowest first ...");
+  std::vector<std::optional<rub_fit>> fitted(masks.size());
+  std::vector<std::vector<std::string>> said(masks.size());
+  parallel_for(masks.size(), 0, [&](std::size_t k) { fitted[k] = free_unsettled_rows(run, masks[k], *run.rubs[masks[k] | kRub], said[k]); });
+  for (std::size_t k = 0; k < masks.size(); ++k) {
+    for (const auto& line : said[k]) run.say(line);
+    if (!fitted[k]->rows_freed.empty()) {
+      run.rubs[masks[k] | kRub] = std::move(fitted[k]);
+      run.held[masks[k] | kRub].reset();
+    }
+  }
+}
+
+// The rub's form (rub_form): the law's stiffening and velocity-squared terms (Eq. 5: k3 z^3,
+// c2 z_dot^2) and the stator's direction, each tried on the plausible rub combination whose orbits
+// touch with the lowest criterion (the lowest of those that touch where none is plausible), from
+// the form so far, and kept as an effect is (plausible: the term
+// determined; needed against the form without it by the evidence rules, out of sample on the
+// same folds), the largest criterion rise first, until none is. A grown form is then fitted on
+// every rub combination from its own fit (and the candidate's terms), so that the contact-free
+// effects are judged beside the rub's form and cannot stand in for it (issue 65: a stiffening
+// law was named as a bow beside the rub).
+void fit_rub_form(table_run& run, std::vector<std::string>& notes) {
+  const std::optional<unsigned> candidate = rub_candidate(run);
   if (!candidate) return;
   const unsigned at = *candidate;
   rub_fit current = *run.rubs[at | kRub];
@@ -861,6 +953,7 @@ void fit_rubs(table_run& run, std::vector<std::string>& notes) {
         if (better) run.rubs[mask | kRub] = std::move(again);
       });
   fit_rub_form(run, notes);
+  free_unsettled_rows(run);
 }
 
 // Whether part k of `mask` is needed: the combination without it against this one, by the
@@ -971,7 +1064,9 @@ rub_result rub_result_of(table_run& run, const std::vector<tracked_model>& model
   t.named = (chosen_mask & kRub) != 0;
   t.form_needs = run.form_needs;
   t.summary = models[at].estimates + "; " + models[at].summary;
-  if (t.named && run.noise.lower_to(residual_noise(t.fit.residual, t.fit.rows, t.fit.parameters))) {
+  // (Over the rows fitted: the freed rows' coordinates are not among them.)
+  const std::size_t fitted_parameters = t.fit.parameters - 2 * t.fit.probes.size() * t.fit.rows_freed.size();
+  if (t.named && run.noise.lower_to(residual_noise(t.fit.residual, t.fit.rows, fitted_parameters))) {
     const rub_fit same = t.fit;
     t.fit = fit_rub(run.table, after, run.rub_options({}, &same));
   }
@@ -983,15 +1078,23 @@ rub_result rub_result_of(table_run& run, const std::vector<tracked_model>& model
 // residual scatter), and the misalignment judged by the same evidence rules (plausible: its
 // force's interval away from 0, its parts not cancelling; needed: criterion, share, out of sample
 // on the same folds) and claimed by the same claim rule.
-two_x_result judge_two_x(table_run& run, const response_fit& modes, const residual_table* known) {
+two_x_result judge_two_x(table_run& run, const response_fit& modes, const residual_table* known, const std::vector<std::size_t>& freed) {
   const order_table& table = run.table;
   two_x_result t;
   run.say("2X: runout" + std::string(known ? " and the rub's own 2X" : "") + " alone, and with a misalignment's forced response through the chosen modes ...");
   noise_estimate noise(two_x_scatter_noise(table, modes), table.rows());
   t.noise_scatter_m = noise.noise;
+  // The rows the rub freed (read before they settled) are left out of both 2X fits alike: their 2X
+  // is a transient's too.
+  const auto settled = [&](std::vector<std::size_t> rows) {
+    if (rows.empty())
+      for (std::size_t i = 0; i < table.rows(); ++i) rows.push_back(i);
+    std::erase_if(rows, [&](std::size_t i) { return std::find(freed.begin(), freed.end(), i) != freed.end(); });
+    return rows;
+  };
   const auto options = [&](std::vector<std::size_t> rows = {}) {
     two_x_options o;
-    o.rows = std::move(rows), o.noise_m = noise.noise, o.noise_relative_error = noise.relative_error();
+    o.rows = settled(std::move(rows)), o.noise_m = noise.noise, o.noise_relative_error = noise.relative_error();
     o.known = known;
     return o;
   };
@@ -1004,7 +1107,7 @@ two_x_result judge_two_x(table_run& run, const response_fit& modes, const residu
   t.before = fit_two_x(table, modes, false, options());
   t.with = fit_two_x(table, modes, true, options());
   t.undetermined = plausibility(t.with);
-  const double observations = static_cast<double>(2 * table.rows() * t.before.residual.size());
+  const double observations = static_cast<double>(2 * settled({}).size() * t.before.residual.size());
   tracked_model::need& n = t.need;
   n.effect = misalignment_name();
   part_comparison c;
@@ -1013,7 +1116,7 @@ two_x_result judge_two_x(table_run& run, const response_fit& modes, const residu
   c.excess_share = n.excess_share = c.in_sample_gain / std::max(t.before.chi2 - static_cast<double>(t.before.dof), 1e-300);
   if (c.criterion_rise > run.rules.min_criterion_rise && t.undetermined.empty() && run.fold.usable()) {
     for (std::size_t k = 0; k < run.fold.count(); ++k) {
-      const auto held = [&](bool with) { return chi2_of(fit_two_x(table, modes, with, options(run.fold.fit[k])).residual, noise.noise, run.fold.held[k]); };
+      const auto held = [&](bool with) { return chi2_of(fit_two_x(table, modes, with, options(run.fold.fit[k])).residual, noise.noise, settled(run.fold.held[k])); };
       n.held_out_without.push_back(held(false));
       n.held_out_with.push_back(held(true));
       n.held_out_gain += n.held_out_without.back() - n.held_out_with.back();
@@ -1233,7 +1336,10 @@ tracking_result run_tracking_loop(const order_table& table, const std::function<
   if (!two_x_columns(table, r.after).empty()) {
     const bool rub_named = r.rub && r.rub->named;
     const response_fit modes = rub_named ? linear_part(r.after, r.rub->fit) : r.after;
-    r.two_x = judge_two_x(run, modes, rub_named ? &r.rub->fit.model_2x : nullptr);
+    std::vector<std::size_t> freed;
+    if (rub_named)
+      for (const auto& f : r.rub->fit.rows_freed) freed.push_back(f.row);
+    r.two_x = judge_two_x(run, modes, rub_named ? &r.rub->fit.model_2x : nullptr, freed);
     const auto more = bands_of(table, r.two_x->after().residual, r.two_x->after().noise_m, r.two_x->after().probes, 2);
     r.bands.insert(r.bands.end(), more.begin(), more.end());
   }

@@ -111,6 +111,9 @@ json rub_json(const rub_result& t) {
   j["contact_speed_range_rpm"] = json::array({f.contact_from_rpm, f.contact_to_rpm});
   j["rows_not_periodic"] = f.rows_not_periodic;
   j["rows_circled"] = f.rows_circled;
+  j["rows_read_before_settled"] = json::array();
+  for (const auto& r : f.rows_freed)
+    j["rows_read_before_settled"].push_back({{"rpm", r.rpm}, {"settling_revolutions", std::isfinite(r.settling_revolutions) ? json(r.settling_revolutions) : json(nullptr)}});
   j["chi2"] = f.chi2;
   j["dof"] = f.dof;
   j["chi2_per_dof"] = f.chi2 / static_cast<double>(f.dof);
