@@ -696,11 +696,13 @@ std::optional<unsigned> rub_candidate(const table_run& run) {
 // the rub on campaign seed 6464, scenario 249, for one row read at 21 sigma). Every rub
 // combination, with its form, frees them as a model of its own: its rows ranked by its own
 // settling count (rub_fit::settling_revolutions, the slowest first) and freed one at a time as
-// mean-shift outliers (two coordinates per probe) while the criterion rises decisively, stopping
-// at the first that does not. The rig's dwell is the same for every row, so the rows it cut short
+// mean-shift outliers (two coordinates per probe) while the evidence rules find the row's
+// coordinates significant (the criterion's rise and the share of the excess), stopping at the
+// first they do not. The rig's dwell is the same for every row, so the rows it cut short
 // are the model's slowest to settle; a row whose residual is larger than its own step from the row
 // before (beyond the noise) cannot be a transient between the two orbits and is never freed, so a
-// misfit is not hidden as a transient. Each combination frees its own (a bent fit has none to
+// misfit is not hidden as a transient; nor is a row without a stable orbit (read as the motion it
+// has there: the orbit it circles, or a transient's last revolution). Each combination frees its own (a bent fit has none to
 // free), and the criterion, which counts the freed coordinates, compares them as before.
 rub_fit free_unsettled_rows(const table_run& run, unsigned mask, rub_fit current, std::vector<std::string>& said) {
   const row_path path = rows_as_run(run.table);
@@ -711,7 +713,8 @@ rub_fit free_unsettled_rows(const table_run& run, unsigned mask, rub_fit current
   constexpr double kNoiseAllowance = 3.29;
   std::vector<std::size_t> ranked;
   for (const std::size_t i : current.rows) {
-    if (!(current.settling_revolutions[i] > 0.0) || previous[i] >= run.table.rows()) continue;
+    // (A row without a stable orbit is read as the motion it has there, rows_not_periodic: not a candidate.)
+    if (!(current.settling_revolutions[i] > 0.0) || !std::isfinite(current.settling_revolutions[i]) || previous[i] >= run.table.rows()) continue;
     bool within = true;
     for (std::size_t p = 0; p < current.probes.size(); ++p) {
       const double step = std::abs(current.model[p][i] - current.model[p][previous[i]]);
@@ -730,13 +733,20 @@ rub_fit free_unsettled_rows(const table_run& run, unsigned mask, rub_fit current
     } catch (const numerical_error&) {
       break;  // its orbits cannot be computed with the row free: not shown unsettled
     }
-    const statistic rise{information_criterion(current.chi2, n, current.parameters) - information_criterion(trial->chi2, n, trial->parameters),
-                         criterion_change_uncertainty(n, current.chi2, current.chi2_uncertainty, trial->chi2, trial->chi2_uncertainty)};
-    const decision d = exceeds(rise, run.rules.min_criterion_rise);
-    const bool freed = d.yes && !d.on_margin;
-    said.push_back("  rub with " + part_list(mask) + ", " + format_fixed(run.table.rpm[i], 0) + " rpm (settles in " +
-                   (std::isfinite(current.settling_revolutions[i]) ? format_fixed(current.settling_revolutions[i], 0) + " revolutions" : "none: no stable orbit") +
-                   "): criterion rise " + format_digits(rise.value, 3) + (freed ? ", freed" : d.on_margin ? ", on the margin: kept" : ", kept"));
+    // The row's two coordinates per probe as a part, by the evidence rules' significance (the
+    // criterion's rise and the share of the excess over noise it removes: in a fit far from the
+    // noise, a row that carries a little of its misfit is not freed). Not out of sample: a mean
+    // shift is the row's own, and predicts no other row.
+    part_comparison c;
+    c.criterion_rise = information_criterion(current.chi2, n, current.parameters) - information_criterion(trial->chi2, n, trial->parameters);
+    c.criterion_rise_uncertainty = criterion_change_uncertainty(n, current.chi2, current.chi2_uncertainty, trial->chi2, trial->chi2_uncertainty);
+    const double excess = std::max(current.chi2 - static_cast<double>(current.dof), 1e-300);
+    c.excess_share = (current.chi2 - trial->chi2) / excess;
+    c.excess_share_uncertainty = (current.chi2_uncertainty + trial->chi2_uncertainty) / excess;
+    const need judged = judge_need(c, run.rules);
+    const bool freed = judged.significant && !judged.on_margin;
+    said.push_back("  rub with " + part_list(mask) + ", " + format_fixed(run.table.rpm[i], 0) + " rpm (settles in " + format_fixed(current.settling_revolutions[i], 0) +
+                   " revolutions): " + (freed ? "freed: criterion rise " + format_digits(c.criterion_rise, 3) + ", share " + format_digits(c.excess_share, 3) : "kept: " + judged.reason));
     if (!freed) break;
     current = std::move(*trial);
   }
@@ -1154,6 +1164,9 @@ std::vector<std::string> cannot_see(const tracking_result& r, bool declared, boo
       "runout is not",
       "a seal's follower cross-coupling (k_xy = -k_yx) on a rotor whose supports are alike: its unbalance response is a forward whirl, on which the "
       "cross-coupling acts as less damping, which the damping ratio takes (on an anisotropic rotor it shows)",
+      "a rub table's row read before it settled, where the model cannot tell: each rub fit leaves free the rows its model is slowest to settle at, "
+      "one at a time while the evidence rules find each significant; a row the model settles at quickly, or one of many that share a misfit alike, "
+      "is fitted as a steady orbit (the rig's dwell is not a coordinate)",
       "a run-up's transient beyond one constant acceleration: sweep_transient sweeps the rotor through the table's speeds at one rate (a profile that "
       "changes its rate, or a tracking filter in place of blocks of whole revolutions, shows as a residual it leaves; a time_s column "
       "shows how far the speeds depart from one rate); the base is tried swept on every table, the other effects wherever the base fit leaves a residual beyond the noise",
