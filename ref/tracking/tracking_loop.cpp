@@ -698,12 +698,13 @@ std::optional<unsigned> rub_candidate(const table_run& run) {
 // settling count (rub_fit::settling_revolutions, the slowest first) and freed one at a time as
 // mean-shift outliers (two coordinates per probe) while the evidence rules find the row's
 // coordinates significant (the criterion's rise and the share of the excess), stopping at the
-// first they do not. The rig's dwell is the same for every row, so the rows it cut short
-// are the model's slowest to settle; a row whose residual is larger than its own step from the row
-// before (beyond the noise) cannot be a transient between the two orbits and is never freed, so a
-// misfit is not hidden as a transient; nor is a row without a stable orbit (read as the motion it
-// has there: the orbit it circles, or a transient's last revolution). Each combination frees its own (a bent fit has none to
-// free), and the criterion, which counts the freed coordinates, compares them as before.
+// first they do not. The rig's dwell is the same for every row, so the rows it cut short are the
+// model's slowest to settle. A row whose residual is larger than its own step from the row before
+// (beyond the noise) cannot be a transient between the two orbits and is never freed, so a misfit
+// is not hidden as a transient; nor is a row without a stable orbit (read as the motion it has
+// there: the orbit it circles, or a transient's last revolution). Each combination frees its own
+// (a bent fit has none to free), and the criterion, which counts the freed coordinates, compares
+// them as before.
 rub_fit free_unsettled_rows(const table_run& run, unsigned mask, rub_fit current, std::vector<std::string>& said) {
   const row_path path = rows_as_run(run.table);
   std::vector<std::size_t> previous(run.table.rows(), run.table.rows());
