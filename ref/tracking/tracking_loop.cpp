@@ -731,8 +731,10 @@ rub_fit free_unsettled_rows(const table_run& run, unsigned mask, rub_fit current
     std::optional<rub_fit> trial;
     try {
       trial = fit_rub(run.table, run.fits[mask], o);
-    } catch (const numerical_error&) {
-      break;  // its orbits cannot be computed with the row free: not shown unsettled
+    } catch (const numerical_error& e) {
+      // Its orbits cannot be computed with the row free: not shown unsettled, and said.
+      said.push_back("  rub with " + part_list(mask) + ", " + format_fixed(run.table.rpm[i], 0) + " rpm: kept (its fit with the row free failed: " + e.what() + ")");
+      break;
     }
     // The row's two coordinates per probe as a part, by the evidence rules' significance (the
     // criterion's rise and the share of the excess over noise it removes: in a fit far from the
